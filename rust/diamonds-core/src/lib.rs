@@ -1,0 +1,74 @@
+//! # Diamonds core
+//!
+//! Adaptive, conforming tetrahedral meshes of regular grids built by longest-edge bisection (LEB),
+//! organised as a *hierarchy of diamonds* (Gregorski et al. 2002, §3; Weiss & De Floriani, §4).
+//! This crate knows nothing about VTK: volumes come in as typed slices, meshes go out as plain vectors.
+//!
+//! Data flow: [`Volume`] → [`Hierarchy::build`] (per-diamond exact error and value range, Marchesin
+//! et al. §4.1) → [`Hierarchy::query`] (selective refinement with closure, Gregorski §4) → [`TetMesh`].
+//!
+//! Modules, each named after the concept it implements:
+//! - [`lattice`]: the virtual `(2^L + 1)^3` lattice that embeds the input grid, and the domain box.
+//! - [`diamond`]: the implicit diamond encoding from the central vertex (Weiss & De Floriani §4, Eq. 1).
+//! - [`volume`]: typed, borrowed sample arrays (u8 … f64) with origin and spacing.
+//! - [`scan`]: integer point enumeration inside a tetrahedron and its exact interpolation error
+//!   (Marchesin §4.1).
+//! - [`hierarchy`]: the precomputed per-diamond records (error, min, max) in 4 bytes per voxel.
+//! - [`refine`]: the split set, the [`refine::SplitQueue`] and selective refinement with closure.
+//! - [`mesh`]: extraction of the current mesh as deduplicated points and tetrahedra.
+//! - [`validate`]: independent checks (conformity, volume, tolerance at every sample) used by tests and the CLI.
+
+pub mod diamond;
+pub mod hierarchy;
+pub mod lattice;
+pub mod mesh;
+pub mod refine;
+pub mod scan;
+pub mod validate;
+pub mod volume;
+
+pub use hierarchy::{Hierarchy, Progress};
+pub use mesh::TetMesh;
+pub use refine::Query;
+pub use volume::{Grid, ScalarSlice, ScalarType, Volume};
+
+/// Everything that can go wrong, with a message meant for the end user.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum Error {
+    /// The grid has fewer than 2 points along an axis (2-D images and lines are refused).
+    #[error("the image has {dims:?} points; every axis needs at least 2 points (2-D images are not supported: Adaptive Tetrahedra makes a 3-D mesh)")]
+    Dimensions { dims: [usize; 3] },
+    /// The sample array does not match the grid.
+    #[error("the scalar array has {len} values but the grid has {expected} points ({dims:?})")]
+    Length {
+        len: usize,
+        expected: usize,
+        dims: [usize; 3],
+    },
+    /// Spacing must be finite and positive, origin finite.
+    #[error("invalid geometry: origin {origin:?}, spacing {spacing:?} (spacing must be finite and > 0)")]
+    Geometry { origin: [f64; 3], spacing: [f64; 3] },
+    /// A NaN or infinite sample.
+    #[error("the scalar array holds a non-finite value ({value}) at point {index} (i, j, k = {ijk:?}); replace NaN/Inf first")]
+    NonFinite {
+        index: usize,
+        ijk: [usize; 3],
+        value: f64,
+    },
+    /// Not enough memory for the hierarchy.
+    #[error("the diamond hierarchy for {dims:?} points needs {needed} bytes but only {available} bytes are available")]
+    TooLarge {
+        dims: [usize; 3],
+        needed: u64,
+        available: u64,
+    },
+    /// A query parameter out of range.
+    #[error("invalid parameter: {0}")]
+    Parameter(String),
+    /// The caller asked to stop.
+    #[error("aborted")]
+    Aborted,
+}
+
+/// Result alias of the crate.
+pub type Result<T> = std::result::Result<T, Error>;
