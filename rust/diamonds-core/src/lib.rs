@@ -16,9 +16,11 @@
 //! - [`hierarchy`]: the precomputed per-diamond records (error, min, max) in 4 bytes per voxel.
 //! - [`refine`]: the split set, the [`refine::SplitQueue`] and selective refinement with closure.
 //! - [`mesh`]: extraction of the current mesh as deduplicated points and tetrahedra.
+//! - [`fields`]: generated volumes (Marschner–Lobb, distance fields) for the demo and the tests.
 //! - [`validate`]: independent checks (conformity, volume, tolerance at every sample) used by tests and the CLI.
 
 pub mod diamond;
+pub mod fields;
 pub mod hierarchy;
 pub mod lattice;
 pub mod mesh;

@@ -1,12 +1,298 @@
-//! Selective refinement (stub, being written).
+//! Selective refinement with closure (Gregorski §4, §8; Weiss & De Floriani §6.3).
+//!
+//! The current mesh is described by the set of split diamonds. It is conforming exactly when that set is
+//! *closed*: a diamond is split only after all its parents (Gregorski §4: "when some of the tetrahedra in D
+//! do not exist, it is necessary to create them before D can be split … by splitting the parents of D").
+//! A query starts from the base mesh and repeatedly takes the diamond of largest error from the
+//! [`SplitQueue`], splitting its unsplit ancestors first, until every diamond of the mesh meets the
+//! tolerance or the next split would exceed the tetrahedron budget.
+//!
+//! Gregorski's queues are bucketed hash tables because any diamond above the tolerance may be split;
+//! a budget needs *largest error first*, so our split queue is a binary heap.
+
+use crate::diamond::Diamond;
+use crate::hierarchy::{place_diamond, Hierarchy};
+use crate::lattice::{Lattice, Placement};
+use crate::{Error, Result};
+use glam::IVec3;
+use rustc_hash::FxHashSet;
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
 
 /// A selective-refinement query.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Query {
     /// Absolute tolerance in data units; 0 reproduces every sample.
     pub tolerance: f64,
-    /// Maximum number of tetrahedra, 0 = no limit.
+    /// Maximum number of tetrahedra, 0 = no limit. A budget below the base mesh yields the base mesh.
     pub max_tetrahedra: usize,
     /// World-space box `[xmin, xmax, ymin, ymax, zmin, zmax]`: the tolerance applies inside, coarse outside.
     pub region_of_interest: Option<[f64; 6]>,
+}
+
+impl Query {
+    /// A query for `tolerance` alone.
+    pub fn tolerance(tolerance: f64) -> Self {
+        Self {
+            tolerance,
+            max_tetrahedra: 0,
+            region_of_interest: None,
+        }
+    }
+}
+
+/// The set of split diamonds: a bitset over the domain's points plus a hash set for the few central
+/// vertices outside the domain (diamonds along the far faces).
+#[derive(Clone, Debug)]
+pub struct SplitSet {
+    bits: Vec<u64>,
+    outside: FxHashSet<IVec3>,
+    lattice: Lattice,
+}
+
+impl SplitSet {
+    /// The empty set (only the root's six tetrahedra).
+    pub fn new(lattice: &Lattice) -> Self {
+        let points = (lattice.hi + IVec3::ONE).as_uvec3();
+        let n = points.x as usize * points.y as usize * points.z as usize;
+        Self {
+            bits: vec![0; n.div_ceil(64)],
+            outside: FxHashSet::default(),
+            lattice: *lattice,
+        }
+    }
+
+    /// Is `d` split?
+    #[inline]
+    pub fn contains(&self, d: Diamond) -> bool {
+        if self.lattice.in_domain(d.center) {
+            let i = self.lattice.index(d.center);
+            self.bits[i / 64] >> (i % 64) & 1 == 1
+        } else {
+            self.outside.contains(&d.center)
+        }
+    }
+
+    /// Marks `d` split.
+    #[inline]
+    pub fn insert(&mut self, d: Diamond) {
+        if self.lattice.in_domain(d.center) {
+            let i = self.lattice.index(d.center);
+            self.bits[i / 64] |= 1 << (i % 64);
+        } else {
+            self.outside.insert(d.center);
+        }
+    }
+}
+
+/// An entry of the split queue: a diamond and its error.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Candidate {
+    error: f64,
+    diamond: Diamond,
+}
+
+impl Eq for Candidate {}
+
+impl Ord for Candidate {
+    fn cmp(&self, other: &Self) -> Ordering {
+        self.error
+            .total_cmp(&other.error)
+            .then_with(|| {
+                let (a, b) = (self.diamond.center, other.diamond.center);
+                (a.x, a.y, a.z).cmp(&(b.x, b.y, b.z))
+            })
+    }
+}
+
+impl PartialOrd for Candidate {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+/// Gregorski's split queue, ordered by error (largest first).
+#[derive(Default)]
+pub struct SplitQueue {
+    heap: BinaryHeap<Candidate>,
+}
+
+impl SplitQueue {
+    fn push(&mut self, diamond: Diamond, error: f64) {
+        self.heap.push(Candidate { error, diamond });
+    }
+
+    fn pop(&mut self) -> Option<(Diamond, f64)> {
+        self.heap.pop().map(|c| (c.diamond, c.error))
+    }
+}
+
+/// The refinement state of one query.
+pub(crate) struct Refiner<'h> {
+    hierarchy: &'h Hierarchy,
+    lattice: Lattice,
+    split: SplitSet,
+    queue: SplitQueue,
+    tets: usize,
+    /// Region of interest in lattice coordinates (closed box).
+    roi: Option<(glam::DVec3, glam::DVec3)>,
+    tolerance: f64,
+}
+
+impl<'h> Refiner<'h> {
+    fn new(hierarchy: &'h Hierarchy, split: SplitSet, tets: usize) -> Self {
+        Self {
+            hierarchy,
+            lattice: *hierarchy.lattice(),
+            split,
+            queue: SplitQueue::default(),
+            tets,
+            roi: None,
+            tolerance: 0.0,
+        }
+    }
+
+    /// The base mesh: every diamond with a tetrahedron straddling a far face of the domain, with its closure.
+    /// Returns the split set and the number of tetrahedra inside the domain.
+    pub(crate) fn base_mesh(hierarchy: &'h Hierarchy) -> (SplitSet, usize) {
+        let lattice = *hierarchy.lattice();
+        let mut r = Self::new(hierarchy, SplitSet::new(&lattice), 0);
+        let mut stack = vec![Diamond::root(&lattice)];
+        while let Some(d) = stack.pop() {
+            if r.split.contains(d) || place_diamond(&lattice, d) != Placement::Straddling {
+                continue;
+            }
+            for a in r.closure(d) {
+                r.split.insert(a);
+                stack.extend(a.children(&lattice));
+            }
+        }
+        let tets = crate::mesh::count_tets(hierarchy, &r.split);
+        (r.split, tets)
+    }
+
+    /// Runs `query` from the base mesh and returns the split set.
+    pub(crate) fn run(hierarchy: &'h Hierarchy, query: &Query) -> Result<SplitSet> {
+        if !query.tolerance.is_finite() || query.tolerance < 0.0 {
+            return Err(Error::Parameter(format!(
+                "tolerance must be a finite number ≥ 0 (got {})",
+                query.tolerance
+            )));
+        }
+        let mut r = Self::new(hierarchy, hierarchy.base().clone(), hierarchy.base_tetrahedra());
+        r.tolerance = query.tolerance;
+        if let Some(roi) = query.region_of_interest {
+            r.roi = Some(lattice_box(hierarchy, roi)?);
+        }
+        // Every diamond with tetrahedra in the base mesh is a candidate.
+        let mut expanded = FxHashSet::default();
+        let mut stack = vec![Diamond::root(&r.lattice)];
+        while let Some(d) = stack.pop() {
+            if !r.split.contains(d) {
+                r.consider(d);
+            } else if expanded.insert(d) {
+                stack.extend(d.children(&r.lattice));
+            }
+        }
+        let budget = query.max_tetrahedra;
+        while let Some((d, _)) = r.queue.pop() {
+            if r.split.contains(d) {
+                continue; // already split through another parent's closure
+            }
+            let closure = r.closure(d);
+            if budget > 0 {
+                let added: usize = closure.iter().map(|&a| r.inside_tets(a)).sum();
+                if r.tets + added > budget {
+                    break;
+                }
+            }
+            for a in closure {
+                r.split.insert(a);
+                r.tets += r.inside_tets(a);
+                for c in a.children(&r.lattice) {
+                    r.consider(c);
+                }
+            }
+        }
+        Ok(r.split)
+    }
+
+    /// Queues `d` if it is unsplit, relevant and above the tolerance.
+    fn consider(&mut self, d: Diamond) {
+        if self.split.contains(d) {
+            return;
+        }
+        let e = self.error(d);
+        if e > self.tolerance {
+            self.queue.push(d, e);
+        }
+    }
+
+    /// The error that drives refinement: the diamond's error inside the region of interest, 0 outside.
+    fn error(&self, d: Diamond) -> f64 {
+        if let Some((lo, hi)) = self.roi {
+            let (dlo, dhi) = d.bounds();
+            if dlo.as_dvec3().cmpgt(hi).any() || dhi.as_dvec3().cmplt(lo).any() {
+                return 0.0;
+            }
+        }
+        self.hierarchy.error(d)
+    }
+
+    /// Number of `d`'s tetrahedra inside the domain (each becomes two when `d` is split).
+    fn inside_tets(&self, d: Diamond) -> usize {
+        d.tets(&self.lattice)
+            .iter()
+            .filter(|t| self.lattice.place(t) == Placement::Inside)
+            .count()
+    }
+
+    /// `d` and its unsplit ancestors that touch the domain, parents before children.
+    fn closure(&self, d: Diamond) -> Vec<Diamond> {
+        let mut order = Vec::new();
+        let mut visited = FxHashSet::default();
+        // Iterative post-order DFS over unsplit parents.
+        let mut stack = vec![(d, false)];
+        while let Some((x, expanded)) = stack.pop() {
+            if expanded {
+                order.push(x);
+                continue;
+            }
+            if !visited.insert(x) {
+                continue;
+            }
+            stack.push((x, true));
+            for p in x.parents(&self.lattice) {
+                if !self.split.contains(p)
+                    && !visited.contains(&p)
+                    && place_diamond(&self.lattice, p) != Placement::Outside
+                {
+                    stack.push((p, false));
+                }
+            }
+        }
+        order
+    }
+}
+
+/// Converts a world-space box to lattice coordinates, refusing boxes that miss the grid.
+fn lattice_box(h: &Hierarchy, roi: [f64; 6]) -> Result<(glam::DVec3, glam::DVec3)> {
+    let g = h.grid();
+    let b = g.bounds();
+    let valid = roi.iter().all(|v| v.is_finite()) && (0..3).all(|a| roi[2 * a] <= roi[2 * a + 1]);
+    if !valid {
+        return Err(Error::Parameter(format!(
+            "region of interest {roi:?} must be finite with min ≤ max on every axis"
+        )));
+    }
+    if (0..3).any(|a| roi[2 * a] > b[2 * a + 1] || roi[2 * a + 1] < b[2 * a]) {
+        return Err(Error::Parameter(format!(
+            "region of interest {roi:?} lies outside the data bounds {b:?}"
+        )));
+    }
+    let to_lattice = |a: usize, v: f64| (v - g.origin[a]) / g.spacing[a];
+    Ok((
+        glam::DVec3::new(to_lattice(0, roi[0]), to_lattice(1, roi[2]), to_lattice(2, roi[4])),
+        glam::DVec3::new(to_lattice(0, roi[1]), to_lattice(1, roi[3]), to_lattice(2, roi[5])),
+    ))
 }

@@ -1,0 +1,343 @@
+//! # diamonds-bridge
+//!
+//! The one boundary between the Diamonds core (crate `diamonds-core`, lib `diamonds`) and C++.
+//! It is the only Rust staticlib linked into the VTK module `Diamonds::AdaptiveTetrahedra` (and so
+//! into the ParaView plugin): linking two Rust staticlibs into one binary duplicates the Rust
+//! runtime symbols.
+//!
+//! What crosses, and nothing else:
+//! - in: the image geometry ([`ffi::GridSpec`]), the samples as raw bytes plus a type tag
+//!   ([`ffi::ScalarType`]; the bytes are reinterpreted in place, never copied), a progress
+//!   observer implemented in C++ (`include/progress.h`), and the query parameters
+//!   ([`ffi::QuerySpec`]);
+//! - out: an opaque [`Hierarchy`] the filter keeps between executions (`rust::Box<Hierarchy>`), and
+//!   an opaque [`Mesh`] whose arrays C++ reads as slices.
+//!
+//! **No panic crosses.** An unwinding panic that reaches a C++ frame aborts the process, i.e. the
+//! user's whole ParaView session. Every bridge function therefore runs its body inside
+//! [`std::panic::catch_unwind`] (see [`guard`]) and returns `Result<_, String>`; cxx turns the
+//! `Err` into a thrown `rust::Error` whose `what()` is the message, which the filter reports with
+//! `vtkErrorMacro`.
+
+use std::any::Any;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::pin::Pin;
+
+use diamonds::{Grid, Query, ScalarSlice, TetMesh};
+
+#[cxx::bridge(namespace = "diamonds::bridge")]
+mod ffi {
+    /// Geometry of the image (or image piece) handed to the core: points per axis (x fastest),
+    /// world position of its first point, and spacing. Point ids in the result are relative to it.
+    struct GridSpec {
+        dims: [usize; 3],
+        origin: [f64; 3],
+        spacing: [f64; 3],
+    }
+
+    /// The sample types the core reads in place (VTK: unsigned char, signed char, unsigned short,
+    /// short, unsigned int, int, float, double).
+    enum ScalarType {
+        U8,
+        I8,
+        U16,
+        I16,
+        U32,
+        I32,
+        F32,
+        F64,
+    }
+
+    /// One selective-refinement query (see `diamonds::Query`).
+    struct QuerySpec {
+        /// Absolute tolerance in data units; 0 reproduces every sample.
+        tolerance: f64,
+        /// Maximum number of tetrahedra, 0 = no limit.
+        max_tetrahedra: usize,
+        /// Whether `region_of_interest` applies.
+        use_region_of_interest: bool,
+        /// World box `[xmin, xmax, ymin, ymax, zmin, zmax]`: refined to `tolerance` inside, coarse outside.
+        region_of_interest: [f64; 6],
+    }
+
+    unsafe extern "C++" {
+        include!("diamonds-bridge/include/progress.h");
+
+        /// Implemented by the filter; called on the calling thread only.
+        type ProgressObserver;
+        /// `fraction` in [0, 1]; returns false to abort.
+        fn report(self: Pin<&mut ProgressObserver>, fraction: f64) -> bool;
+    }
+
+    extern "Rust" {
+        /// The diamond hierarchy of one image; owns its metadata (does not borrow the samples).
+        type Hierarchy;
+        /// The adaptive tetrahedral mesh returned by one query.
+        type Mesh;
+
+        /// Builds the hierarchy of `samples` (raw bytes of `scalar_type` values, x fastest) on `grid`.
+        fn build_hierarchy(
+            grid: &GridSpec,
+            scalar_type: ScalarType,
+            samples: &[u8],
+            progress: Pin<&mut ProgressObserver>,
+        ) -> Result<Box<Hierarchy>>;
+        /// Extracts the mesh for `query`; cheap compared with the build.
+        fn query(self: &Hierarchy, query: &QuerySpec) -> Result<Box<Mesh>>;
+        /// Bytes of per-diamond metadata held by the hierarchy.
+        fn metadata_bytes(self: &Hierarchy) -> Result<usize>;
+
+        /// Input point id (relative to the grid given to the build) of each output point.
+        fn point_ids(self: &Mesh) -> Result<&[usize]>;
+        /// Four point indices per tetrahedron, positively oriented (VTK_TETRA order).
+        fn tets(self: &Mesh) -> Result<&[u32]>;
+        /// Bisection depth of each tetrahedron.
+        fn levels(self: &Mesh) -> Result<&[u8]>;
+        /// Error bound of each tetrahedron, in data units.
+        fn errors(self: &Mesh) -> Result<&[f32]>;
+        /// Largest error bound of the mesh.
+        fn max_error(self: &Mesh) -> Result<f64>;
+    }
+}
+
+pub use ffi::{GridSpec, QuerySpec, ScalarType};
+
+/// Opaque handle on a [`diamonds::Hierarchy`] for C++.
+pub struct Hierarchy(diamonds::Hierarchy);
+
+/// Opaque handle on a [`TetMesh`] for C++, checked for consistency before it is handed over.
+pub struct Mesh(TetMesh);
+
+/// Runs `body`, turning a panic into an error message instead of letting it unwind into C++.
+///
+/// `AssertUnwindSafe` is sound here: a panic can only leave the core's own local state broken,
+/// and that state is dropped during the unwind. What survives a panic is borrowed immutably
+/// (`&Hierarchy`, `&Mesh`, the sample bytes) or is the C++ progress observer, which holds no
+/// invariant the Rust side could break.
+pub fn guard<T>(what: &str, body: impl FnOnce() -> Result<T, String>) -> Result<T, String> {
+    catch_unwind(AssertUnwindSafe(body)).unwrap_or_else(|payload| {
+        Err(format!(
+            "internal error in the Diamonds core while {what}: {}. Please report this with the input that caused it.",
+            panic_message(payload.as_ref())
+        ))
+    })
+}
+
+/// The text of a panic payload (`panic!` carries a `&str` or a `String`).
+fn panic_message(payload: &(dyn Any + Send)) -> &str {
+    if let Some(s) = payload.downcast_ref::<&str>() {
+        s
+    } else if let Some(s) = payload.downcast_ref::<String>() {
+        s
+    } else {
+        "(no message)"
+    }
+}
+
+/// Reinterprets `bytes` as a slice of `scalar_type` values, in place.
+///
+/// Fails (instead of copying) when the buffer is misaligned for the type or its length is not a
+/// multiple of the value size; VTK's arrays are malloc-aligned, so neither happens in practice.
+pub fn typed_slice(scalar_type: ScalarType, bytes: &[u8]) -> Result<ScalarSlice<'_>, String> {
+    fn cast<T: bytemuck::Pod>(bytes: &[u8]) -> Result<&[T], String> {
+        bytemuck::try_cast_slice(bytes).map_err(|e| {
+            format!(
+                "the sample buffer ({} bytes at {:p}) cannot be read as {}: {e:?}",
+                bytes.len(),
+                bytes.as_ptr(),
+                std::any::type_name::<T>()
+            )
+        })
+    }
+    Ok(match scalar_type {
+        ScalarType::U8 => ScalarSlice::U8(cast(bytes)?),
+        ScalarType::I8 => ScalarSlice::I8(cast(bytes)?),
+        ScalarType::U16 => ScalarSlice::U16(cast(bytes)?),
+        ScalarType::I16 => ScalarSlice::I16(cast(bytes)?),
+        ScalarType::U32 => ScalarSlice::U32(cast(bytes)?),
+        ScalarType::I32 => ScalarSlice::I32(cast(bytes)?),
+        ScalarType::F32 => ScalarSlice::F32(cast(bytes)?),
+        ScalarType::F64 => ScalarSlice::F64(cast(bytes)?),
+        other => return Err(format!("unknown scalar type code {}", other.repr)),
+    })
+}
+
+/// Builds the hierarchy with a Rust progress callback; [`build_hierarchy`] is this plus the
+/// C++ observer. Not itself guarded: callers go through [`guard`].
+pub fn build_with(
+    grid: &GridSpec,
+    scalar_type: ScalarType,
+    samples: &[u8],
+    progress: &mut dyn FnMut(f64) -> bool,
+) -> Result<Hierarchy, String> {
+    let grid = Grid {
+        dims: grid.dims,
+        origin: grid.origin,
+        spacing: grid.spacing,
+    };
+    let scalars = typed_slice(scalar_type, samples)?;
+    diamonds::Hierarchy::build(grid, scalars, progress)
+        .map(Hierarchy)
+        .map_err(|e| e.to_string())
+}
+
+fn build_hierarchy(
+    grid: &GridSpec,
+    scalar_type: ScalarType,
+    samples: &[u8],
+    mut progress: Pin<&mut ffi::ProgressObserver>,
+) -> Result<Box<Hierarchy>, String> {
+    guard("building the diamond hierarchy", || {
+        let mut report = |fraction: f64| progress.as_mut().report(fraction);
+        build_with(grid, scalar_type, samples, &mut report).map(Box::new)
+    })
+}
+
+impl Hierarchy {
+    /// Runs `query` on the hierarchy and checks the mesh before C++ indexes with it.
+    pub fn query(&self, query: &QuerySpec) -> Result<Box<Mesh>, String> {
+        guard("extracting the adaptive mesh", || {
+            let query = Query {
+                tolerance: query.tolerance,
+                max_tetrahedra: query.max_tetrahedra,
+                region_of_interest: query
+                    .use_region_of_interest
+                    .then_some(query.region_of_interest),
+            };
+            let mesh = self.0.query(&query).map_err(|e| e.to_string())?;
+            check_mesh(&mesh, self.0.grid().len())?;
+            Ok(Box::new(Mesh(mesh)))
+        })
+    }
+
+    fn metadata_bytes(&self) -> Result<usize, String> {
+        guard("measuring the hierarchy", || Ok(self.0.metadata_bytes()))
+    }
+}
+
+/// The consistency C++ relies on when it indexes VTK arrays with the mesh: equal lengths,
+/// tetrahedron corners inside `points`, point ids inside the input grid. A violation is a core
+/// bug; it is reported as an error instead of becoming an out-of-bounds write in C++.
+fn check_mesh(mesh: &TetMesh, grid_points: usize) -> Result<(), String> {
+    let (n_points, n_tets) = (mesh.point_ids.len(), mesh.tets.len());
+    let bug = |what: String| Err(format!("internal error in the Diamonds core: {what}"));
+    if mesh.levels.len() != n_tets || mesh.errors.len() != n_tets {
+        return bug(format!(
+            "{n_tets} tetrahedra but {} levels and {} errors",
+            mesh.levels.len(),
+            mesh.errors.len()
+        ));
+    }
+    if let Some(id) = mesh.point_ids.iter().find(|&&id| id >= grid_points) {
+        return bug(format!(
+            "point id {id} outside the {grid_points} input points"
+        ));
+    }
+    if let Some(t) = mesh
+        .tets
+        .iter()
+        .find(|t| t.iter().any(|&c| c as usize >= n_points))
+    {
+        return bug(format!(
+            "tetrahedron {t:?} refers past the {n_points} points"
+        ));
+    }
+    Ok(())
+}
+
+impl Mesh {
+    fn point_ids(&self) -> Result<&[usize], String> {
+        guard("reading the mesh", || Ok(&self.0.point_ids[..]))
+    }
+
+    fn tets(&self) -> Result<&[u32], String> {
+        guard("reading the mesh", || {
+            Ok(bytemuck::cast_slice(&self.0.tets))
+        })
+    }
+
+    fn levels(&self) -> Result<&[u8], String> {
+        guard("reading the mesh", || Ok(&self.0.levels[..]))
+    }
+
+    fn errors(&self) -> Result<&[f32], String> {
+        guard("reading the mesh", || Ok(&self.0.errors[..]))
+    }
+
+    fn max_error(&self) -> Result<f64, String> {
+        guard("reading the mesh", || Ok(self.0.max_error))
+    }
+
+    /// The mesh as the core returned it.
+    pub fn inner(&self) -> &TetMesh {
+        &self.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn guard_turns_a_panic_into_an_error() {
+        let r: Result<(), String> = guard("testing", || panic!("boom {}", 7));
+        let msg = r.unwrap_err();
+        assert!(msg.contains("while testing"), "{msg}");
+        assert!(msg.contains("boom 7"), "{msg}");
+        let r: Result<(), String> = guard("testing", || panic!("static"));
+        assert!(r.unwrap_err().contains("static"));
+    }
+
+    #[test]
+    fn guard_passes_results_through() {
+        assert_eq!(guard("x", || Ok(3)), Ok(3));
+        assert_eq!(guard::<()>("x", || Err("no".into())), Err("no".into()));
+    }
+
+    #[test]
+    fn typed_slice_reads_in_place() {
+        let values = [1.5f64, -2.0, 3.25];
+        let bytes: &[u8] = bytemuck::cast_slice(&values);
+        match typed_slice(ScalarType::F64, bytes).unwrap() {
+            ScalarSlice::F64(s) => {
+                assert_eq!(s, &values);
+                assert_eq!(s.as_ptr() as *const u8, bytes.as_ptr());
+            }
+            other => panic!("wrong variant {other:?}"),
+        }
+        let shorts = [7i16, -9];
+        match typed_slice(ScalarType::I16, bytemuck::cast_slice(&shorts)).unwrap() {
+            ScalarSlice::I16(s) => assert_eq!(s, &shorts),
+            other => panic!("wrong variant {other:?}"),
+        }
+    }
+
+    #[test]
+    fn typed_slice_refuses_ragged_or_misaligned_buffers() {
+        let values = [0u32; 4];
+        let bytes: &[u8] = bytemuck::cast_slice(&values);
+        assert!(typed_slice(ScalarType::U32, &bytes[..7]).is_err());
+        assert!(typed_slice(ScalarType::U32, &bytes[1..5]).is_err());
+        assert!(typed_slice(ScalarType { repr: 200 }, bytes).is_err());
+    }
+
+    #[test]
+    fn check_mesh_catches_inconsistent_meshes() {
+        let good = TetMesh {
+            point_ids: vec![0, 1, 2, 3],
+            points: vec![[0.0; 3]; 4],
+            tets: vec![[0, 1, 2, 3]],
+            levels: vec![0],
+            errors: vec![0.0],
+            max_error: 0.0,
+        };
+        assert!(check_mesh(&good, 8).is_ok());
+        assert!(check_mesh(&good, 3).is_err());
+        let mut bad = good.clone();
+        bad.tets[0][2] = 4;
+        assert!(check_mesh(&bad, 8).is_err());
+        let mut bad = good;
+        bad.levels.clear();
+        assert!(check_mesh(&bad, 8).is_err());
+    }
+}
