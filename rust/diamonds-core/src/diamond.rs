@@ -127,12 +127,17 @@ impl Diamond {
         let s = self.scale();
         let h = match self.class() {
             Class::Cube => {
-                IVec3::new(self.corner_sign(0, 0), self.corner_sign(1, 0), self.corner_sign(2, 0)) * s
+                IVec3::new(
+                    self.corner_sign(0, 0),
+                    self.corner_sign(1, 0),
+                    self.corner_sign(2, 0),
+                ) * s
             }
             Class::Face => {
                 let (i, j, k) = self.face_axes();
                 let parity = (c[k] >> (self.sigma() + 1)) & 1;
-                AXES[i] * (s * self.corner_sign(i, parity)) + AXES[j] * (s * self.corner_sign(j, parity))
+                AXES[i] * (s * self.corner_sign(i, parity))
+                    + AXES[j] * (s * self.corner_sign(j, parity))
             }
             Class::Edge => AXES[self.edge_axes().0] * s,
         };
@@ -374,12 +379,8 @@ mod tests {
                 Class::Face => (4, 2, 4),
                 Class::Edge => (8, 4, if d.is_finest() { 0 } else { 8 }),
             };
-            let interior = d
-                .bounds()
-                .0
-                .cmpgt(IVec3::ZERO)
-                .all()
-                && d.bounds().1.cmplt(IVec3::splat(16)).all();
+            let interior =
+                d.bounds().0.cmpgt(IVec3::ZERO).all() && d.bounds().1.cmplt(IVec3::splat(16)).all();
             if interior {
                 assert_eq!(d.tets(&l).len(), tets, "{d:?}");
                 assert_eq!(d.children(&l).len(), children, "{d:?}");
@@ -389,7 +390,11 @@ mod tests {
             }
             for p in d.parents(&l) {
                 // Table 1: parent phase is one less (mod 3); a 0-diamond's parents are one level up.
-                assert_eq!((p.class() as u32 + 1) % 3, d.class() as u32, "{d:?} ← {p:?}");
+                assert_eq!(
+                    (p.class() as u32 + 1) % 3,
+                    d.class() as u32,
+                    "{d:?} ← {p:?}"
+                );
                 assert_eq!(p.depth(&l) + 1, d.depth(&l), "{d:?} ← {p:?}");
             }
         }
@@ -434,7 +439,9 @@ mod tests {
                         assert!(d.is_finest(), "{child:?} of {d:?} is a unit-cube tet");
                         continue;
                     };
-                    let tets = children.get(&cd).unwrap_or_else(|| panic!("{cd:?} not a child of {d:?}"));
+                    let tets = children
+                        .get(&cd)
+                        .unwrap_or_else(|| panic!("{cd:?} not a child of {d:?}"));
                     assert!(tets.contains(&key(&child)), "{child:?} not in {cd:?}");
                 }
             }
@@ -459,9 +466,8 @@ mod tests {
             }
         }
         for (f, n) in faces {
-            let on_boundary = (0..3).any(|a| {
-                f.iter().all(|p| p[a] == 0) || f.iter().all(|p| p[a] == 4)
-            });
+            let on_boundary =
+                (0..3).any(|a| f.iter().all(|p| p[a] == 0) || f.iter().all(|p| p[a] == 4));
             assert_eq!(n, if on_boundary { 1 } else { 2 }, "{f:?}");
         }
     }

@@ -124,7 +124,10 @@ impl Hierarchy {
             }
             let first_row = b * per_batch;
             chunk.par_chunks_mut(nx).enumerate().for_each(|(r, row)| {
-                let (y, z) = ((first_row + r) % grid.dims[1], (first_row + r) / grid.dims[1]);
+                let (y, z) = (
+                    (first_row + r) % grid.dims[1],
+                    (first_row + r) / grid.dims[1],
+                );
                 for (x, rec) in row.iter_mut().enumerate() {
                     let d = Diamond::new(glam::IVec3::new(x as i32, y as i32, z as i32));
                     *rec = diamond_record(volume, &lattice, d, &quantise);
@@ -227,7 +230,8 @@ fn diamond_record<T: Sample>(
     d: Diamond,
     quantise: &Quantiser,
 ) -> Record {
-    let corner = d.center.cmpeq(glam::IVec3::ZERO) | d.center.cmpeq(glam::IVec3::splat(lattice.size()));
+    let corner =
+        d.center.cmpeq(glam::IVec3::ZERO) | d.center.cmpeq(glam::IVec3::splat(lattice.size()));
     if corner.all() {
         return Record::default(); // a root-cube corner is no diamond
     }
@@ -301,8 +305,13 @@ mod tests {
             origin: [0.0; 3],
             spacing: [1.0; 3],
         };
-        let err = Hierarchy::build_with_memory_limit(grid, ScalarSlice::U8(&samples), Some(10), &mut |_| true)
-            .unwrap_err();
+        let err = Hierarchy::build_with_memory_limit(
+            grid,
+            ScalarSlice::U8(&samples),
+            Some(10),
+            &mut |_| true,
+        )
+        .unwrap_err();
         assert!(matches!(err, Error::TooLarge { needed, available: 10, .. } if needed > 10));
         assert!(err.to_string().contains("needs"));
     }

@@ -48,7 +48,9 @@ pub enum Error {
         dims: [usize; 3],
     },
     /// Spacing must be finite and positive, origin finite.
-    #[error("invalid geometry: origin {origin:?}, spacing {spacing:?} (spacing must be finite and > 0)")]
+    #[error(
+        "invalid geometry: origin {origin:?}, spacing {spacing:?} (spacing must be finite and > 0)"
+    )]
     Geometry { origin: [f64; 3], spacing: [f64; 3] },
     /// A NaN or infinite sample.
     #[error("the scalar array holds a non-finite value ({value}) at point {index} (i, j, k = {ijk:?}); replace NaN/Inf first")]

@@ -104,7 +104,10 @@ pub(crate) fn extract(h: &Hierarchy, split: &SplitSet) -> TetMesh {
             b &= b - 1;
         }
     }
-    let points = point_ids.par_iter().map(|&i| grid.point(grid.ijk(i))).collect();
+    let points = point_ids
+        .par_iter()
+        .map(|&i| grid.point(grid.ijk(i)))
+        .collect();
     let (cells, (levels, errors)): (Vec<[u32; 4]>, (Vec<u8>, Vec<f32>)) = tets
         .par_iter()
         .map(|t| {

@@ -96,12 +96,10 @@ impl Eq for Candidate {}
 
 impl Ord for Candidate {
     fn cmp(&self, other: &Self) -> Ordering {
-        self.error
-            .total_cmp(&other.error)
-            .then_with(|| {
-                let (a, b) = (self.diamond.center, other.diamond.center);
-                (a.x, a.y, a.z).cmp(&(b.x, b.y, b.z))
-            })
+        self.error.total_cmp(&other.error).then_with(|| {
+            let (a, b) = (self.diamond.center, other.diamond.center);
+            (a.x, a.y, a.z).cmp(&(b.x, b.y, b.z))
+        })
     }
 }
 
@@ -179,7 +177,11 @@ impl<'h> Refiner<'h> {
                 query.tolerance
             )));
         }
-        let mut r = Self::new(hierarchy, hierarchy.base().clone(), hierarchy.base_tetrahedra());
+        let mut r = Self::new(
+            hierarchy,
+            hierarchy.base().clone(),
+            hierarchy.base_tetrahedra(),
+        );
         r.tolerance = query.tolerance;
         if let Some(roi) = query.region_of_interest {
             r.roi = Some(lattice_box(hierarchy, roi)?);
@@ -292,7 +294,15 @@ fn lattice_box(h: &Hierarchy, roi: [f64; 6]) -> Result<(glam::DVec3, glam::DVec3
     }
     let to_lattice = |a: usize, v: f64| (v - g.origin[a]) / g.spacing[a];
     Ok((
-        glam::DVec3::new(to_lattice(0, roi[0]), to_lattice(1, roi[2]), to_lattice(2, roi[4])),
-        glam::DVec3::new(to_lattice(0, roi[1]), to_lattice(1, roi[3]), to_lattice(2, roi[5])),
+        glam::DVec3::new(
+            to_lattice(0, roi[0]),
+            to_lattice(1, roi[2]),
+            to_lattice(2, roi[4]),
+        ),
+        glam::DVec3::new(
+            to_lattice(0, roi[1]),
+            to_lattice(1, roi[3]),
+            to_lattice(2, roi[5]),
+        ),
     ))
 }

@@ -95,9 +95,7 @@ pub fn scan_tet<T: Sample>(volume: &Volume<'_, T>, t: &Tet) -> TetStats {
     let values = t.map(|p| volume.at(p.x as usize, p.y as usize, p.z as usize));
     let det = planes.det as f64;
     // Slope of Σ B_i f_i along x.
-    let slope: f64 = (0..4)
-        .map(|i| planes.normals[i].x as f64 * values[i])
-        .sum();
+    let slope: f64 = (0..4).map(|i| planes.normals[i].x as f64 * values[i]).sum();
     let lo = t[0].min(t[1]).min(t[2].min(t[3]));
     let hi = t[0].max(t[1]).max(t[2].max(t[3]));
     let dims = volume.grid.dims;
@@ -209,7 +207,8 @@ mod tests {
                 let mut want = TetStats::EMPTY;
                 for p in brute_force_points(&t) {
                     let l = inv * (p.as_dvec3() - v[0]);
-                    let interp = f[0] * (1.0 - l.element_sum()) + f[1] * l.x + f[2] * l.y + f[3] * l.z;
+                    let interp =
+                        f[0] * (1.0 - l.element_sum()) + f[1] * l.x + f[2] * l.y + f[3] * l.z;
                     let s = vol.at(p.x as usize, p.y as usize, p.z as usize);
                     want = want.merge(TetStats {
                         error: (s - interp).abs(),
@@ -217,7 +216,10 @@ mod tests {
                         max: s,
                     });
                 }
-                assert!((got.error - want.error).abs() <= 1e-9 * want.error.max(1.0), "{t:?}: {got:?} vs {want:?}");
+                assert!(
+                    (got.error - want.error).abs() <= 1e-9 * want.error.max(1.0),
+                    "{t:?}: {got:?} vs {want:?}"
+                );
                 assert_eq!((got.min, got.max), (want.min, want.max), "{t:?}");
             }
         }

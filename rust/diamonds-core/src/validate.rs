@@ -20,7 +20,10 @@ pub struct MeshReport {
 /// it lies on the box boundary, coordinates equal to the samples' positions.
 pub fn check_mesh(mesh: &TetMesh, grid: &Grid) -> Result<MeshReport, String> {
     let n = mesh.points.len();
-    if mesh.point_ids.len() != n || mesh.levels.len() != mesh.tets.len() || mesh.errors.len() != mesh.tets.len() {
+    if mesh.point_ids.len() != n
+        || mesh.levels.len() != mesh.tets.len()
+        || mesh.errors.len() != mesh.tets.len()
+    {
         return Err("array lengths disagree".into());
     }
     let ijk: Vec<I64Vec3> = mesh
@@ -33,14 +36,23 @@ pub fn check_mesh(mesh: &TetMesh, grid: &Grid) -> Result<MeshReport, String> {
         .collect();
     for (k, &i) in mesh.point_ids.iter().enumerate() {
         if i >= grid.len() {
-            return Err(format!("point {k} refers to input point {i} outside the grid"));
+            return Err(format!(
+                "point {k} refers to input point {i} outside the grid"
+            ));
         }
         let want = grid.point(grid.ijk(i));
         if (0..3).any(|a| (mesh.points[k][a] - want[a]).abs() > 1e-9 * (1.0 + want[a].abs())) {
-            return Err(format!("point {k} at {:?} is not input point {i} at {want:?}", mesh.points[k]));
+            return Err(format!(
+                "point {k} at {:?} is not input point {i} at {want:?}",
+                mesh.points[k]
+            ));
         }
     }
-    let hi = I64Vec3::new(grid.dims[0] as i64 - 1, grid.dims[1] as i64 - 1, grid.dims[2] as i64 - 1);
+    let hi = I64Vec3::new(
+        grid.dims[0] as i64 - 1,
+        grid.dims[1] as i64 - 1,
+        grid.dims[2] as i64 - 1,
+    );
     let mut volume6 = 0i64;
     let mut faces: HashMap<[u32; 3], u32> = HashMap::with_capacity(2 * mesh.tets.len());
     for (c, t) in mesh.tets.iter().enumerate() {
@@ -50,7 +62,9 @@ pub fn check_mesh(mesh: &TetMesh, grid: &Grid) -> Result<MeshReport, String> {
         let p = t.map(|v| ijk[v as usize]);
         let det = (p[1] - p[0]).dot((p[2] - p[0]).cross(p[3] - p[0]));
         if det <= 0 {
-            return Err(format!("tet {c} {p:?} is degenerate or negatively oriented (6V = {det})"));
+            return Err(format!(
+                "tet {c} {p:?} is degenerate or negatively oriented (6V = {det})"
+            ));
         }
         volume6 += det;
         for skip in 0..4 {
@@ -68,7 +82,9 @@ pub fn check_mesh(mesh: &TetMesh, grid: &Grid) -> Result<MeshReport, String> {
     }
     let box6 = 6 * hi.x * hi.y * hi.z;
     if volume6 != box6 {
-        return Err(format!("tet volumes sum to {volume6}/6, the box has {box6}/6"));
+        return Err(format!(
+            "tet volumes sum to {volume6}/6, the box has {box6}/6"
+        ));
     }
     let mut report = MeshReport {
         tets: mesh.tets.len(),
@@ -77,7 +93,8 @@ pub fn check_mesh(mesh: &TetMesh, grid: &Grid) -> Result<MeshReport, String> {
     };
     for (f, count) in faces {
         let p = f.map(|v| ijk[v as usize]);
-        let on_boundary = (0..3).any(|a| p.iter().all(|q| q[a] == 0) || p.iter().all(|q| q[a] == hi[a]));
+        let on_boundary =
+            (0..3).any(|a| p.iter().all(|q| q[a] == 0) || p.iter().all(|q| q[a] == hi[a]));
         match (count, on_boundary) {
             (2, false) => report.interior_faces += 1,
             (1, true) => report.boundary_faces += 1,
@@ -94,7 +111,11 @@ pub fn check_mesh(mesh: &TetMesh, grid: &Grid) -> Result<MeshReport, String> {
 /// Checks that every input sample lies in some tetrahedron of `mesh` and that the linear interpolation
 /// of every tetrahedron containing it is within `tolerance` of it. Returns the largest error found.
 /// Brute force over each tetrahedron's bounding box with `f64` barycentric coordinates.
-pub fn check_tolerance<T: Sample>(mesh: &TetMesh, volume: &Volume<'_, T>, tolerance: f64) -> Result<f64, String> {
+pub fn check_tolerance<T: Sample>(
+    mesh: &TetMesh,
+    volume: &Volume<'_, T>,
+    tolerance: f64,
+) -> Result<f64, String> {
     let grid = volume.grid;
     let mut covered = vec![false; grid.len()];
     let mut worst = 0.0f64;
@@ -121,7 +142,8 @@ pub fn check_tolerance<T: Sample>(mesh: &TetMesh, volume: &Volume<'_, T>, tolera
                     covered[i] = true;
                     let interp = f[0] * l0 + f[1] * l.x + f[2] * l.y + f[3] * l.z;
                     let e = (interp - volume.samples[i].to_f64()).abs();
-                    if e > tolerance + slack * (1.0 + f.iter().fold(0.0f64, |m, v| m.max(v.abs()))) {
+                    if e > tolerance + slack * (1.0 + f.iter().fold(0.0f64, |m, v| m.max(v.abs())))
+                    {
                         return Err(format!(
                             "sample ({x}, {y}, {z}) = {} but tet {c} interpolates {interp} (error {e} > tolerance {tolerance})",
                             volume.samples[i].to_f64()

@@ -120,14 +120,38 @@ pub enum ScalarSlice<'a> {
 macro_rules! with_volume {
     ($grid:expr, $slice:expr, |$v:ident| $body:expr) => {
         match $slice {
-            $crate::ScalarSlice::U8(s) => { let $v = $crate::Volume::new($grid, s)?; $body }
-            $crate::ScalarSlice::I8(s) => { let $v = $crate::Volume::new($grid, s)?; $body }
-            $crate::ScalarSlice::U16(s) => { let $v = $crate::Volume::new($grid, s)?; $body }
-            $crate::ScalarSlice::I16(s) => { let $v = $crate::Volume::new($grid, s)?; $body }
-            $crate::ScalarSlice::U32(s) => { let $v = $crate::Volume::new($grid, s)?; $body }
-            $crate::ScalarSlice::I32(s) => { let $v = $crate::Volume::new($grid, s)?; $body }
-            $crate::ScalarSlice::F32(s) => { let $v = $crate::Volume::new($grid, s)?; $body }
-            $crate::ScalarSlice::F64(s) => { let $v = $crate::Volume::new($grid, s)?; $body }
+            $crate::ScalarSlice::U8(s) => {
+                let $v = $crate::Volume::new($grid, s)?;
+                $body
+            }
+            $crate::ScalarSlice::I8(s) => {
+                let $v = $crate::Volume::new($grid, s)?;
+                $body
+            }
+            $crate::ScalarSlice::U16(s) => {
+                let $v = $crate::Volume::new($grid, s)?;
+                $body
+            }
+            $crate::ScalarSlice::I16(s) => {
+                let $v = $crate::Volume::new($grid, s)?;
+                $body
+            }
+            $crate::ScalarSlice::U32(s) => {
+                let $v = $crate::Volume::new($grid, s)?;
+                $body
+            }
+            $crate::ScalarSlice::I32(s) => {
+                let $v = $crate::Volume::new($grid, s)?;
+                $body
+            }
+            $crate::ScalarSlice::F32(s) => {
+                let $v = $crate::Volume::new($grid, s)?;
+                $body
+            }
+            $crate::ScalarSlice::F64(s) => {
+                let $v = $crate::Volume::new($grid, s)?;
+                $body
+            }
         }
     };
 }
@@ -178,7 +202,10 @@ impl<'a, T: Sample> Volume<'a, T> {
     /// Checks dimensions, geometry and length, and refuses NaN/Inf samples.
     pub fn new(grid: Grid, samples: &'a [T]) -> Result<Self> {
         grid.validate()?;
-        let expected = grid.dims.iter().try_fold(1usize, |acc, &d| acc.checked_mul(d));
+        let expected = grid
+            .dims
+            .iter()
+            .try_fold(1usize, |acc, &d| acc.checked_mul(d));
         if expected != Some(samples.len()) {
             return Err(Error::Length {
                 len: samples.len(),
