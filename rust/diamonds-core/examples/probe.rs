@@ -1,23 +1,36 @@
-use diamonds::fields::{marschner_lobb, sample, unit_grid};
-use diamonds::{Hierarchy, Query, ScalarSlice};
+//! Quick timing probe on a raw u8 volume: `cargo run --release --example probe -- file.u8 nx ny nz`.
+use diamonds::{Grid, Hierarchy, Query, ScalarSlice};
+use std::time::Instant;
 fn main() {
-    let g = unit_grid([33, 33, 33]);
-    let v = sample(&g, |x, y, z| {
-        (marschner_lobb(x, y, z) * 255.0).round() as u8
-    });
-    let h = Hierarchy::build(g, ScalarSlice::U8(&v), &mut |_| true).unwrap();
-    for tol in [0.0, 1.0, 4.0, 16.0, 32.0, 50.0, 64.0] {
+    let a: Vec<String> = std::env::args().collect();
+    let data = std::fs::read(&a[1]).unwrap();
+    let dims = [
+        a[2].parse().unwrap(),
+        a[3].parse().unwrap(),
+        a[4].parse().unwrap(),
+    ];
+    let g = Grid {
+        dims,
+        origin: [0.0; 3],
+        spacing: [1.0; 3],
+    };
+    let t = Instant::now();
+    let h = Hierarchy::build(g, ScalarSlice::U8(&data), &mut |_| true).unwrap();
+    println!(
+        "build {:.3}s base tets {}",
+        t.elapsed().as_secs_f64(),
+        h.base_tetrahedra()
+    );
+    let tols: Vec<f64> = a[5..].iter().map(|t| t.parse().unwrap()).collect();
+    for &tol in &tols {
+        let t = Instant::now();
         let m = h.query(&Query::tolerance(tol)).unwrap();
-        println!("tol {tol}: {} tets max {}", m.tets.len(), m.max_error);
-    }
-    for b in [500, 2000, 8000, 20000, 60000] {
-        let m = h
-            .query(&Query {
-                tolerance: 0.0,
-                max_tetrahedra: b,
-                region_of_interest: None,
-            })
-            .unwrap();
-        println!("budget {b}: {} tets max {}", m.tets.len(), m.max_error);
+        println!(
+            "tol {tol}: {} tets {} points max {} in {:.3}s",
+            m.tets.len(),
+            m.points.len(),
+            m.max_error,
+            t.elapsed().as_secs_f64()
+        );
     }
 }

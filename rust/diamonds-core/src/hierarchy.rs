@@ -17,7 +17,7 @@
 use crate::diamond::Diamond;
 use crate::lattice::{Lattice, Placement};
 use crate::refine::{Query, Refiner, SplitSet};
-use crate::scan::{scan_tet, TetStats};
+use crate::scan::{scan_finest_diamond, scan_tet, TetStats};
 use crate::volume::{Sample, Volume};
 use crate::{with_volume, Error, Grid, Result, ScalarSlice, TetMesh};
 use rayon::prelude::*;
@@ -96,6 +96,12 @@ impl Hierarchy {
         progress: Progress<'_>,
     ) -> Result<Self> {
         grid.validate()?;
+        if grid.len() > u32::MAX as usize {
+            return Err(Error::Parameter(format!(
+                "{:?} points: at most 2^32 points are supported (output point ids are 32-bit)",
+                grid.dims
+            )));
+        }
         let needed = bytes_needed(grid.len());
         if let Some(available) = available.filter(|&a| needed > a) {
             return Err(Error::TooLarge {
@@ -235,6 +241,10 @@ fn diamond_record<T: Sample>(
     if corner.all() {
         return Record::default(); // a root-cube corner is no diamond
     }
+    let (lo, hi) = d.bounds();
+    if d.scale() == 1 && lattice.in_domain(lo) && lattice.in_domain(hi) {
+        return quantise.record(scan_finest_diamond(volume, lattice, d));
+    }
     let mut stats = TetStats::EMPTY;
     for t in d.tets(lattice) {
         match lattice.place(&t) {
@@ -247,11 +257,7 @@ fn diamond_record<T: Sample>(
     if stats.min > stats.max {
         return Record::default();
     }
-    Record {
-        error: encode_error(stats.error),
-        min: quantise.floor(stats.min),
-        max: quantise.ceil(stats.max),
-    }
+    quantise.record(stats)
 }
 
 /// Outward 8-bit quantisation of values over the volume's range.
@@ -270,6 +276,13 @@ impl Quantiser {
     }
     fn ceil(&self, v: f64) -> u8 {
         ((v - self.lo) / self.step).ceil().clamp(0.0, 255.0) as u8
+    }
+    fn record(&self, stats: TetStats) -> Record {
+        Record {
+            error: encode_error(stats.error),
+            min: self.floor(stats.min),
+            max: self.ceil(stats.max),
+        }
     }
     fn decode(&self, q: u8) -> f64 {
         self.lo + q as f64 * self.step

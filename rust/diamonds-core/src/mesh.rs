@@ -31,8 +31,8 @@ fn is_split(split: &SplitSet, t: &Tet) -> bool {
     Diamond::of_tet(t).is_some_and(|d| split.contains(d))
 }
 
-/// Visits the inside leaves below `t`.
-fn walk(lattice: &Lattice, split: &SplitSet, t: Tet, visit: &mut impl FnMut(&Tet)) {
+/// Visits the inside leaves below `t`, depth first.
+fn walk(lattice: &Lattice, split: &SplitSet, t: Tet, visit: &mut dyn FnMut(&Tet)) {
     let mut stack = vec![t];
     while let Some(t) = stack.pop() {
         match lattice.place(&t) {
@@ -44,12 +44,12 @@ fn walk(lattice: &Lattice, split: &SplitSet, t: Tet, visit: &mut impl FnMut(&Tet
     }
 }
 
-/// The inside leaves of the split set, in a deterministic order, walked in parallel.
-fn leaves(lattice: &Lattice, split: &SplitSet) -> Vec<Tet> {
-    // Expand breadth-first until there is enough parallel work.
+/// Tetrahedra of the split set's first levels (breadth-first) until there is enough parallel work:
+/// returns the leaves met on the way and the frontier still to walk.
+fn frontier(lattice: &Lattice, split: &SplitSet) -> (Vec<Tet>, Vec<Tet>) {
     let mut frontier: Vec<Tet> = Diamond::root(lattice).tets(lattice).to_vec();
     let mut done = Vec::new();
-    while frontier.len() < 1024 {
+    while !frontier.is_empty() && frontier.len() < 1024 {
         let mut next = Vec::with_capacity(2 * frontier.len());
         for t in frontier.drain(..) {
             match lattice.place(&t) {
@@ -58,35 +58,67 @@ fn leaves(lattice: &Lattice, split: &SplitSet) -> Vec<Tet> {
                 _ => done.push(t),
             }
         }
-        if next.is_empty() {
-            break;
-        }
         frontier = next;
     }
-    done.par_extend(frontier.par_iter().flat_map_iter(|&t| {
-        let mut out = Vec::new();
-        walk(lattice, split, t, &mut |t| out.push(*t));
-        out
-    }));
-    done
+    (done, frontier)
+}
+
+/// Visits every inside leaf of the split set, in parallel; `visit` gets each frontier subtree's leaves
+/// in order and returns that subtree's result.
+fn map_leaves<R: Send>(
+    lattice: &Lattice,
+    split: &SplitSet,
+    visit: impl Fn(&mut dyn FnMut(&mut dyn FnMut(&Tet))) -> R + Sync,
+) -> Vec<R> {
+    let (done, frontier) = frontier(lattice, split);
+    let mut out = vec![visit(&mut |emit| done.iter().for_each(|t| emit(t)))];
+    out.par_extend(
+        frontier
+            .par_iter()
+            .map(|&t| visit(&mut |emit| walk(lattice, split, t, emit))),
+    );
+    out
 }
 
 /// Number of inside leaves of the split set.
 pub(crate) fn count_tets(h: &Hierarchy, split: &SplitSet) -> usize {
-    leaves(h.lattice(), split).len()
+    map_leaves(h.lattice(), split, |leaves| {
+        let mut n = 0;
+        leaves(&mut |_| n += 1);
+        n
+    })
+    .into_iter()
+    .sum()
 }
+
+/// A leaf in compact form: its vertices' input point indices (positively oriented), depth and error.
+type Leaf = ([u32; 4], u8, f32);
 
 /// Builds the output mesh of the split set.
 pub(crate) fn extract(h: &Hierarchy, split: &SplitSet) -> TetMesh {
     let lattice = h.lattice();
     let grid = h.grid();
-    let tets = leaves(lattice, split);
+    let parts: Vec<Vec<Leaf>> = map_leaves(lattice, split, |leaves| {
+        let mut out = Vec::new();
+        leaves(&mut |t| {
+            let mut t = *t;
+            if signed_volume6(&t) < 0 {
+                t.swap(2, 3);
+            }
+            // A unit-cube tetrahedron is one bisection below the finest diamonds and reproduces its samples.
+            let (depth, error) = match Diamond::of_tet(&t) {
+                Some(d) => (d.depth(lattice), h.error(d) as f32),
+                None => (3 * lattice.levels, 0.0),
+            };
+            out.push((t.map(|p| lattice.index(p) as u32), depth as u8, error));
+        });
+        out
+    });
     // Used points as a bitset over the input points, then ids by rank.
     let mut used = vec![0u64; grid.len().div_ceil(64)];
-    for t in &tets {
-        for p in t {
-            let i = lattice.index(*p);
-            used[i / 64] |= 1 << (i % 64);
+    for (v, _, _) in parts.iter().flatten() {
+        for &i in v {
+            used[i as usize / 64] |= 1 << (i % 64);
         }
     }
     let mut rank = Vec::with_capacity(used.len());
@@ -95,7 +127,10 @@ pub(crate) fn extract(h: &Hierarchy, split: &SplitSet) -> TetMesh {
         rank.push(total);
         total += w.count_ones();
     }
-    let id = |i: usize| rank[i / 64] + (used[i / 64] & ((1u64 << (i % 64)) - 1)).count_ones();
+    let id = |i: u32| {
+        let (w, b) = (i as usize / 64, i % 64);
+        rank[w] + (used[w] & ((1u64 << b) - 1)).count_ones()
+    };
     let mut point_ids = Vec::with_capacity(total as usize);
     for (w, &bits) in used.iter().enumerate() {
         let mut b = bits;
@@ -108,26 +143,22 @@ pub(crate) fn extract(h: &Hierarchy, split: &SplitSet) -> TetMesh {
         .par_iter()
         .map(|&i| grid.point(grid.ijk(i)))
         .collect();
-    let (cells, (levels, errors)): (Vec<[u32; 4]>, (Vec<u8>, Vec<f32>)) = tets
-        .par_iter()
-        .map(|t| {
-            let mut t = *t;
-            if signed_volume6(&t) < 0 {
-                t.swap(2, 3);
-            }
-            // A unit-cube tetrahedron is one bisection below the finest diamonds and reproduces its samples.
-            let (depth, error) = match Diamond::of_tet(&t) {
-                Some(d) => (d.depth(lattice), h.error(d) as f32),
-                None => (3 * lattice.levels, 0.0),
-            };
-            (t.map(|p| id(lattice.index(p))), (depth as u8, error))
-        })
-        .unzip();
+    let n: usize = parts.iter().map(Vec::len).sum();
+    let mut tets = Vec::with_capacity(n);
+    let mut levels = Vec::with_capacity(n);
+    let mut errors = Vec::with_capacity(n);
+    for part in parts {
+        for (v, level, error) in part {
+            tets.push(v.map(id));
+            levels.push(level);
+            errors.push(error);
+        }
+    }
     let max_error = errors.iter().fold(0.0f64, |m, &e| m.max(e as f64));
     TetMesh {
         point_ids,
         points,
-        tets: cells,
+        tets,
         levels,
         errors,
         max_error,

@@ -85,9 +85,9 @@ impl SplitSet {
     }
 }
 
-/// An entry of the split queue: a diamond and its error.
+/// An entry of the ordered split queue: a diamond and its error.
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct Candidate {
+pub struct Candidate {
     error: f64,
     diamond: Diamond,
 }
@@ -109,19 +109,26 @@ impl PartialOrd for Candidate {
     }
 }
 
-/// Gregorski's split queue, ordered by error (largest first).
-#[derive(Default)]
-pub struct SplitQueue {
-    heap: BinaryHeap<Candidate>,
+/// Gregorski's split queue. With a tetrahedron budget it is ordered by error (largest first); with a
+/// tolerance alone any diamond above the tolerance may be split next (Gregorski §8), so a stack does.
+pub enum SplitQueue {
+    Ordered(BinaryHeap<Candidate>),
+    Unordered(Vec<Diamond>),
 }
 
 impl SplitQueue {
     fn push(&mut self, diamond: Diamond, error: f64) {
-        self.heap.push(Candidate { error, diamond });
+        match self {
+            SplitQueue::Ordered(heap) => heap.push(Candidate { error, diamond }),
+            SplitQueue::Unordered(stack) => stack.push(diamond),
+        }
     }
 
-    fn pop(&mut self) -> Option<(Diamond, f64)> {
-        self.heap.pop().map(|c| (c.diamond, c.error))
+    fn pop(&mut self) -> Option<Diamond> {
+        match self {
+            SplitQueue::Ordered(heap) => heap.pop().map(|c| c.diamond),
+            SplitQueue::Unordered(stack) => stack.pop(),
+        }
     }
 }
 
@@ -143,7 +150,7 @@ impl<'h> Refiner<'h> {
             hierarchy,
             lattice: *hierarchy.lattice(),
             split,
-            queue: SplitQueue::default(),
+            queue: SplitQueue::Unordered(Vec::new()),
             tets,
             roi: None,
             tolerance: 0.0,
@@ -160,7 +167,9 @@ impl<'h> Refiner<'h> {
             if r.split.contains(d) || place_diamond(&lattice, d) != Placement::Straddling {
                 continue;
             }
-            for a in r.closure(d) {
+            let mut closure = Vec::new();
+            r.closure(d, &mut closure);
+            for a in closure {
                 r.split.insert(a);
                 stack.extend(a.children(&lattice));
             }
@@ -183,6 +192,10 @@ impl<'h> Refiner<'h> {
             hierarchy.base_tetrahedra(),
         );
         r.tolerance = query.tolerance;
+        let budget = query.max_tetrahedra;
+        if budget > 0 {
+            r.queue = SplitQueue::Ordered(BinaryHeap::new());
+        }
         if let Some(roi) = query.region_of_interest {
             r.roi = Some(lattice_box(hierarchy, roi)?);
         }
@@ -196,27 +209,32 @@ impl<'h> Refiner<'h> {
                 stack.extend(d.children(&r.lattice));
             }
         }
-        let budget = query.max_tetrahedra;
-        while let Some((d, _)) = r.queue.pop() {
+        let mut closure = Vec::new();
+        while let Some(d) = r.queue.pop() {
             if r.split.contains(d) {
                 continue; // already split through another parent's closure
             }
-            let closure = r.closure(d);
+            r.closure(d, &mut closure);
             if budget > 0 {
                 let added: usize = closure.iter().map(|&a| r.inside_tets(a)).sum();
                 if r.tets + added > budget {
                     break;
                 }
             }
-            for a in closure {
-                r.split.insert(a);
-                r.tets += r.inside_tets(a);
-                for c in a.children(&r.lattice) {
-                    r.consider(c);
-                }
+            for &a in &closure {
+                r.split(a);
             }
         }
         Ok(r.split)
+    }
+
+    /// Splits `d` (its parents must be split) and queues its children.
+    fn split(&mut self, d: Diamond) {
+        self.split.insert(d);
+        self.tets += self.inside_tets(d);
+        for c in d.children(&self.lattice) {
+            self.consider(c);
+        }
     }
 
     /// Queues `d` if it is unsplit, relevant and above the tolerance.
@@ -243,15 +261,24 @@ impl<'h> Refiner<'h> {
 
     /// Number of `d`'s tetrahedra inside the domain (each becomes two when `d` is split).
     fn inside_tets(&self, d: Diamond) -> usize {
+        let (lo, hi) = d.bounds();
+        if self.lattice.in_domain(lo) && self.lattice.in_domain(hi) {
+            return [6, 4, 8][d.class() as usize];
+        }
         d.tets(&self.lattice)
             .iter()
             .filter(|t| self.lattice.place(t) == Placement::Inside)
             .count()
     }
 
-    /// `d` and its unsplit ancestors that touch the domain, parents before children.
-    fn closure(&self, d: Diamond) -> Vec<Diamond> {
-        let mut order = Vec::new();
+    /// `d` and its unsplit ancestors that touch the domain, parents before children, into `order`.
+    fn closure(&self, d: Diamond, order: &mut Vec<Diamond>) {
+        order.clear();
+        let parents = d.parents(&self.lattice);
+        if parents.iter().all(|&p| self.split.contains(p)) {
+            order.push(d); // the common case: nothing to close
+            return;
+        }
         let mut visited = FxHashSet::default();
         // Iterative post-order DFS over unsplit parents.
         let mut stack = vec![(d, false)];
@@ -273,7 +300,6 @@ impl<'h> Refiner<'h> {
                 }
             }
         }
-        order
     }
 }
 

@@ -11,7 +11,8 @@
 //! tetrahedron's scale): an error of zero is reported as exactly zero. For 32-bit and floating-point
 //! samples the result carries the usual `f64` rounding (relative 1e-16).
 
-use crate::lattice::Tet;
+use crate::diamond::{Class, Diamond};
+use crate::lattice::{Lattice, Tet};
 use crate::volume::{Sample, Volume};
 use glam::{I64Vec3, IVec3};
 
@@ -46,6 +47,9 @@ impl TetStats {
 }
 
 /// Barycentric numerator planes of a tetrahedron: `B_i(p) = normals[i] · p + offsets[i]`.
+///
+/// After division by `s²` every normal component of an LEB tetrahedron is 0, ±1, ±2 or ±4 (checked by a
+/// test over every tetrahedron of a 32-cube), so row bounds need shifts only.
 struct Planes {
     normals: [I64Vec3; 4],
     offsets: [i64; 4],
@@ -84,13 +88,15 @@ impl Planes {
     }
 }
 
-#[inline]
-fn ceil_div(a: i64, b: i64) -> i64 {
-    -((-a).div_euclid(b))
-}
-
 /// Scans the samples of `volume` inside the closed tetrahedron `t` (all vertices must be samples).
 pub fn scan_tet<T: Sample>(volume: &Volume<'_, T>, t: &Tet) -> TetStats {
+    let spread = (1..4).fold(0, |acc, i| {
+        let e = (t[i] - t[0]).abs();
+        acc | e.x | e.y | e.z
+    });
+    if spread < 4 {
+        return scan_finest(volume, t);
+    }
     let planes = Planes::new(t);
     let values = t.map(|p| volume.at(p.x as usize, p.y as usize, p.z as usize));
     let det = planes.det as f64;
@@ -99,20 +105,23 @@ pub fn scan_tet<T: Sample>(volume: &Volume<'_, T>, t: &Tet) -> TetStats {
     let lo = t[0].min(t[1]).min(t[2].min(t[3]));
     let hi = t[0].max(t[1]).max(t[2].max(t[3]));
     let dims = volume.grid.dims;
-    let mut stats = TetStats::EMPTY;
-    let mut worst = 0.0f64;
-    for z in lo.z..=hi.z {
-        for y in lo.y..=hi.y {
+    // |n_x| is a power of two: x-bounds by arithmetic shifts (which floor).
+    let shifts = planes.normals.map(|n| n.x.unsigned_abs().trailing_zeros());
+    let (mut worst, mut min, mut max) = (0.0f64, f64::INFINITY, f64::NEG_INFINITY);
+    for z in lo.z as i64..=hi.z as i64 {
+        for y in lo.y as i64..=hi.y as i64 {
             let (mut x0, mut x1) = (lo.x as i64, hi.x as i64);
             let mut base = 0.0;
             for i in 0..4 {
                 let n = planes.normals[i];
-                let r = n.y * y as i64 + n.z * z as i64 + planes.offsets[i];
-                match n.x {
-                    a if a > 0 => x0 = x0.max(ceil_div(-r, a)),
-                    a if a < 0 => x1 = x1.min(r.div_euclid(-a)),
-                    _ if r < 0 => x1 = x0 - 1,
-                    _ => {}
+                let r = n.y * y + n.z * z + planes.offsets[i];
+                // B_i = n_x x + r ≥ 0.
+                if n.x > 0 {
+                    x0 = x0.max(-(r >> shifts[i]));
+                } else if n.x < 0 {
+                    x1 = x1.min(r >> shifts[i]);
+                } else if r < 0 {
+                    x1 = -1;
                 }
                 base += r as f64 * values[i];
             }
@@ -122,17 +131,98 @@ pub fn scan_tet<T: Sample>(volume: &Volume<'_, T>, t: &Tet) -> TetStats {
             let row = dims[0] * (y as usize + dims[1] * z as usize);
             let samples = &volume.samples[row + x0 as usize..=row + x1 as usize];
             let mut numerator = base + slope * x0 as f64;
+            // Plain comparisons: samples are finite (checked by `Volume::new`).
             for s in samples {
                 let f = s.to_f64();
-                worst = worst.max((det * f - numerator).abs());
-                stats.min = stats.min.min(f);
-                stats.max = stats.max.max(f);
+                let e = (det * f - numerator).abs();
+                if e > worst {
+                    worst = e;
+                }
+                if f < min {
+                    min = f;
+                }
+                if f > max {
+                    max = f;
+                }
                 numerator += slope;
             }
         }
     }
-    stats.error = worst / det;
+    TetStats {
+        error: worst / det,
+        min,
+        max,
+    }
+}
+
+/// [`scan_tet`] for the tetrahedra of the finest diamonds (edge vectors in `{0, ±2}^3` up to the spine
+/// class): their only samples are the four vertices and the lattice midpoints of their edges, where the
+/// interpolant is the mean of the edge's endpoints.
+fn scan_finest<T: Sample>(volume: &Volume<'_, T>, t: &Tet) -> TetStats {
+    let at = |p: IVec3| volume.at(p.x as usize, p.y as usize, p.z as usize);
+    let f = t.map(at);
+    let mut stats = TetStats {
+        error: 0.0,
+        min: f[0].min(f[1]).min(f[2].min(f[3])),
+        max: f[0].max(f[1]).max(f[2].max(f[3])),
+    };
+    for (a, b) in [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)] {
+        let twice = t[a] + t[b];
+        if twice & IVec3::ONE == IVec3::ZERO {
+            let v = at(twice / 2);
+            stats.error = stats.error.max((2.0 * v - f[a] - f[b]).abs());
+            stats.min = stats.min.min(v);
+            stats.max = stats.max.max(v);
+        }
+    }
+    stats.error *= 0.5;
     stats
+}
+
+/// Error and range of a finest diamond (scale 1) whose bounds lie inside the domain, without visiting its
+/// tetrahedra one by one. Its samples are the lattice points of its `3×3×3` bounding cube that belong
+/// to its tetrahedra; each is a vertex or the midpoint of the spine of the diamond itself or of one of
+/// its descendants inside it (a 1-diamond's 4 edge children; a 0-diamond's 6 face children and their
+/// 12 edge children), where the interpolant is the mean of the spine's endpoints. The range is taken
+/// over the whole bounding cube: a conservative superset.
+pub fn scan_finest_diamond<T: Sample>(
+    volume: &Volume<'_, T>,
+    lattice: &Lattice,
+    d: Diamond,
+) -> TetStats {
+    let at = |p: IVec3| volume.at(p.x as usize, p.y as usize, p.z as usize);
+    let spine_error = |d: Diamond| {
+        let [a, b] = d.spine();
+        (2.0 * at(d.center) - at(a) - at(b)).abs()
+    };
+    let mut worst = spine_error(d);
+    if d.class() != Class::Edge {
+        for c in d.children(lattice) {
+            worst = worst.max(spine_error(c));
+            if d.class() == Class::Cube {
+                for g in c.children(lattice) {
+                    worst = worst.max(spine_error(g));
+                }
+            }
+        }
+    }
+    let (mut min, mut max) = (f64::INFINITY, f64::NEG_INFINITY);
+    for z in d.center.z - 1..=d.center.z + 1 {
+        for y in d.center.y - 1..=d.center.y + 1 {
+            let row = volume.grid.index(0, y as usize, z as usize);
+            for s in &volume.samples[row + d.center.x as usize - 1..=row + d.center.x as usize + 1]
+            {
+                let f = s.to_f64();
+                min = min.min(f);
+                max = max.max(f);
+            }
+        }
+    }
+    TetStats {
+        error: 0.5 * worst,
+        min,
+        max,
+    }
 }
 
 /// Lattice points of the closed tetrahedron, by brute force over its bounding box with `f64`
@@ -161,8 +251,6 @@ pub fn brute_force_points(t: &Tet) -> Vec<IVec3> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::diamond::Diamond;
-    use crate::lattice::Lattice;
     use crate::volume::Grid;
 
     fn noise(n: usize) -> Vec<u16> {
@@ -224,6 +312,58 @@ mod tests {
             }
         }
         assert!(tets > 1000);
+    }
+
+    #[test]
+    fn finest_diamonds_match_their_tets() {
+        let n = 16usize;
+        let grid = Grid {
+            dims: [n + 1; 3],
+            origin: [0.0; 3],
+            spacing: [1.0; 3],
+        };
+        let samples = noise(grid.len());
+        let vol = Volume::new(grid, &samples).unwrap();
+        let l = Lattice::new(grid.dims).unwrap();
+        let mut checked = 0;
+        for i in 0..grid.len() {
+            let [x, y, z] = grid.ijk(i);
+            let d = Diamond::new(IVec3::new(x as i32, y as i32, z as i32));
+            let (lo, hi) = d.bounds();
+            if d.scale() != 1 || !l.in_domain(lo) || !l.in_domain(hi) {
+                continue;
+            }
+            let by_tets = d
+                .tets(&l)
+                .iter()
+                .fold(TetStats::EMPTY, |acc, t| acc.merge(scan_tet(&vol, t)));
+            let fast = scan_finest_diamond(&vol, &l, d);
+            assert_eq!(fast.error, by_tets.error, "{d:?}");
+            assert!(fast.min <= by_tets.min && fast.max >= by_tets.max, "{d:?}");
+            checked += 1;
+        }
+        assert!(checked > 3000);
+    }
+
+    #[test]
+    fn normal_components_are_powers_of_two() {
+        let l = Lattice::new([33; 3]).unwrap();
+        let mut stack = vec![Diamond::root(&l)];
+        let mut seen = std::collections::HashSet::new();
+        while let Some(d) = stack.pop() {
+            if !seen.insert(d) {
+                continue;
+            }
+            stack.extend(d.children(&l));
+            for t in d.tets(&l) {
+                let p = Planes::new(&t);
+                for n in p.normals {
+                    for c in [n.x, n.y, n.z] {
+                        assert!([0, 1, 2, 4].contains(&c.abs()), "{t:?}: {n:?}");
+                    }
+                }
+            }
+        }
     }
 
     #[test]
