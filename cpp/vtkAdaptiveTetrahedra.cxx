@@ -369,12 +369,6 @@ int vtkAdaptiveTetrahedra::RequestData(
                   << name << "_X) or the magnitude (mag(" << name << ")).");
     return 0;
   }
-  if (array->GetNumberOfTuples() != input->GetNumberOfPoints())
-  {
-    vtkErrorMacro(<< "Array \"" << name << "\" has " << array->GetNumberOfTuples()
-                  << " values but the image has " << input->GetNumberOfPoints() << " points.");
-    return 0;
-  }
 
   HierarchyKey key;
   key.Array = array;

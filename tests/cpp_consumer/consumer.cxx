@@ -1,0 +1,150 @@
+// Uses vtkAdaptiveTetrahedra from the installed Diamonds package in a plain VTK pipeline
+// (vtkRTAnalyticSource -> vtkAdaptiveTetrahedra) and checks its output. Exits non-zero on failure.
+#include "vtkAdaptiveTetrahedra.h"
+
+#include <vtkCellData.h>
+#include <vtkCellTypes.h>
+#include <vtkDataArray.h>
+#include <vtkFieldData.h>
+#include <vtkFloatArray.h>
+#include <vtkImageData.h>
+#include <vtkNew.h>
+#include <vtkPointData.h>
+#include <vtkRTAnalyticSource.h>
+#include <vtkUnsignedCharArray.h>
+#include <vtkUnstructuredGrid.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+
+namespace
+{
+int failures = 0;
+
+void Check(bool ok, const char* what)
+{
+  std::printf("%s: %s\n", ok ? "ok  " : "FAIL", what);
+  failures += ok ? 0 : 1;
+}
+
+// Independent of the filter: every tetrahedron must be a VTK_TETRA.
+bool OnlyTetra(vtkUnstructuredGrid* grid)
+{
+  for (vtkIdType c = 0; c < grid->GetNumberOfCells(); ++c)
+  {
+    if (grid->GetCellType(c) != VTK_TETRA)
+    {
+      return false;
+    }
+  }
+  return true;
+}
+
+// Every output point is an input sample: each point-data value must equal the input's value at
+// the input point found at the same position.
+bool PassThroughEqual(vtkImageData* input, vtkUnstructuredGrid* output, const char* name)
+{
+  vtkDataArray* in = input->GetPointData()->GetArray(name);
+  vtkDataArray* out = output->GetPointData()->GetArray(name);
+  if (!in || !out || in->GetDataType() != out->GetDataType() ||
+    in->GetNumberOfComponents() != out->GetNumberOfComponents())
+  {
+    return false;
+  }
+  for (vtkIdType p = 0; p < output->GetNumberOfPoints(); ++p)
+  {
+    double x[3];
+    output->GetPoint(p, x);
+    const vtkIdType q = input->FindPoint(x);
+    if (q < 0)
+    {
+      return false;
+    }
+    double ix[3];
+    input->GetPoint(q, ix);
+    if (std::abs(ix[0] - x[0]) + std::abs(ix[1] - x[1]) + std::abs(ix[2] - x[2]) > 1e-9)
+    {
+      return false;
+    }
+    for (int c = 0; c < in->GetNumberOfComponents(); ++c)
+    {
+      if (in->GetComponent(q, c) != out->GetComponent(p, c))
+      {
+        return false;
+      }
+    }
+  }
+  return true;
+}
+}
+
+int main()
+{
+  vtkNew<vtkRTAnalyticSource> source;
+  source->SetWholeExtent(-16, 16, -16, 16, -16, 16); // 33^3 points
+  source->Update();
+  vtkImageData* image = source->GetOutput();
+  // A second point array to check the pass-through of arrays the filter does not approximate.
+  vtkNew<vtkFloatArray> twice;
+  twice->SetName("Twice");
+  twice->SetNumberOfValues(image->GetNumberOfPoints());
+  vtkDataArray* rt = image->GetPointData()->GetScalars();
+  for (vtkIdType i = 0; i < image->GetNumberOfPoints(); ++i)
+  {
+    twice->SetValue(i, static_cast<float>(2.0 * rt->GetTuple1(i)));
+  }
+  image->GetPointData()->AddArray(twice);
+
+  vtkNew<vtkAdaptiveTetrahedra> filter;
+  filter->SetInputData(image);
+  filter->SetTolerance(4.0);
+  filter->Update();
+  vtkUnstructuredGrid* out = filter->GetOutput();
+  const vtkIdType tets = out->GetNumberOfCells();
+  std::printf("33^3 Wavelet, Tolerance 4: %lld points, %lld tetrahedra (Tetrahedralize: %d)\n",
+    static_cast<long long>(out->GetNumberOfPoints()), static_cast<long long>(tets), 5 * 32 * 32 * 32);
+
+  Check(tets > 0, "tetrahedron count > 0");
+  Check(OnlyTetra(out), "only VTK_TETRA cells");
+  double inBounds[6], outBounds[6];
+  image->GetBounds(inBounds);
+  out->GetBounds(outBounds);
+  bool sameBounds = true;
+  for (int i = 0; i < 6; ++i)
+  {
+    sameBounds = sameBounds && inBounds[i] == outBounds[i];
+  }
+  Check(sameBounds, "output bounds equal input bounds");
+  Check(PassThroughEqual(image, out, "RTData"), "RTData passed through (equal at every point)");
+  Check(PassThroughEqual(image, out, "Twice"), "Twice passed through (equal at every point)");
+  Check(out->GetCellData()->GetArray("Level") != nullptr, "cell data Level");
+  vtkDataArray* err = out->GetCellData()->GetArray("ApproximationError");
+  Check(err != nullptr && err->GetRange()[1] <= 4.0, "cell data ApproximationError <= Tolerance");
+  vtkDataArray* count = out->GetFieldData()->GetArray("NumberOfTetrahedra");
+  Check(count != nullptr && count->GetTuple1(0) == static_cast<double>(tets),
+    "field data NumberOfTetrahedra");
+  Check(filter->GetNumberOfHierarchyBuilds() == 1, "one hierarchy build");
+
+  // Only the query changes: re-executes, does not rebuild.
+  filter->SetTolerance(16.0);
+  filter->Update();
+  const vtkIdType coarser = filter->GetOutput()->GetNumberOfCells();
+  std::printf("Tolerance 16: %lld tetrahedra, hierarchy builds: %lld\n",
+    static_cast<long long>(coarser), static_cast<long long>(filter->GetNumberOfHierarchyBuilds()));
+  Check(coarser > 0 && coarser <= tets, "coarser tolerance, no more tetrahedra");
+  Check(filter->GetNumberOfHierarchyBuilds() == 1, "tolerance change does not rebuild");
+  // The data changes: rebuild.
+  rt->Modified();
+  filter->Update();
+  Check(filter->GetNumberOfHierarchyBuilds() == 2, "modified array rebuilds");
+
+  // A bad parameter: an error message, an empty output, no crash.
+  std::printf("(an error about a negative Tolerance is expected next)\n");
+  filter->SetTolerance(-1.0);
+  filter->Update();
+  Check(filter->GetOutput()->GetNumberOfCells() == 0, "negative tolerance: empty output");
+
+  std::printf("%s: %d failure(s)\n", failures ? "FAILED" : "PASSED", failures);
+  return failures ? EXIT_FAILURE : EXIT_SUCCESS;
+}

@@ -1,0 +1,297 @@
+"""Shared helpers of the pvpython tests of the Diamonds plugin.
+
+The checks here are independent of the filter: they recompute everything from the input image and
+the output mesh with numpy (VTK is used only to hand over the arrays).
+
+- only VTK_TETRA cells, positively oriented, none degenerate;
+- output bounds equal to the input bounds; every output point is an input sample;
+- every input point array passed through unchanged (name, type, components, values);
+- conformity: every triangular face is shared by exactly two tetrahedra, unless its three vertices
+  lie on the same face of the image box (then by exactly one); no face in three or more;
+- the sum of the tetrahedron volumes equals the box volume (rel 1e-9);
+- the tolerance: every input sample lies in at least one tetrahedron, and in every tetrahedron that
+  contains it, the linear interpolation of the vertex values differs from the sample by at most the
+  tolerance (+1e-9 relative slack).
+
+Run the tests with the plugin on PV_PLUGIN_PATH, e.g.
+  PV_PLUGIN_PATH=$PWD/build/lib/paraview-5.11/plugins/Diamonds pvpython tests/pvpython/test_mesh.py
+"""
+
+import os
+import sys
+import time
+
+import numpy as np
+from vtkmodules.util.numpy_support import vtk_to_numpy
+from vtkmodules.util.misc import calldata_type
+from vtkmodules.vtkCommonCore import VTK_STRING, vtkCommand
+
+VTK_TETRA = 10
+
+FAILURES = []
+CHECKS = [0]
+
+
+def check(ok, what):
+    """Records and prints one check."""
+    CHECKS[0] += 1
+    print(("ok   " if ok else "FAIL ") + what, flush=True)
+    if not ok:
+        FAILURES.append(what)
+    return bool(ok)
+
+
+def finish(name):
+    """Prints the summary line and exits non-zero on any failure."""
+    print(f"{name}: {CHECKS[0] - len(FAILURES)} passed, {len(FAILURES)} failed", flush=True)
+    for f in FAILURES:
+        print("  failed: " + f)
+    sys.exit(1 if FAILURES else 0)
+
+
+def require_plugin():
+    """The plugin must have been auto-loaded from PV_PLUGIN_PATH; returns paraview.simple."""
+    from paraview import simple
+
+    path = os.environ.get("PV_PLUGIN_PATH", "")
+    print(f"PV_PLUGIN_PATH={path}")
+    if not hasattr(simple, "AdaptiveTetrahedra"):
+        print(
+            "FAIL the Diamonds plugin was not auto-loaded: set PV_PLUGIN_PATH to the folder holding "
+            "Diamonds.so, e.g. build/lib/paraview-5.11/plugins/Diamonds"
+        )
+        sys.exit(1)
+    check(True, "plugin auto-loaded from PV_PLUGIN_PATH; AdaptiveTetrahedra exists")
+    return simple
+
+
+class ErrorCapture:
+    """Collects the error and warning messages of one filter (its VTK object, builtin session)
+    while active; an observed message is not printed by VTK."""
+
+    def __init__(self, proxy):
+        self.obj = proxy.GetClientSideObject()
+        self.messages = []
+        self._tags = []
+
+    def __enter__(self):
+        self.messages.clear()
+        for event in (vtkCommand.ErrorEvent, vtkCommand.WarningEvent):
+            self._tags.append(self.obj.AddObserver(event, self._on_message))
+        return self
+
+    @calldata_type(VTK_STRING)
+    def _on_message(self, _obj, _event, message):
+        self.messages.append(str(message))
+
+    def __exit__(self, *exc):
+        for tag in self._tags:
+            self.obj.RemoveObserver(tag)
+        self._tags.clear()
+        return False
+
+    def text(self):
+        return "\n".join(self.messages)
+
+
+def fetch(proxy):
+    from paraview import servermanager
+
+    proxy.UpdatePipeline()
+    return servermanager.Fetch(proxy)
+
+
+def hierarchy_builds(proxy):
+    """The filter's NumberOfHierarchyBuilds information property."""
+    proxy.UpdatePropertyInformation()
+    return int(proxy.GetProperty("NumberOfHierarchyBuilds").GetElement(0))
+
+
+def field_value(data, name):
+    a = data.GetFieldData().GetArray(name)
+    return None if a is None else a.GetTuple1(0)
+
+
+def point_arrays(data):
+    pd = data.GetPointData()
+    return {pd.GetArrayName(i): pd.GetArray(i) for i in range(pd.GetNumberOfArrays())}
+
+
+def mesh_arrays(ug):
+    """Points (N,3), tetrahedra (M,4) and cell types of an unstructured grid."""
+    points = vtk_to_numpy(ug.GetPoints().GetData()).astype(np.float64) if ug.GetPoints() else np.zeros((0, 3))
+    cells = ug.GetCells()
+    conn = vtk_to_numpy(cells.GetConnectivityArray()).astype(np.int64)
+    offsets = vtk_to_numpy(cells.GetOffsetsArray()).astype(np.int64)
+    types = vtk_to_numpy(ug.GetCellTypesArray()) if ug.GetNumberOfCells() else np.zeros(0, np.uint8)
+    sizes = np.diff(offsets)
+    if len(sizes) and not (sizes == 4).all():
+        return points, None, types
+    return points, conn.reshape(-1, 4), types
+
+
+def _face_keys(faces, n_points):
+    faces = np.sort(faces, axis=1)
+    if n_points < (1 << 21):
+        return (faces[:, 0] << 42) | (faces[:, 1] << 21) | faces[:, 2], faces
+    return faces, faces
+
+
+def check_mesh(image, ug, scalars, tolerance, label, tolerance_region=None):
+    """All the independent checks of one output mesh; returns the number of tetrahedra.
+
+    `tolerance_region`: if given (world box), the tolerance is checked only for samples inside it.
+    """
+    t0 = time.time()
+    dims = np.array(image.GetDimensions())
+    origin = np.array(image.GetOrigin())
+    spacing = np.array(image.GetSpacing())
+    extent = np.array(image.GetExtent())
+    n_in = int(np.prod(dims))
+    points, tets, types = mesh_arrays(ug)
+    n = 0 if tets is None else len(tets)
+    check(ug.GetNumberOfCells() > 0, f"{label}: {ug.GetNumberOfCells()} tetrahedra, {len(points)} points")
+    if ug.GetNumberOfCells() == 0:
+        return 0
+    check(tets is not None and (types == VTK_TETRA).all(), f"{label}: only VTK_TETRA cells")
+    if tets is None:
+        return 0
+    check(
+        np.allclose(np.array(ug.GetBounds()), np.array(image.GetBounds()), rtol=0, atol=1e-12 * max(1.0, np.abs(image.GetBounds()).max())),
+        f"{label}: output bounds {ug.GetBounds()} == input bounds {image.GetBounds()}",
+    )
+
+    # Every output point is an input sample: its lattice index.
+    fijk = (points - origin) / spacing - extent[0::2]
+    ijk = np.rint(fijk).astype(np.int64)
+    on_lattice = np.abs(fijk - ijk).max() < 1e-6 and (ijk >= 0).all() and (ijk < dims).all()
+    check(on_lattice, f"{label}: every output point is an input sample")
+    if not on_lattice:
+        return n
+    lin = ijk[:, 0] + dims[0] * (ijk[:, 1] + dims[1] * ijk[:, 2])
+    check(len(np.unique(lin)) == len(lin), f"{label}: no duplicate points")
+
+    # Pass-through of every input point array.
+    out_arrays = point_arrays(ug)
+    for name, arr in point_arrays(image).items():
+        out = out_arrays.get(name)
+        same = (
+            out is not None
+            and out.GetDataType() == arr.GetDataType()
+            and out.GetNumberOfComponents() == arr.GetNumberOfComponents()
+        )
+        if same:
+            a_in = vtk_to_numpy(arr).reshape(n_in, -1)[lin]
+            a_out = vtk_to_numpy(out).reshape(len(points), -1)
+            same = np.array_equal(a_in, a_out, equal_nan=a_in.dtype.kind == "f")
+        check(same, f"{label}: point array '{name}' passed through unchanged")
+
+    # Orientation and volume, in lattice units (exact integers).
+    V = ijk[tets]  # M,4,3
+    E = (V[:, 1:, :] - V[:, :1, :]).astype(np.float64)  # M,3 edges,3
+    det = np.linalg.det(E)
+    check((det > 0.5).all(), f"{label}: every tetrahedron positively oriented, none degenerate")
+    box = float(np.prod(dims - 1))
+    vol = np.abs(det).sum() / 6.0
+    check(abs(vol - box) <= 1e-9 * box, f"{label}: tetrahedra volume {vol:.9g} == box volume {box:.9g}")
+
+    # Conformity.
+    faces = np.concatenate([tets[:, [0, 1, 2]], tets[:, [0, 1, 3]], tets[:, [0, 2, 3]], tets[:, [1, 2, 3]]])
+    keys, sorted_faces = _face_keys(faces, len(points))
+    if keys.ndim == 1:
+        uniq, first, counts = np.unique(keys, return_index=True, return_counts=True)
+    else:
+        uniq, first, counts = np.unique(keys, axis=0, return_index=True, return_counts=True)
+    check(counts.max() <= 2, f"{label}: no face shared by 3+ tetrahedra (max {counts.max()})")
+    single = sorted_faces[first[counts == 1]]  # F,3 point indices
+    fc = ijk[single]  # F,3 vertices,3 coords
+    on_box = np.zeros(len(fc), bool)
+    for axis in range(3):
+        c = fc[:, :, axis]
+        on_box |= (c == 0).all(1) | (c == dims[axis] - 1).all(1)
+    check(on_box.all(), f"{label}: conforming ({(~on_box).sum()} unmatched interior faces of {len(uniq)})")
+
+    # Tolerance at every input sample.
+    samples = vtk_to_numpy(image.GetPointData().GetArray(scalars)).astype(np.float64).ravel()
+    worst, covered, checked = _max_interpolation_error(ijk, tets, lin, samples, dims, tolerance_region, image)
+    check(covered, f"{label}: every input sample lies in a tetrahedron")
+    slack = 1e-9 * max(1.0, np.abs(samples).max())
+    check(
+        worst <= tolerance + slack,
+        f"{label}: max |interpolated - sample| = {worst:.6g} <= tolerance {tolerance:g} ({checked} samples)",
+    )
+    print(f"   ({label}: checked in {time.time() - t0:.1f} s)")
+    return n
+
+
+def _max_interpolation_error(ijk, tets, lin, samples, dims, region, image):
+    """Largest |linear interpolation - sample| over every (sample, containing tetrahedron) pair."""
+    V = ijk[tets]
+    vals = samples[lin][tets]  # M,4
+    lo = V.min(1)
+    shape = V.max(1) - lo
+    T = (V[:, 1:, :] - V[:, :1, :]).transpose(0, 2, 1).astype(np.float64)  # columns = edges
+    Tinv = np.linalg.inv(T)
+    covered = np.zeros(int(np.prod(dims)), bool)
+    in_region = np.ones(int(np.prod(dims)), bool)
+    if region is not None:
+        p = np.arange(int(np.prod(dims)))
+        g = np.stack([p % dims[0], (p // dims[0]) % dims[1], p // (dims[0] * dims[1])], -1)
+        x = np.array(image.GetOrigin()) + (g + np.array(image.GetExtent())[0::2]) * np.array(image.GetSpacing())
+        in_region = np.all((x >= np.array(region[0::2])) & (x <= np.array(region[1::2])), axis=1)
+    worst = 0.0
+    eps = 1e-9
+    keys = shape[:, 0] * 1_000_000 + shape[:, 1] * 1_000 + shape[:, 2]
+    for key in np.unique(keys):
+        idx = np.nonzero(keys == key)[0]
+        s = shape[idx[0]]
+        off = np.stack(np.meshgrid(*[np.arange(k + 1) for k in s], indexing="ij"), -1).reshape(-1, 3)
+        step = max(1, 2_000_000 // len(off))
+        for c0 in range(0, len(idx), step):
+            c = idx[c0 : c0 + step]
+            P = lo[c][:, None, :] + off[None, :, :]  # c,K,3
+            d = (P - V[c][:, None, 0, :]).astype(np.float64)
+            lam = np.einsum("cij,ckj->cki", Tinv[c], d)
+            l0 = 1.0 - lam.sum(-1)
+            inside = (lam >= -eps).all(-1) & (l0 >= -eps)
+            interp = l0 * vals[c, None, 0] + (lam * vals[c, None, 1:]).sum(-1)
+            plin = P[..., 0] + dims[0] * (P[..., 1] + dims[1] * P[..., 2])
+            covered[plin[inside]] = True
+            sel = inside & in_region[plin]
+            if sel.any():
+                worst = max(worst, float(np.abs(interp - samples[plin])[sel].max()))
+    return worst, bool(covered.all()), int(in_region.sum())
+
+
+def programmable_image(simple, dims, script_body, origin=(0.0, 0.0, 0.0), spacing=(1.0, 1.0, 1.0)):
+    """A ProgrammableSource producing a vtkImageData of `dims` points; `script_body` fills `out`
+    (a vtkImageData already sized) using numpy; `x, y, z` are the point coordinates (x fastest)."""
+    src = simple.ProgrammableSource()
+    src.OutputDataSetType = "vtkImageData"
+    ext = (0, dims[0] - 1, 0, dims[1] - 1, 0, dims[2] - 1)
+    src.ScriptRequestInformation = (
+        "executive = self.GetExecutive()\n"
+        "outInfo = executive.GetOutputInformation(0)\n"
+        f"outInfo.Set(executive.WHOLE_EXTENT(), {', '.join(map(str, ext))})\n"
+        f"outInfo.Set(vtk.vtkDataObject.ORIGIN(), {origin[0]!r}, {origin[1]!r}, {origin[2]!r})\n"
+        f"outInfo.Set(vtk.vtkDataObject.SPACING(), {spacing[0]!r}, {spacing[1]!r}, {spacing[2]!r})\n"
+    )
+    src.Script = (
+        "import numpy as np\n"
+        "from vtkmodules.util.numpy_support import numpy_to_vtk\n"
+        "out = self.GetOutput()\n"
+        f"out.SetExtent({', '.join(map(str, ext))})\n"
+        f"out.SetOrigin({origin[0]!r}, {origin[1]!r}, {origin[2]!r})\n"
+        f"out.SetSpacing({spacing[0]!r}, {spacing[1]!r}, {spacing[2]!r})\n"
+        f"i, j, k = np.meshgrid(np.arange({dims[0]}), np.arange({dims[1]}), np.arange({dims[2]}), indexing='ij')\n"
+        "x = (i.transpose(2, 1, 0).ravel() * out.GetSpacing()[0] + out.GetOrigin()[0])\n"
+        "y = (j.transpose(2, 1, 0).ravel() * out.GetSpacing()[1] + out.GetOrigin()[1])\n"
+        "z = (k.transpose(2, 1, 0).ravel() * out.GetSpacing()[2] + out.GetOrigin()[2])\n"
+        "def add(name, values, scalars=False):\n"
+        "    a = numpy_to_vtk(np.ascontiguousarray(values), deep=1)\n"
+        "    a.SetName(name)\n"
+        "    out.GetPointData().AddArray(a)\n"
+        "    if scalars:\n"
+        "        out.GetPointData().SetActiveScalars(name)\n" + script_body
+    )
+    return src
