@@ -287,31 +287,23 @@ impl Diamond {
     }
 }
 
-/// Bisects `t` at the midpoint of its spine; each child is returned with its own spine first
-/// (its unique longest edge).
+/// Bisects `t` at the midpoint `m` of its spine.
+///
+/// Tetrahedra keep a vertex order from which each child's spine follows without measuring edges:
+/// a 0-class tet `[a, b, p, q]` (spine a cube diagonal, path `a → p → q → b` along cube edges),
+/// a 1-class tet `[x, y, w, c]` (spine a face diagonal, `w` the third face corner, `c` the cube centre),
+/// a 2-class tet `[p, q, f, c]` (spine a cube edge, `f` a face centre, `c` the cube centre).
+/// [`Diamond::tets`] lists tetrahedra in this order, and bisection preserves it (Gregorski Fig. 1):
+/// 0 → 1: `[a, q, p, m]`, `[b, p, q, m]`; 1 → 2: `[x, w, m, c]`, `[y, w, m, c]`;
+/// 2 → 0 of the next level: `[p, c, m, f]`, `[q, c, m, f]`.
 pub fn bisect(t: &Tet) -> [Tet; 2] {
     let m = (t[0] + t[1]) / 2;
-    [
-        with_spine_first([t[0], m, t[2], t[3]]),
-        with_spine_first([t[1], m, t[2], t[3]]),
-    ]
-}
-
-/// Reorders `t` so that its longest edge comes first, keeping the other two vertices in order.
-fn with_spine_first(t: Tet) -> Tet {
-    const EDGES: [(usize, usize, usize, usize); 6] = [
-        (0, 1, 2, 3),
-        (0, 2, 1, 3),
-        (0, 3, 1, 2),
-        (1, 2, 0, 3),
-        (1, 3, 0, 2),
-        (2, 3, 0, 1),
-    ];
-    let (a, b, c, d) = EDGES
-        .into_iter()
-        .max_by_key(|&(a, b, _, _)| (t[a] - t[b]).length_squared())
-        .expect("six edges");
-    [t[a], t[b], t[c], t[d]]
+    let spine = t[1] - t[0];
+    match spine.cmpne(IVec3::ZERO).bitmask().count_ones() {
+        3 => [[t[0], t[3], t[2], m], [t[1], t[2], t[3], m]],
+        2 => [[t[0], t[2], m, t[3]], [t[1], t[2], m, t[3]]],
+        _ => [[t[0], t[3], m, t[2]], [t[1], t[3], m, t[2]]],
+    }
 }
 
 /// Six times the signed volume of `t` (exact).
@@ -451,12 +443,20 @@ mod tests {
     #[test]
     fn full_refinement_tiles_the_cube_conformingly() {
         // Bisect the base tets down to the finest level: 6 tets per unit cube, every interior face shared twice.
-        let l = lattice(4);
+        let n = 8;
+        let l = lattice(n);
         let mut tets: Vec<Tet> = Diamond::root(&l).tets(&l).to_vec();
         for _ in 0..3 * l.levels {
             tets = tets.iter().flat_map(bisect).collect();
+            // The vertex order names each tet's spine: it must be the unique longest edge.
+            for t in &tets {
+                let spine = (t[0] - t[1]).length_squared();
+                for (a, b) in [(0, 2), (0, 3), (1, 2), (1, 3), (2, 3)] {
+                    assert!((t[a] - t[b]).length_squared() < spine, "{t:?}");
+                }
+            }
         }
-        assert_eq!(tets.len(), 6 * 64);
+        assert_eq!(tets.len(), 6 * n * n * n);
         let mut faces: HashMap<[IVec3; 3], usize> = HashMap::new();
         for t in &tets {
             for skip in 0..4 {
@@ -465,10 +465,10 @@ mod tests {
                 *faces.entry([f[0], f[1], f[2]]).or_default() += 1;
             }
         }
-        for (f, n) in faces {
+        for (f, count) in faces {
             let on_boundary =
-                (0..3).any(|a| f.iter().all(|p| p[a] == 0) || f.iter().all(|p| p[a] == 4));
-            assert_eq!(n, if on_boundary { 1 } else { 2 }, "{f:?}");
+                (0..3).any(|a| f.iter().all(|p| p[a] == 0) || f.iter().all(|p| p[a] == n as i32));
+            assert_eq!(count, if on_boundary { 1 } else { 2 }, "{f:?}");
         }
     }
 }
