@@ -41,11 +41,19 @@ def check(ok, what):
     return bool(ok)
 
 
-def finish(name):
-    """Prints the summary line and exits non-zero on any failure."""
+def finish(name, mpi=False):
+    """Prints the summary line and exits non-zero on any failure.
+
+    Under MPI (pvbatch on several ranks) a sys.exit would skip MPI_Finalize and get the other ranks
+    killed; there a failure raises instead (pvbatch then exits non-zero) and success returns.
+    """
     print(f"{name}: {CHECKS[0] - len(FAILURES)} passed, {len(FAILURES)} failed", flush=True)
     for f in FAILURES:
         print("  failed: " + f)
+    if mpi:
+        if FAILURES:
+            raise RuntimeError(f"{name}: {len(FAILURES)} check(s) failed")
+        return
     sys.exit(1 if FAILURES else 0)
 
 

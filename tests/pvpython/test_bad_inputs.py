@@ -1,0 +1,130 @@
+"""Bad inputs and parameters: each must produce a clear error (or, for 64-bit integers, a warning
+and a valid mesh), an empty output, and no crash. Also: AbortExecute interrupts the build.
+
+  PV_PLUGIN_PATH=$PWD/build/lib/paraview-5.11/plugins/Diamonds pvpython tests/pvpython/test_bad_inputs.py
+"""
+
+import os
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import diamonds_checks as dc  # noqa: E402
+
+simple = dc.require_plugin()
+
+
+def expect_error(filt, phrase, label):
+    """Runs `filt`; the error must mention `phrase` and the output must be empty."""
+    with dc.ErrorCapture(filt) as errors:
+        out = dc.fetch(filt)
+    text = errors.text()
+    print(f"   [{label}] {text.strip().splitlines()[-1] if text.strip() else '(no message)'}")
+    dc.check(phrase.lower() in text.lower(), f"{label}: error mentions '{phrase}'")
+    dc.check(out.GetNumberOfCells() == 0 and out.GetNumberOfPoints() == 0, f"{label}: empty output")
+
+
+wavelet = simple.Wavelet()
+wavelet.WholeExtent = [-8, 8, -8, 8, -8, 8]
+wavelet.UpdatePipeline()
+
+# ---- Geometry.
+flat = simple.Wavelet()
+flat.WholeExtent = [-8, 8, -8, 8, 0, 0]
+expect_error(simple.AdaptiveTetrahedra(Input=flat), "at least 2 points", "2-D image (1 point along z)")
+line = simple.Wavelet()
+line.WholeExtent = [-8, 8, 0, 0, 0, 0]
+expect_error(simple.AdaptiveTetrahedra(Input=line), "at least 2 points", "1-D image")
+
+# ---- Arrays.
+cells_only = simple.PointDatatoCellData(Input=wavelet)
+cells_only.PassPointData = 0
+expect_error(simple.AdaptiveTetrahedra(Input=cells_only), "Cell Data to Point Data", "cell data only")
+
+vector = simple.Calculator(Input=wavelet)
+vector.ResultArrayName = "Vector"
+vector.Function = "RTData*iHat + coordsY*jHat"
+vec_filter = simple.AdaptiveTetrahedra(Input=vector)
+vec_filter.Scalars = ["POINTS", "Vector"]
+expect_error(vec_filter, "single-component", "3-component array")
+
+missing = simple.AdaptiveTetrahedra(Input=wavelet)
+missing.Scalars = ["POINTS", "NoSuchArray"]
+expect_error(missing, "no point-data array named", "unknown array name")
+
+nan = dc.programmable_image(simple, (9, 8, 7), "v = np.sin(x) + y\nv[100] = np.nan\nadd('f', v, scalars=True)\n")
+expect_error(simple.AdaptiveTetrahedra(Input=nan), "non-finite", "a NaN sample")
+inf = dc.programmable_image(simple, (9, 8, 7), "v = np.sin(x) + y\nv[5] = np.inf\nadd('f', v.astype(np.float32), scalars=True)\n")
+expect_error(simple.AdaptiveTetrahedra(Input=inf), "non-finite", "an Inf sample (float32)")
+
+bits = dc.programmable_image(
+    simple,
+    (9, 8, 7),
+    "b = vtk.vtkBitArray()\nb.SetName('bits')\nb.SetNumberOfValues(x.size)\n"
+    "for i in range(x.size):\n    b.SetValue(i, i % 2)\n"
+    "out.GetPointData().SetScalars(b)\n",
+)
+expect_error(simple.AdaptiveTetrahedra(Input=bits), "does not read", "bit array (unsupported type)")
+
+# 64-bit integers: converted to double with a warning when exact, refused beyond 2^53.
+i64 = dc.programmable_image(simple, (9, 8, 7), "add('counts', (x * 7 + y * y - z).astype(np.int64), scalars=True)\n")
+i64_filter = simple.AdaptiveTetrahedra(Input=i64, Tolerance=0.0)
+with dc.ErrorCapture(i64_filter) as messages:
+    i64_mesh = dc.fetch(i64_filter)
+print(f"   [int64] {messages.text().strip()}")
+dc.check("converted to double" in messages.text(), "int64 array: warns that it is converted to double")
+dc.check_mesh(dc.fetch(i64), i64_mesh, "counts", 0.0, "int64 array converted, tol 0")
+huge = dc.programmable_image(simple, (9, 8, 7), "add('big', (x * 7).astype(np.int64) + 2**60, scalars=True)\n")
+expect_error(simple.AdaptiveTetrahedra(Input=huge), "2^53", "int64 beyond 2^53")
+
+# ---- Parameters.
+expect_error(simple.AdaptiveTetrahedra(Input=wavelet, Tolerance=-1.0), "Tolerance must be", "negative Tolerance")
+expect_error(simple.AdaptiveTetrahedra(Input=wavelet, MaximumNumberOfTetrahedra=-5), "MaximumNumberOfTetrahedra must be", "negative budget")
+roi_filter = simple.AdaptiveTetrahedra(Input=wavelet, UseRegionOfInterest=1)
+roi_filter.RegionOfInterest = [100.0, 110.0, 100.0, 110.0, 100.0, 110.0]
+expect_error(roi_filter, "outside the image bounds", "region of interest outside the bounds")
+roi_filter.RegionOfInterest = [5.0, -5.0, 0.0, 1.0, 0.0, 1.0]
+expect_error(roi_filter, "min <= max", "inverted region of interest")
+
+# ---- Too large for memory: 20000^3 points (the hierarchy alone would need ~34 TB). The array is
+# deliberately tiny: the memory check comes before anything reads or allocates.
+big = simple.ProgrammableSource()
+big.OutputDataSetType = "vtkImageData"
+big.ScriptRequestInformation = (
+    "executive = self.GetExecutive()\n"
+    "executive.GetOutputInformation(0).Set(executive.WHOLE_EXTENT(), 0, 19999, 0, 19999, 0, 19999)\n"
+)
+big.Script = (
+    "out = self.GetOutput()\nout.SetExtent(0, 19999, 0, 19999, 0, 19999)\n"
+    "a = vtk.vtkFloatArray()\na.SetName('f')\na.SetNumberOfValues(8)\na.Fill(1.0)\n"
+    "out.GetPointData().SetScalars(a)\n"
+)
+expect_error(simple.AdaptiveTetrahedra(Input=big), "bytes are available", "too large for memory")
+
+# ---- Abort: an observer of the progress sets AbortExecute during the build.
+abort_filter = simple.AdaptiveTetrahedra(Input=wavelet)
+vtk_filter = abort_filter.GetClientSideObject()
+progress_seen = []
+
+
+def abort_on_progress(obj, _event):
+    progress_seen.append(obj.GetProgress())
+    if obj.GetProgress() > 0.0:
+        obj.SetAbortExecute(1)
+
+
+tag = vtk_filter.AddObserver("ProgressEvent", abort_on_progress)
+aborted = dc.fetch(abort_filter)
+vtk_filter.RemoveObserver(tag)
+vtk_filter.SetAbortExecute(0)
+dc.check(len(progress_seen) > 0, f"progress reported during the build ({len(progress_seen)} events)")
+dc.check(aborted.GetNumberOfCells() == 0, "AbortExecute during the build: empty output")
+dc.check(dc.hierarchy_builds(abort_filter) == 0, "an aborted build is not counted or kept")
+abort_filter.Tolerance = 2.0
+after = dc.fetch(abort_filter)
+dc.check(after.GetNumberOfCells() > 0 and dc.hierarchy_builds(abort_filter) == 1, "the next update builds normally")
+
+# ---- After all of this the filter still works on good data.
+ok_mesh = dc.fetch(simple.AdaptiveTetrahedra(Input=wavelet, Tolerance=4.0))
+dc.check_mesh(dc.fetch(wavelet), ok_mesh, "RTData", 4.0, "good input after the bad ones")
+
+dc.finish("test_bad_inputs")
