@@ -6,6 +6,7 @@ use crate::hierarchy::Hierarchy;
 use crate::lattice::{Lattice, Placement, Tet};
 use crate::refine::SplitSet;
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// The current mesh of a query: deduplicated input points and positively oriented tetrahedra.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -115,12 +116,15 @@ pub(crate) fn extract(h: &Hierarchy, split: &SplitSet) -> TetMesh {
         out
     });
     // Used points as a bitset over the input points, then ids by rank.
-    let mut used = vec![0u64; grid.len().div_ceil(64)];
-    for (v, _, _) in parts.iter().flatten() {
+    let used: Vec<AtomicU64> = (0..grid.len().div_ceil(64))
+        .map(|_| AtomicU64::new(0))
+        .collect();
+    parts.par_iter().flatten().for_each(|(v, _, _)| {
         for &i in v {
-            used[i as usize / 64] |= 1 << (i % 64);
+            used[i as usize / 64].fetch_or(1 << (i % 64), Ordering::Relaxed);
         }
-    }
+    });
+    let used: Vec<u64> = used.into_iter().map(AtomicU64::into_inner).collect();
     let mut rank = Vec::with_capacity(used.len());
     let mut total = 0u32;
     for w in &used {
@@ -143,17 +147,27 @@ pub(crate) fn extract(h: &Hierarchy, split: &SplitSet) -> TetMesh {
         .par_iter()
         .map(|&i| grid.point(grid.ijk(i)))
         .collect();
+    // Each part fills its own slice of the output arrays.
     let n: usize = parts.iter().map(Vec::len).sum();
-    let mut tets = Vec::with_capacity(n);
-    let mut levels = Vec::with_capacity(n);
-    let mut errors = Vec::with_capacity(n);
-    for part in parts {
-        for (v, level, error) in part {
-            tets.push(v.map(id));
-            levels.push(level);
-            errors.push(error);
-        }
+    let mut tets = vec![[0u32; 4]; n];
+    let mut levels = vec![0u8; n];
+    let mut errors = vec![0f32; n];
+    let mut slices = Vec::with_capacity(parts.len());
+    let (mut t_rest, mut l_rest, mut e_rest) = (&mut tets[..], &mut levels[..], &mut errors[..]);
+    for part in &parts {
+        let (t, tr) = t_rest.split_at_mut(part.len());
+        let (l, lr) = l_rest.split_at_mut(part.len());
+        let (e, er) = e_rest.split_at_mut(part.len());
+        slices.push((part, t, l, e));
+        (t_rest, l_rest, e_rest) = (tr, lr, er);
     }
+    slices.into_par_iter().for_each(|(part, t, l, e)| {
+        for (k, (v, level, error)) in part.iter().enumerate() {
+            t[k] = v.map(id);
+            l[k] = *level;
+            e[k] = *error;
+        }
+    });
     let max_error = errors.iter().fold(0.0f64, |m, &e| m.max(e as f64));
     TetMesh {
         point_ids,
