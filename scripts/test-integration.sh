@@ -1,0 +1,75 @@
+#!/usr/bin/env bash
+# Integration tests of the VTK/ParaView layer of Diamonds. Run `bash scripts/setup.sh` first.
+#
+#   bash scripts/test-integration.sh
+#
+# 1. tests/cpp_consumer: an external CMake project builds against the installed tree
+#    (find_package(Diamonds) in build/install) and runs vtkRTAnalyticSource -> vtkAdaptiveTetrahedra.
+# 2. tests/pvpython/test_*.py: the plugin auto-loaded through PV_PLUGIN_PATH, independent numpy
+#    checks of the meshes, properties, bad inputs.
+# 3. tests/pvpython/mpi_pieces.py under `mpiexec -n 2 pvbatch`.
+# 4. scripts/demo.py under `xvfb-run -a pvbatch` (the only step that renders), into build/test-demo.
+# Ends with the line "N passed, M failed"; exits non-zero if any step failed.
+set -uo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+ROOT="$PWD"
+
+PLUGIN_DIR="$ROOT/build/lib/paraview-5.11/plugins/Diamonds"
+INSTALL_DIR="$ROOT/build/install"
+if [ ! -f "$PLUGIN_DIR/Diamonds.so" ] || [ ! -f "$INSTALL_DIR/lib/cmake/Diamonds/DiamondsConfig.cmake" ]; then
+  echo "error: the build is missing ($PLUGIN_DIR/Diamonds.so, $INSTALL_DIR): run bash scripts/setup.sh first" >&2
+  exit 1
+fi
+export PV_PLUGIN_PATH="$PLUGIN_DIR"
+echo "PV_PLUGIN_PATH=$PV_PLUGIN_PATH"
+
+passed=0
+failed=0
+failed_steps=()
+step() {
+  local name="$1"
+  shift
+  echo
+  echo "=== $name"
+  local start=$SECONDS
+  if "$@"; then
+    passed=$((passed + 1))
+    echo "--- $name: passed ($((SECONDS - start)) s)"
+  else
+    failed=$((failed + 1))
+    failed_steps+=("$name")
+    echo "--- $name: FAILED ($((SECONDS - start)) s)"
+  fi
+}
+
+cpp_consumer() {
+  rm -rf "$ROOT/build/cpp_consumer"
+  cmake -S tests/cpp_consumer -B build/cpp_consumer -G Ninja \
+    -DCMAKE_PREFIX_PATH="$INSTALL_DIR" -DCMAKE_BUILD_TYPE=Release >build/cpp_consumer.configure.log 2>&1 ||
+    { cat build/cpp_consumer.configure.log; return 1; }
+  cmake --build build/cpp_consumer -j 2 &&
+    ctest --test-dir build/cpp_consumer --output-on-failure
+}
+
+demo_render() {
+  local out="$ROOT/build/test-demo"
+  rm -rf "$out"
+  xvfb-run -a pvbatch scripts/demo.py --output "$out" &&
+    test -s "$out/demo.vtu" && test -s "$out/demo.png" &&
+    echo "demo wrote $out/demo.vtu and $out/demo.png"
+}
+
+step "C++ consumer of the installed package" cpp_consumer
+for t in tests/pvpython/test_*.py; do
+  step "pvpython $t" pvpython "$t"
+done
+step "mpiexec -n 2 pvbatch tests/pvpython/mpi_pieces.py" \
+  mpiexec --allow-run-as-root --oversubscribe -n 2 pvbatch tests/pvpython/mpi_pieces.py
+step "xvfb-run -a pvbatch scripts/demo.py" demo_render
+
+echo
+for s in "${failed_steps[@]}"; do
+  echo "failed: $s"
+done
+echo "integration: $passed passed, $failed failed"
+[ "$failed" -eq 0 ]
