@@ -243,7 +243,7 @@ fn diamond_record<T: Sample>(
     }
     let (lo, hi) = d.bounds();
     if d.scale() == 1 && lattice.in_domain(lo) && lattice.in_domain(hi) {
-        return quantise.record(scan_finest_diamond(volume, lattice, d));
+        return quantise.record(scan_finest_diamond(volume, d));
     }
     let mut stats = TetStats::EMPTY;
     for t in d.tets(lattice) {

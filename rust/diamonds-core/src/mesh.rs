@@ -72,7 +72,7 @@ fn map_leaves<R: Send>(
     visit: impl Fn(&mut dyn FnMut(&mut dyn FnMut(&Tet))) -> R + Sync,
 ) -> Vec<R> {
     let (done, frontier) = frontier(lattice, split);
-    let mut out = vec![visit(&mut |emit| done.iter().for_each(|t| emit(t)))];
+    let mut out = vec![visit(&mut |emit| done.iter().for_each(&mut *emit))];
     out.par_extend(
         frontier
             .par_iter()

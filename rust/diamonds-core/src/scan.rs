@@ -12,7 +12,7 @@
 //! samples the result carries the usual `f64` rounding (relative 1e-16).
 
 use crate::diamond::{Class, Diamond};
-use crate::lattice::{Lattice, Tet};
+use crate::lattice::Tet;
 use crate::volume::{Sample, Volume};
 use glam::{I64Vec3, IVec3};
 
@@ -185,36 +185,52 @@ fn scan_finest<T: Sample>(volume: &Volume<'_, T>, t: &Tet) -> TetStats {
 /// its descendants inside it (a 1-diamond's 4 edge children; a 0-diamond's 6 face children and their
 /// 12 edge children), where the interpolant is the mean of the spine's endpoints. The range is taken
 /// over the whole bounding cube: a conservative superset.
-pub fn scan_finest_diamond<T: Sample>(
-    volume: &Volume<'_, T>,
-    lattice: &Lattice,
-    d: Diamond,
-) -> TetStats {
-    let at = |p: IVec3| volume.at(p.x as usize, p.y as usize, p.z as usize);
-    let spine_error = |d: Diamond| {
-        let [a, b] = d.spine();
-        (2.0 * at(d.center) - at(a) - at(b)).abs()
-    };
-    let mut worst = spine_error(d);
-    if d.class() != Class::Edge {
-        for c in d.children(lattice) {
-            worst = worst.max(spine_error(c));
-            if d.class() == Class::Cube {
-                for g in c.children(lattice) {
-                    worst = worst.max(spine_error(g));
-                }
+pub fn scan_finest_diamond<T: Sample>(volume: &Volume<'_, T>, d: Diamond) -> TetStats {
+    let c = d.center;
+    // The 3×3×3 block around the central vertex, x fastest.
+    let mut block = [0.0f64; 27];
+    let (mut min, mut max) = (f64::INFINITY, f64::NEG_INFINITY);
+    for (k, rows) in block.chunks_exact_mut(9).enumerate() {
+        for (j, row) in rows.chunks_exact_mut(3).enumerate() {
+            let start = volume.grid.index(
+                c.x as usize - 1,
+                (c.y - 1) as usize + j,
+                (c.z - 1) as usize + k,
+            );
+            for (v, s) in row.iter_mut().zip(&volume.samples[start..start + 3]) {
+                *v = s.to_f64();
+                min = min.min(*v);
+                max = max.max(*v);
             }
         }
     }
-    let (mut min, mut max) = (f64::INFINITY, f64::NEG_INFINITY);
-    for z in d.center.z - 1..=d.center.z + 1 {
-        for y in d.center.y - 1..=d.center.y + 1 {
-            let row = volume.grid.index(0, y as usize, z as usize);
-            for s in &volume.samples[row + d.center.x as usize - 1..=row + d.center.x as usize + 1]
-            {
-                let f = s.to_f64();
-                min = min.min(f);
-                max = max.max(f);
+    let at = |o: IVec3| block[(9 * (o.z + 1) + 3 * (o.y + 1) + o.x + 1) as usize];
+    // Twice the error at offset `o`, the midpoint of a spine `o ± h`.
+    let midpoint = |o: IVec3, h: IVec3| (2.0 * at(o) - at(o - h) - at(o + h)).abs();
+    let axes = [IVec3::X, IVec3::Y, IVec3::Z];
+    let mut worst = midpoint(IVec3::ZERO, d.spine()[0] - c);
+    match d.class() {
+        Class::Edge => {}
+        Class::Face => {
+            // The 4 edges of the face: midpoints c ± u (spine along v) and c ± v (spine along u).
+            let n = axes.iter().position(|a| (c.dot(*a) & 1) == 0).unwrap_or(0);
+            let (u, v) = (axes[(n + 1) % 3], axes[(n + 2) % 3]);
+            for (o, h) in [(u, v), (-u, v), (v, u), (-v, u)] {
+                worst = worst.max(midpoint(o, h));
+            }
+        }
+        Class::Cube => {
+            for (a, &axis) in axes.iter().enumerate() {
+                for o in [axis, -axis] {
+                    // Face centre: a 1-diamond's face diagonal.
+                    worst = worst.max(midpoint(o, Diamond::new(c + o).spine()[0] - c - o));
+                    // Cube edges along `axis`: midpoints at the other two axes' ±1.
+                    let (p, q) = (axes[(a + 1) % 3], axes[(a + 2) % 3]);
+                    let side = if o == axis { 1 } else { -1 };
+                    for e in [p + q, p - q] {
+                        worst = worst.max(midpoint(e * side, axis));
+                    }
+                }
             }
         }
     }
@@ -251,6 +267,7 @@ pub fn brute_force_points(t: &Tet) -> Vec<IVec3> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::lattice::Lattice;
     use crate::volume::Grid;
 
     fn noise(n: usize) -> Vec<u16> {
@@ -337,7 +354,7 @@ mod tests {
                 .tets(&l)
                 .iter()
                 .fold(TetStats::EMPTY, |acc, t| acc.merge(scan_tet(&vol, t)));
-            let fast = scan_finest_diamond(&vol, &l, d);
+            let fast = scan_finest_diamond(&vol, d);
             assert_eq!(fast.error, by_tets.error, "{d:?}");
             assert!(fast.min <= by_tets.min && fast.max >= by_tets.max, "{d:?}");
             checked += 1;
