@@ -20,6 +20,10 @@ if [ ! -f "$PLUGIN_DIR/Diamonds.so" ] || [ ! -f "$INSTALL_DIR/lib/cmake/Diamonds
   echo "error: the build is missing ($PLUGIN_DIR/Diamonds.so, $INSTALL_DIR): run bash scripts/setup.sh first" >&2
   exit 1
 fi
+# Bring build/ and build/install up to date with the sources (a no-op when nothing changed).
+cmake --build build -j 2 >build/test-integration.build.log 2>&1 &&
+  cmake --install build --prefix "$INSTALL_DIR" >/dev/null ||
+  { cat build/test-integration.build.log; echo "error: the build failed" >&2; exit 1; }
 export PV_PLUGIN_PATH="$PLUGIN_DIR"
 echo "PV_PLUGIN_PATH=$PV_PLUGIN_PATH"
 

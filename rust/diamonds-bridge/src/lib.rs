@@ -321,6 +321,67 @@ mod tests {
         assert!(typed_slice(ScalarType { repr: 200 }, bytes).is_err());
     }
 
+    fn small_volume() -> (GridSpec, Vec<f64>) {
+        let grid = GridSpec {
+            dims: [5, 4, 3],
+            origin: [1.0, -2.0, 0.5],
+            spacing: [0.5, 1.0, 2.0],
+        };
+        let values = (0..60).map(|i| ((i * 7) % 11) as f64 * 0.25).collect();
+        (grid, values)
+    }
+
+    #[test]
+    fn builds_and_queries_through_the_bridge() {
+        let (grid, values) = small_volume();
+        let mut reports = 0;
+        let mut progress = |f: f64| {
+            assert!((0.0..=1.0).contains(&f));
+            reports += 1;
+            true
+        };
+        let h = build_with(
+            &grid,
+            ScalarType::F64,
+            bytemuck::cast_slice(&values),
+            &mut progress,
+        )
+        .unwrap();
+        assert!(reports > 0);
+        let query = QuerySpec {
+            tolerance: 0.0,
+            max_tetrahedra: 0,
+            use_region_of_interest: false,
+            region_of_interest: [0.0; 6],
+        };
+        let mesh = h.query(&query).unwrap();
+        let n = mesh.tets().unwrap().len() / 4;
+        assert!(n > 0);
+        assert_eq!(mesh.levels().unwrap().len(), n);
+        assert_eq!(mesh.errors().unwrap().len(), n);
+        assert_eq!(mesh.max_error().unwrap(), 0.0);
+        let ids = mesh.point_ids().unwrap();
+        assert!(ids.len() <= 60 && ids.iter().all(|&id| id < 60));
+    }
+
+    #[test]
+    fn bad_inputs_and_abort_are_errors() {
+        let (grid, values) = small_volume();
+        let bytes: &[u8] = bytemuck::cast_slice(&values);
+        let abort = build_with(&grid, ScalarType::F64, bytes, &mut |_| false);
+        assert_eq!(abort.err().as_deref(), Some("aborted"));
+        let short = build_with(&grid, ScalarType::F64, &bytes[..8 * 59], &mut |_| true);
+        assert!(short.err().unwrap().contains("59 values"));
+        let h = build_with(&grid, ScalarType::F64, bytes, &mut |_| true).unwrap();
+        let negative = QuerySpec {
+            tolerance: -1.0,
+            max_tetrahedra: 0,
+            use_region_of_interest: false,
+            region_of_interest: [0.0; 6],
+        };
+        assert!(h.query(&negative).err().unwrap().contains("tolerance"));
+    }
+
     #[test]
     fn check_mesh_catches_inconsistent_meshes() {
         let good = TetMesh {
