@@ -1,0 +1,490 @@
+//! The subcommands as library functions: [`tetra`], [`generate`] and [`verify`].
+
+use crate::read::{extension, read_image, read_unstructured, Image};
+use crate::write::{write_image, write_tets, TetGrid};
+use crate::{bail, Array, Result};
+use diamonds::validate::{check_mesh, check_tolerance};
+use diamonds::{fields, with_volume, Grid, Hierarchy, Query, TetMesh};
+use std::fmt;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Options of `diamonds tetra`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TetraOptions {
+    pub input: PathBuf,
+    pub output: PathBuf,
+    /// Point-data array to mesh (default: the active scalars, else the first scalar array).
+    pub array: Option<String>,
+    /// Absolute tolerance in data units; 0 = lossless.
+    pub tolerance: f64,
+    /// Tetrahedron budget; 0 = no limit.
+    pub max_tets: usize,
+    /// World box `[xmin, xmax, ymin, ymax, zmin, zmax]` where the tolerance applies.
+    pub roi: Option<[f64; 6]>,
+}
+
+/// What `diamonds tetra` did.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TetraSummary {
+    pub array: String,
+    pub dims: [usize; 3],
+    pub points: usize,
+    pub tets: usize,
+    pub max_error: f64,
+    pub tolerance: f64,
+    pub read_seconds: f64,
+    pub build_seconds: f64,
+    pub query_seconds: f64,
+    pub write_seconds: f64,
+    pub base_tets: usize,
+    pub metadata_bytes_per_voxel: f64,
+}
+
+impl fmt::Display for TetraSummary {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let [nx, ny, nz] = self.dims;
+        write!(
+            f,
+            "'{}' {nx}x{ny}x{nz}: {} points, {} tetrahedra, max error {} (tolerance {}), read {:.3} s, build {:.3} s, query {:.3} s, write {:.3} s, {} base tetrahedra, {:.2} bytes/voxel of metadata",
+            self.array,
+            self.points,
+            self.tets,
+            self.max_error,
+            self.tolerance,
+            self.read_seconds,
+            self.build_seconds,
+            self.query_seconds,
+            self.write_seconds,
+            self.base_tets,
+            self.metadata_bytes_per_voxel
+        )
+    }
+}
+
+fn check_tolerance_value(tolerance: f64) -> Result<()> {
+    if !tolerance.is_finite() || tolerance < 0.0 {
+        bail!("the tolerance must be a finite number >= 0 (got {tolerance})");
+    }
+    Ok(())
+}
+
+/// The output mesh of `image` for `query`, with every input point array passed through, cell data
+/// `Level` and `ApproximationError`, field data `Tolerance`, `NumberOfTetrahedra`, `MaximumError`.
+pub fn mesh_arrays(image: &Image, mesh: &TetMesh, tolerance: f64) -> TetGridData {
+    let point_data = image
+        .point_data
+        .iter()
+        .filter_map(|a| a.gather(&mesh.point_ids))
+        .collect();
+    let cell_data = vec![
+        Array::scalars("Level", mesh.levels.clone()),
+        Array::scalars("ApproximationError", mesh.errors.clone()),
+    ];
+    let field_data = vec![
+        Array::scalars("Tolerance", vec![tolerance]),
+        Array::scalars("NumberOfTetrahedra", vec![mesh.tets.len() as i64]),
+        Array::scalars("MaximumError", vec![mesh.max_error]),
+    ];
+    TetGridData {
+        point_data,
+        cell_data,
+        field_data,
+    }
+}
+
+/// The data arrays of an output mesh (see [`mesh_arrays`]).
+pub struct TetGridData {
+    pub point_data: Vec<Array>,
+    pub cell_data: Vec<Array>,
+    pub field_data: Vec<Array>,
+}
+
+/// `diamonds tetra`: reads the image, builds the hierarchy, queries and writes the `.vtu`.
+pub fn tetra(opts: &TetraOptions) -> Result<TetraSummary> {
+    check_tolerance_value(opts.tolerance)?;
+    if extension(&opts.output) != "vtu" {
+        bail!(
+            "the output file '{}' must have the extension .vtu",
+            opts.output.display()
+        );
+    }
+    let start = Instant::now();
+    let image = read_image(&opts.input)?;
+    let array = image
+        .scalars(opts.array.as_deref())
+        .map_err(|e| crate::Error(format!("'{}': {e}", opts.input.display())))?;
+    let read_seconds = start.elapsed().as_secs_f64();
+    // The selected array first: it becomes the active scalars of the output.
+    let mut image_out = image.clone();
+    if let Some(i) = image_out
+        .point_data
+        .iter()
+        .position(|a| a.name == array.name)
+    {
+        let selected = image_out.point_data.remove(i);
+        image_out.point_data.insert(0, selected);
+    }
+    let grid = image.grid;
+    let start = Instant::now();
+    let hierarchy = Hierarchy::build(grid, array.scalar_slice()?, &mut |_| true)?;
+    let build_seconds = start.elapsed().as_secs_f64();
+    let start = Instant::now();
+    let mesh = hierarchy.query(&Query {
+        tolerance: opts.tolerance,
+        max_tetrahedra: opts.max_tets,
+        region_of_interest: opts.roi,
+    })?;
+    let query_seconds = start.elapsed().as_secs_f64();
+    let start = Instant::now();
+    let data = mesh_arrays(&image_out, &mesh, opts.tolerance);
+    write_tets(
+        &opts.output,
+        TetGrid {
+            points: &mesh.points,
+            tets: &mesh.tets,
+            point_data: data.point_data,
+            cell_data: data.cell_data,
+            field_data: data.field_data,
+        },
+    )?;
+    let write_seconds = start.elapsed().as_secs_f64();
+    Ok(TetraSummary {
+        array: array.name.clone(),
+        dims: grid.dims,
+        points: mesh.points.len(),
+        tets: mesh.tets.len(),
+        max_error: mesh.max_error,
+        tolerance: opts.tolerance,
+        read_seconds,
+        build_seconds,
+        query_seconds,
+        write_seconds,
+        base_tets: hierarchy.base_tetrahedra(),
+        metadata_bytes_per_voxel: hierarchy.metadata_bytes() as f64 / grid.len() as f64,
+    })
+}
+
+/// Generated fields of `diamonds generate`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Field {
+    /// Marschner–Lobb test signal (fine ripples around the z axis).
+    MarschnerLobb,
+    /// Distance to a sphere of radius 0.6.
+    Sphere,
+    /// Distance to a torus of radii 0.6 and 0.25.
+    Torus,
+}
+
+/// Sample types of `diamonds generate`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum SampleType {
+    U8,
+    I8,
+    U16,
+    I16,
+    U32,
+    I32,
+    F32,
+    F64,
+}
+
+impl Field {
+    /// Array name in the generated file.
+    pub fn array_name(self) -> &'static str {
+        match self {
+            Field::MarschnerLobb => "marschner_lobb",
+            Field::Sphere => "sphere_distance",
+            Field::Torus => "torus_distance",
+        }
+    }
+
+    /// The field at a point of `[-1, 1]^3`, normalised to `[0, 1]` (distances: `(d + 1) / 2`, clamped).
+    pub fn normalised(self, x: f64, y: f64, z: f64) -> f64 {
+        match self {
+            Field::MarschnerLobb => fields::marschner_lobb(x, y, z),
+            Field::Sphere => (fields::sphere_distance(0.6)(x, y, z) + 1.0) / 2.0,
+            Field::Torus => (fields::torus_distance(0.6, 0.25)(x, y, z) + 1.0) / 2.0,
+        }
+        .clamp(0.0, 1.0)
+    }
+}
+
+/// Samples `field` on `grid` as `ty`: the normalised value scaled to 0..255 (`i8`: -128..127), rounded
+/// for integer types.
+pub fn generate_array(field: Field, grid: &Grid, ty: SampleType) -> Array {
+    let v = fields::sample(grid, |x, y, z| 255.0 * field.normalised(x, y, z));
+    let name = field.array_name();
+    match ty {
+        SampleType::U8 => {
+            Array::scalars(name, v.iter().map(|f| f.round() as u8).collect::<Vec<_>>())
+        }
+        SampleType::I8 => Array::scalars(
+            name,
+            v.iter()
+                .map(|f| (f.round() - 128.0) as i8)
+                .collect::<Vec<_>>(),
+        ),
+        SampleType::U16 => {
+            Array::scalars(name, v.iter().map(|f| f.round() as u16).collect::<Vec<_>>())
+        }
+        SampleType::I16 => {
+            Array::scalars(name, v.iter().map(|f| f.round() as i16).collect::<Vec<_>>())
+        }
+        SampleType::U32 => {
+            Array::scalars(name, v.iter().map(|f| f.round() as u32).collect::<Vec<_>>())
+        }
+        SampleType::I32 => {
+            Array::scalars(name, v.iter().map(|f| f.round() as i32).collect::<Vec<_>>())
+        }
+        SampleType::F32 => Array::scalars(name, v.iter().map(|&f| f as f32).collect::<Vec<_>>()),
+        SampleType::F64 => Array::scalars(name, v),
+    }
+}
+
+/// `diamonds generate`: writes `field` sampled on a `dims` grid spanning `[-1, 1]^3`.
+pub fn generate(
+    output: &std::path::Path,
+    field: Field,
+    dims: [usize; 3],
+    ty: SampleType,
+) -> Result<String> {
+    if let Some(d) = dims.iter().find(|&&d| d < 2) {
+        bail!("every dimension needs at least 2 points (got {d} in {dims:?})");
+    }
+    let points = dims
+        .iter()
+        .try_fold(1usize, |acc, &d| acc.checked_mul(d))
+        .filter(|&n| n <= 1 << 31)
+        .ok_or_else(|| crate::Error(format!("{dims:?} points are too many to generate")))?;
+    let grid = fields::unit_grid(dims);
+    let array = generate_array(field, &grid, ty);
+    write_image(output, &grid, &[array])?;
+    Ok(format!(
+        "wrote '{}': {} {}x{}x{} {:?} ({points} points)",
+        output.display(),
+        field.array_name(),
+        dims[0],
+        dims[1],
+        dims[2],
+        ty
+    ))
+}
+
+/// Outcome of `diamonds verify`: the report lines and whether every check passed.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct VerifyReport {
+    pub lines: Vec<String>,
+    pub passed: bool,
+}
+
+impl VerifyReport {
+    fn check(&mut self, what: &str, outcome: std::result::Result<String, String>) -> bool {
+        match outcome {
+            Ok(detail) => {
+                self.lines.push(format!("  {what}: OK ({detail})"));
+                true
+            }
+            Err(detail) => {
+                self.lines.push(format!("  {what}: FAILED: {detail}"));
+                self.passed = false;
+                false
+            }
+        }
+    }
+}
+
+/// The input point index of each mesh point, found from its coordinates.
+fn point_ids(points: &[[f64; 3]], grid: &Grid) -> std::result::Result<Vec<usize>, String> {
+    points
+        .iter()
+        .enumerate()
+        .map(|(k, p)| {
+            let mut ijk = [0usize; 3];
+            for a in 0..3 {
+                let f = (p[a] - grid.origin[a]) / grid.spacing[a];
+                let i = f.round();
+                if (f - i).abs() > 1e-6 || i < 0.0 || i >= grid.dims[a] as f64 {
+                    return Err(format!(
+                        "mesh point {k} at {p:?} is not a point of the input grid"
+                    ));
+                }
+                ijk[a] = i as usize;
+            }
+            Ok(grid.index(ijk[0], ijk[1], ijk[2]))
+        })
+        .collect()
+}
+
+/// `diamonds verify`: checks `mesh` (a `.vtu` written by `tetra`) against the image independently of the
+/// hierarchy (`diamonds::validate`): conforming tetrahedra exactly covering the grid's box at its sample
+/// positions, the tolerance at every sample, the reported error bounds, the passed-through point data.
+/// Unreadable input is an error; a failed check is reported in [`VerifyReport`].
+pub fn verify(
+    input: &std::path::Path,
+    mesh_path: &std::path::Path,
+    array: Option<&str>,
+    tolerance: f64,
+) -> Result<VerifyReport> {
+    check_tolerance_value(tolerance)?;
+    let image = read_image(input)?;
+    let scalars = image
+        .scalars(array)
+        .map_err(|e| crate::Error(format!("'{}': {e}", input.display())))?;
+    let slice = scalars.scalar_slice()?;
+    let grid = image.grid;
+    grid.validate()?;
+    let ugrid = read_unstructured(mesh_path)?;
+    let [nx, ny, nz] = grid.dims;
+    let mut report = VerifyReport {
+        lines: vec![format!(
+            "verify '{}' against '{}' (array '{}', {nx}x{ny}x{nz} points, tolerance {tolerance})",
+            mesh_path.display(),
+            input.display(),
+            scalars.name
+        )],
+        passed: true,
+    };
+    // Cells: tetrahedra only.
+    let n_cells = ugrid.types.len();
+    let cells_ok = (|| {
+        if let Some(c) = ugrid.types.iter().position(|&t| t != 10) {
+            return Err(format!(
+                "cell {c} has VTK type {}, not VTK_TETRA (10)",
+                ugrid.types[c]
+            ));
+        }
+        if ugrid
+            .offsets
+            .iter()
+            .enumerate()
+            .any(|(c, &o)| o != 4 * (c + 1))
+        {
+            return Err("cell offsets are not those of tetrahedra".to_string());
+        }
+        Ok(format!(
+            "{n_cells} tetrahedra, {} points",
+            ugrid.points.len()
+        ))
+    })();
+    if !report.check("cells", cells_ok) {
+        return Ok(finish(report));
+    }
+    let ids = match point_ids(&ugrid.points, &grid) {
+        Ok(ids) => ids,
+        Err(e) => {
+            report.check("points", Err(e));
+            return Ok(finish(report));
+        }
+    };
+    let cell_values = |name: &str| -> Option<&Array> {
+        ugrid
+            .cell_data
+            .iter()
+            .find(|a| a.name == name && a.components == 1)
+    };
+    let errors: Vec<f32> = match cell_values("ApproximationError") {
+        Some(a) => (0..n_cells).map(|c| a.value(c) as f32).collect(),
+        None => vec![0.0; n_cells],
+    };
+    let mesh = TetMesh {
+        point_ids: ids,
+        points: ugrid.points.clone(),
+        tets: ugrid
+            .connectivity
+            .chunks_exact(4)
+            .map(|t| [t[0] as u32, t[1] as u32, t[2] as u32, t[3] as u32])
+            .collect(),
+        levels: match cell_values("Level") {
+            Some(a) => (0..n_cells).map(|c| a.value(c) as u8).collect(),
+            None => vec![0; n_cells],
+        },
+        max_error: errors.iter().fold(0.0f64, |m, &e| m.max(e as f64)),
+        errors,
+    };
+    let conforming = report.check(
+        "conformity",
+        check_mesh(&mesh, &grid).map(|r| {
+            format!(
+                "{} tetrahedra at input sample positions, {} interior faces shared by two, {} boundary faces, volumes sum to the box",
+                r.tets, r.interior_faces, r.boundary_faces
+            )
+        }),
+    );
+    if conforming {
+        let measured = with_volume!(grid, slice, |v| check_tolerance(&mesh, &v, tolerance));
+        let samples = grid.len();
+        let ok = report.check(
+            "tolerance",
+            measured
+                .clone()
+                .map(|worst| format!("all {samples} samples within {worst} <= {tolerance}")),
+        );
+        if ok && cell_values("ApproximationError").is_some() {
+            let worst = measured.unwrap_or(0.0);
+            let bound = mesh.max_error;
+            report.check(
+                "error bounds",
+                if worst <= bound * (1.0 + 1e-9) + 1e-12 {
+                    Ok(format!("measured {worst} <= reported {bound}"))
+                } else {
+                    Err(format!(
+                        "measured error {worst} exceeds the reported bound {bound}"
+                    ))
+                },
+            );
+        }
+    }
+    // Passed-through point data.
+    let mut same = Vec::new();
+    let mut differ = None;
+    for out in &ugrid.point_data {
+        let Some(inp) = image
+            .point_data
+            .iter()
+            .find(|a| a.name == out.name && a.components == out.components)
+        else {
+            continue;
+        };
+        let c = out.components;
+        let bad = mesh.point_ids.iter().enumerate().find_map(|(k, &i)| {
+            (0..c)
+                .find(|&j| inp.value(i * c + j) != out.value(k * c + j))
+                .map(|_| k)
+        });
+        match bad {
+            None => same.push(out.name.clone()),
+            Some(k) => {
+                differ = Some(format!(
+                    "point-data array '{}' differs from the input at mesh point {k}",
+                    out.name
+                ));
+                break;
+            }
+        }
+    }
+    if let Some(d) = differ {
+        report.check("point data", Err(d));
+    } else if !same.is_empty() {
+        report.check(
+            "point data",
+            Ok(format!(
+                "{} equal the input at the mesh points",
+                same.join(", ")
+            )),
+        );
+    }
+    Ok(finish(report))
+}
+
+fn finish(mut report: VerifyReport) -> VerifyReport {
+    report.lines.push(
+        if report.passed {
+            "verify: PASSED"
+        } else {
+            "verify: FAILED"
+        }
+        .to_string(),
+    );
+    report
+}
