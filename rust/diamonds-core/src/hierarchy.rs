@@ -17,7 +17,7 @@
 use crate::diamond::Diamond;
 use crate::lattice::{Lattice, Placement};
 use crate::refine::{Query, Refiner, SplitSet};
-use crate::scan::{scan_finest_diamond, scan_tet, TetStats};
+use crate::scan::{scan_finest_diamond, scan_tet, Stencils, TetStats};
 use crate::volume::{Sample, Volume};
 use crate::{with_volume, Error, Grid, Result, ScalarSlice, TetMesh};
 use rayon::prelude::*;
@@ -118,6 +118,7 @@ impl Hierarchy {
         let lattice = Lattice::new(grid.dims)?;
         let value_range = volume.range();
         let quantise = Quantiser::new(value_range);
+        let stencils = Stencils::new(&grid);
         let mut records = vec![Record::default(); grid.len()];
         let nx = grid.dims[0];
         let rows = grid.dims[1] * grid.dims[2];
@@ -136,7 +137,7 @@ impl Hierarchy {
                 );
                 for (x, rec) in row.iter_mut().enumerate() {
                     let d = Diamond::new(glam::IVec3::new(x as i32, y as i32, z as i32));
-                    *rec = diamond_record(volume, &lattice, d, &quantise);
+                    *rec = diamond_record(volume, &lattice, &stencils, d, &quantise);
                 }
             });
         }
@@ -233,6 +234,7 @@ pub fn place_diamond(lattice: &Lattice, d: Diamond) -> Placement {
 fn diamond_record<T: Sample>(
     volume: &Volume<'_, T>,
     lattice: &Lattice,
+    stencils: &Stencils,
     d: Diamond,
     quantise: &Quantiser,
 ) -> Record {
@@ -248,7 +250,10 @@ fn diamond_record<T: Sample>(
     let mut stats = TetStats::EMPTY;
     for t in d.tets(lattice) {
         match lattice.place(&t) {
-            Placement::Inside => stats = stats.merge(scan_tet(volume, &t)),
+            Placement::Inside => {
+                let scan = stencils.scan(volume, &t);
+                stats = stats.merge(scan.unwrap_or_else(|| scan_tet(volume, &t)));
+            }
             Placement::Outside => {}
             // Split unconditionally in the base mesh: no error needed.
             Placement::Straddling => return Record::default(),
