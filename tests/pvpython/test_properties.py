@@ -128,4 +128,15 @@ dc.check(dc.hierarchy_builds(filt) == builds_before_roi, "the region of interest
 fresh = simple.AdaptiveTetrahedra(Input=wavelet)
 dc.check(list(fresh.RegionOfInterest) == [-16.0, 16.0] * 3, f"RegionOfInterest defaults to the input bounds: {list(fresh.RegionOfInterest)}")
 
+# ---- The proxy as the GUI sees it: menu category and documentation.
+from paraview import servermanager  # noqa: E402
+
+prototype = servermanager.ProxyManager().GetPrototypeProxy("filters", "AdaptiveTetrahedra")
+hints = prototype.GetHints()
+menu = hints.FindNestedElementByName("ShowInMenu") if hints else None
+dc.check(menu is not None and menu.GetAttribute("category") == "Diamonds", "listed in the Filters > Diamonds menu")
+doc = prototype.GetDocumentation()
+dc.check(len(doc.GetDescription() or "") > 2000, f"the filter has a long <Documentation> ({len(doc.GetDescription() or '')} chars)")
+dc.check(prototype.GetXMLLabel() == "Adaptive Tetrahedra", "label 'Adaptive Tetrahedra'")
+
 dc.finish("test_properties")
