@@ -300,8 +300,9 @@ int vtkAdaptiveTetrahedra::RequestData(
   // ---- Geometry.
   if (input->GetNumberOfPoints() == 0)
   {
-    vtkErrorMacro(<< "The input image is empty.");
-    return 0;
+    // Not an error: e.g. an empty piece when a parallel run has more ranks than image slabs.
+    vtkDebugMacro(<< "The input image is empty; the output is empty.");
+    return 1;
   }
   if (!input->GetDirectionMatrix()->IsIdentity())
   {

@@ -62,6 +62,8 @@
  * each side refines that plane as its own data demands, so hanging vertices can appear between
  * pieces. The approximation error bound still holds everywhere. The region of interest is given in
  * world coordinates for the whole data set; a piece it does not touch gets its coarsest mesh.
+ * An empty input (e.g. an empty piece when there are more processes than slabs) gives an empty
+ * output without an error.
  *
  * Limitations and errors (reported with vtkErrorMacro, empty output, no crash): fewer than 2
  * points along an axis (2-D images); no point scalars (cell data only: apply Cell Data to Point

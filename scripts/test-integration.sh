@@ -52,7 +52,7 @@ cpp_consumer() {
     -DCMAKE_PREFIX_PATH="$INSTALL_DIR" -DCMAKE_BUILD_TYPE=Release >build/cpp_consumer.configure.log 2>&1 ||
     { cat build/cpp_consumer.configure.log; return 1; }
   cmake --build build/cpp_consumer -j 2 &&
-    ctest --test-dir build/cpp_consumer --output-on-failure
+    ctest --test-dir build/cpp_consumer --output-on-failure -V
 }
 
 demo_render() {

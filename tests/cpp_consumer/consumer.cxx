@@ -2,10 +2,12 @@
 // (vtkRTAnalyticSource -> vtkAdaptiveTetrahedra) and checks its output. Exits non-zero on failure.
 #include "vtkAdaptiveTetrahedra.h"
 
+#include <vtkCallbackCommand.h>
 #include <vtkCellData.h>
 #include <vtkCellTypes.h>
 #include <vtkDataArray.h>
 #include <vtkFieldData.h>
+#include <vtkCommand.h>
 #include <vtkFloatArray.h>
 #include <vtkImageData.h>
 #include <vtkNew.h>
@@ -144,6 +146,20 @@ int main()
   filter->SetTolerance(-1.0);
   filter->Update();
   Check(filter->GetOutput()->GetNumberOfCells() == 0, "negative tolerance: empty output");
+
+  // An empty image (e.g. an empty piece of a parallel run): empty output, no error.
+  vtkNew<vtkImageData> empty;
+  vtkNew<vtkAdaptiveTetrahedra> onEmpty;
+  onEmpty->SetInputData(empty);
+  int errors = 0;
+  vtkNew<vtkCallbackCommand> countErrors;
+  countErrors->SetClientData(&errors);
+  countErrors->SetCallback(
+    [](vtkObject*, unsigned long, void* count, void*) { ++*static_cast<int*>(count); });
+  onEmpty->AddObserver(vtkCommand::ErrorEvent, countErrors);
+  onEmpty->Update();
+  Check(errors == 0 && onEmpty->GetOutput()->GetNumberOfCells() == 0,
+    "empty image: empty output, no error");
 
   std::printf("%s: %d failure(s)\n", failures ? "FAILED" : "PASSED", failures);
   return failures ? EXIT_FAILURE : EXIT_SUCCESS;
