@@ -62,8 +62,10 @@
  * each side refines that plane as its own data demands, so hanging vertices can appear between
  * pieces. The approximation error bound still holds everywhere. The region of interest is given in
  * world coordinates for the whole data set; a piece it does not touch gets its coarsest mesh.
- * An empty input (e.g. an empty piece when there are more processes than slabs) gives an empty
- * output without an error.
+ * The filter asks its input for no ghost levels, whatever is requested downstream (a ghost layer
+ * would be meshed as ordinary samples, duplicating the neighbour's tetrahedra), so its output has
+ * no ghost cells. An empty input (e.g. an empty piece when there are more processes than slabs)
+ * gives an empty output without an error.
  *
  * Limitations and errors (reported with vtkErrorMacro, empty output, no crash): fewer than 2
  * points along an axis (2-D images); no point scalars (cell data only: apply Cell Data to Point
@@ -164,6 +166,7 @@ protected:
   ~vtkAdaptiveTetrahedra() override;
 
   int FillInputPortInformation(int port, vtkInformation* info) override;
+  int RequestUpdateExtent(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
   int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
 
   double Tolerance;

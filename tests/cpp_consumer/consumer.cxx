@@ -16,6 +16,7 @@
 #include <vtkUnsignedCharArray.h>
 #include <vtkUnstructuredGrid.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -146,6 +147,34 @@ int main()
   filter->SetTolerance(-1.0);
   filter->Update();
   Check(filter->GetOutput()->GetNumberOfCells() == 0, "negative tolerance: empty output");
+
+  // Pieces, as in a parallel run, with one ghost level requested downstream (as ParaView's
+  // parallel rendering does): each piece is meshed over its own extent only, without ghost layers,
+  // so two pieces meet in exactly one plane and no tetrahedron is duplicated.
+  vtkNew<vtkAdaptiveTetrahedra> pieces;
+  pieces->SetInputConnection(source->GetOutputPort());
+  pieces->SetTolerance(4.0);
+  double pieceBounds[2][6];
+  vtkIdType pieceTets = 0;
+  for (int piece = 0; piece < 2; ++piece)
+  {
+    pieces->UpdatePiece(piece, 2, 1);
+    pieces->GetOutput()->GetBounds(pieceBounds[piece]);
+    pieceTets += pieces->GetOutput()->GetNumberOfCells();
+    std::printf("piece %d of 2 (1 ghost level requested): bounds %g %g %g %g %g %g, %lld tetrahedra\n",
+      piece, pieceBounds[piece][0], pieceBounds[piece][1], pieceBounds[piece][2],
+      pieceBounds[piece][3], pieceBounds[piece][4], pieceBounds[piece][5],
+      static_cast<long long>(pieces->GetOutput()->GetNumberOfCells()));
+    Check(OnlyTetra(pieces->GetOutput()), "piece: only VTK_TETRA cells");
+  }
+  double overlap = 1.0;
+  for (int axis = 0; axis < 3; ++axis)
+  {
+    overlap *= std::min(pieceBounds[0][2 * axis + 1], pieceBounds[1][2 * axis + 1]) -
+      std::max(pieceBounds[0][2 * axis], pieceBounds[1][2 * axis]);
+  }
+  Check(overlap == 0.0, "the two pieces meet in a plane (no ghost layer meshed twice)");
+  source->UpdatePiece(0, 1, 0); // restore the whole extent for the checks below
 
   // An empty image (e.g. an empty piece of a parallel run): empty output, no error.
   vtkNew<vtkImageData> empty;
