@@ -42,8 +42,9 @@
  * of small tetrahedra along far faces whose size is not 2^k+1 (e.g. 256 points); 2^k+1 points per
  * axis has no such band. A budget below this minimal "base mesh" yields the base mesh.
  *
- * The hierarchy is the expensive part (its cost grows with the number of points and the size of
- * the diamonds); a query is cheap. The filter keeps the hierarchy between executions and rebuilds
+ * The hierarchy is built once per input: one pass over the samples, its cost grows with the number
+ * of points. A query does not read the samples again; its cost grows with the number of
+ * tetrahedra it outputs. The filter keeps the hierarchy between executions and rebuilds
  * it only when the input array, its values (MTime), its name, or the image geometry (extent,
  * origin, spacing) change. Changing Tolerance, MaximumNumberOfTetrahedra or the region of interest
  * re-runs only the query; GetNumberOfHierarchyBuilds() counts the builds.
@@ -71,8 +72,9 @@
  * points along an axis (2-D images); no point scalars (cell data only: apply Cell Data to Point
  * Data first); a multi-component array (needs a single-component array: use Calculator to
  * extract a component); NaN or Inf samples; negative Tolerance or MaximumNumberOfTetrahedra;
- * a region of interest outside the image bounds; an image whose hierarchy would not fit in the
- * available memory (checked before allocating); an oriented image (non-identity direction
+ * a region of interest outside the image bounds; an image of more than 2^32 points, or whose
+ * hierarchy would not fit in the available memory (both checked before allocating); an oriented
+ * image (non-identity direction
  * matrix). Arrays of 8-, 16- and 32-bit integers, float and double are read in place; 64-bit
  * integer arrays are converted to double with a warning (refused if a value exceeds 2^53, where
  * the conversion is inexact).
