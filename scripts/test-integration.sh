@@ -57,10 +57,19 @@ cpp_consumer() {
 
 demo_render() {
   local out="$ROOT/build/test-demo"
-  rm -rf "$out"
-  xvfb-run -a pvbatch scripts/demo.py --output "$out" &&
-    test -s "$out/demo.vtu" && test -s "$out/demo.png" &&
-    echo "demo wrote $out/demo.vtu and $out/demo.png"
+  local attempt
+  # A 24-bit screen for OpenGL. One retry: `xvfb-run -a` can lose the race for a display number
+  # against another X server starting at the same moment ("bad X server connection").
+  for attempt in 1 2; do
+    rm -rf "$out"
+    if xvfb-run -a -s "-screen 0 1600x1200x24" pvbatch scripts/demo.py --output "$out" &&
+      test -s "$out/demo.vtu" && test -s "$out/demo.png"; then
+      echo "demo wrote $out/demo.vtu and $out/demo.png"
+      return 0
+    fi
+    echo "demo render attempt $attempt failed"
+  done
+  return 1
 }
 
 step "C++ consumer of the installed package" cpp_consumer
