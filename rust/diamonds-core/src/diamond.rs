@@ -67,9 +67,15 @@ impl Diamond {
         ((twice & IVec3::ONE) == IVec3::ZERO).then(|| Self::new(twice / 2))
     }
 
-    /// `σ`: trailing zeros shared by all coordinates of the central vertex.
+    /// `σ`: trailing zeros shared by all coordinates of the central vertex (not defined for the origin,
+    /// a root corner and no diamond).
     #[inline]
     pub fn sigma(self) -> u32 {
+        debug_assert_ne!(
+            self.center,
+            IVec3::ZERO,
+            "the origin is not a central vertex"
+        );
         let c = self.center;
         ((c.x | c.y | c.z) as u32).trailing_zeros()
     }

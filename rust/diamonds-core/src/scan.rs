@@ -208,7 +208,10 @@ impl Stencils {
             for y in 0..=32 {
                 for x in 0..=32 {
                     let d = Diamond::new(IVec3::new(x, y, z));
-                    if !matches!(d.scale(), 2 | 4) || d.bounds().0.min_element() < 0 {
+                    if d.center == IVec3::ZERO
+                        || !matches!(d.scale(), 2 | 4)
+                        || d.bounds().0.min_element() < 0
+                    {
                         continue;
                     }
                     for t in d.tets(&lattice) {
@@ -443,6 +446,9 @@ mod tests {
         for i in 0..grid.len() {
             let [x, y, z] = grid.ijk(i);
             let d = Diamond::new(IVec3::new(x as i32, y as i32, z as i32));
+            if d.center == IVec3::ZERO {
+                continue;
+            }
             for t in d.tets(&l) {
                 if l.place(&t) != crate::lattice::Placement::Inside {
                     continue;
@@ -474,8 +480,11 @@ mod tests {
         for i in 0..grid.len() {
             let [x, y, z] = grid.ijk(i);
             let d = Diamond::new(IVec3::new(x as i32, y as i32, z as i32));
+            if d.center == IVec3::ZERO || d.scale() != 1 {
+                continue;
+            }
             let (lo, hi) = d.bounds();
-            if d.scale() != 1 || !l.in_domain(lo) || !l.in_domain(hi) {
+            if !l.in_domain(lo) || !l.in_domain(hi) {
                 continue;
             }
             let by_tets = d
