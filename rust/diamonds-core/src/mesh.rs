@@ -154,18 +154,19 @@ pub(crate) fn extract(h: &Hierarchy, split: &SplitSet) -> TetMesh {
     let mut errors = vec![0f32; n];
     let mut slices = Vec::with_capacity(parts.len());
     let (mut t_rest, mut l_rest, mut e_rest) = (&mut tets[..], &mut levels[..], &mut errors[..]);
-    for part in &parts {
+    for part in parts {
         let (t, tr) = t_rest.split_at_mut(part.len());
         let (l, lr) = l_rest.split_at_mut(part.len());
         let (e, er) = e_rest.split_at_mut(part.len());
         slices.push((part, t, l, e));
         (t_rest, l_rest, e_rest) = (tr, lr, er);
     }
+    // Each part is freed as soon as it is copied, keeping the peak near the output's size.
     slices.into_par_iter().for_each(|(part, t, l, e)| {
-        for (k, (v, level, error)) in part.iter().enumerate() {
+        for (k, (v, level, error)) in part.into_iter().enumerate() {
             t[k] = v.map(id);
-            l[k] = *level;
-            e[k] = *error;
+            l[k] = level;
+            e[k] = error;
         }
     });
     let max_error = errors.iter().fold(0.0f64, |m, &e| m.max(e as f64));
