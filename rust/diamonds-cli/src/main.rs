@@ -36,7 +36,12 @@ enum Command {
         #[arg(long, value_name = "NAME")]
         array: Option<String>,
         /// Largest allowed interpolation error, absolute, in data units (0 = lossless).
-        #[arg(long, default_value_t = 0.0, value_name = "T")]
+        #[arg(
+            long,
+            default_value_t = 0.0,
+            value_name = "T",
+            allow_negative_numbers = true
+        )]
         tolerance: f64,
         /// Largest number of tetrahedra (0 = no limit); refinement stops before exceeding it.
         #[arg(long, default_value_t = 0, value_name = "N")]
@@ -83,7 +88,7 @@ enum Command {
         #[arg(long, value_name = "NAME")]
         array: Option<String>,
         /// Tolerance to check, in data units.
-        #[arg(long, value_name = "T")]
+        #[arg(long, value_name = "T", allow_negative_numbers = true)]
         tolerance: f64,
     },
 }

@@ -1,0 +1,222 @@
+//! Bad input never panics: every case exits with code 2 and one clear `error: …` line.
+
+mod common;
+
+use common::{diamonds, fixture, s, TempDir};
+use diamonds::Grid;
+use diamonds_cli::write::write_image;
+use diamonds_cli::Array;
+
+/// Runs `diamonds args…`, expects a user error and returns its message.
+fn error_of(args: &[&str]) -> String {
+    diamonds(args).user_error()
+}
+
+fn assert_mentions(message: &str, words: &[&str]) {
+    for w in words {
+        assert!(message.contains(w), "'{w}' missing from: {message}");
+    }
+}
+
+#[test]
+fn missing_files() {
+    let dir = TempDir::new("bad");
+    let out = dir.join("out.vtu");
+    let e = error_of(&["tetra", "/nonexistent/volume.vti", s(&out)]);
+    assert_mentions(&e, &["cannot read", "/nonexistent/volume.vti"]);
+    let e = error_of(&[
+        "verify",
+        "/nonexistent/volume.vti",
+        s(&out),
+        "--tolerance",
+        "1",
+    ]);
+    assert_mentions(&e, &["cannot read"]);
+    let input = fixture("appended_raw.vti");
+    let e = error_of(&[
+        "verify",
+        s(&input),
+        "/nonexistent/mesh.vtu",
+        "--tolerance",
+        "1",
+    ]);
+    assert_mentions(&e, &["cannot read", "/nonexistent/mesh.vtu"]);
+    // An output folder that does not exist.
+    let e = error_of(&["tetra", s(&input), "/nonexistent/out.vtu"]);
+    assert_mentions(&e, &["cannot write", "/nonexistent/out.vtu"]);
+}
+
+#[test]
+fn wrong_extensions() {
+    let dir = TempDir::new("bad");
+    let input = fixture("appended_raw.vti");
+    let e = error_of(&["tetra", "picture.png", s(&dir.join("out.vtu"))]);
+    assert_mentions(&e, &["unsupported input file", ".vti", ".vtk"]);
+    let e = error_of(&["tetra", s(&input), s(&dir.join("out.vtk"))]);
+    assert_mentions(&e, &[".vtu"]);
+    let e = error_of(&["generate", s(&dir.join("volume.raw"))]);
+    assert_mentions(&e, &[".vti"]);
+    let e = error_of(&[
+        "verify",
+        s(&input),
+        s(&dir.join("mesh.vtk")),
+        "--tolerance",
+        "0",
+    ]);
+    assert_mentions(&e, &[".vtu"]);
+    // A .vtu given as the volume.
+    let e = error_of(&["tetra", s(&dir.join("mesh.vtu")), s(&dir.join("out.vtu"))]);
+    assert_mentions(&e, &["unsupported input file"]);
+}
+
+#[test]
+fn missing_array_name() {
+    let dir = TempDir::new("bad");
+    let input = fixture("appended_raw_zlib_blocks.vti");
+    let e = error_of(&[
+        "tetra",
+        s(&input),
+        s(&dir.join("o.vtu")),
+        "--array",
+        "pressure",
+    ]);
+    assert_mentions(
+        &e,
+        &[
+            "no point-data array named 'pressure'",
+            "density",
+            "temperature",
+            "velocity (3 components)",
+        ],
+    );
+}
+
+#[test]
+fn multi_component_arrays() {
+    let dir = TempDir::new("bad");
+    let out = dir.join("o.vtu");
+    let e = error_of(&[
+        "tetra",
+        s(&fixture("appended_raw.vti")),
+        s(&out),
+        "--array",
+        "velocity",
+    ]);
+    assert_mentions(&e, &["'velocity' has 3 components", "single-component"]);
+    let e = error_of(&["tetra", s(&fixture("vector_only.vti")), s(&out)]);
+    assert_mentions(&e, &["no single-component point-data array", "velocity"]);
+}
+
+#[test]
+fn cell_data_only() {
+    let dir = TempDir::new("bad");
+    let e = error_of(&[
+        "tetra",
+        s(&fixture("cell_data_only.vti")),
+        s(&dir.join("o.vtu")),
+    ]);
+    assert_mentions(&e, &["only cell data", "pressure", "point data"]);
+}
+
+#[test]
+fn nan_in_a_float_volume() {
+    let dir = TempDir::new("bad");
+    let grid = Grid {
+        dims: [4, 3, 2],
+        origin: [0.0; 3],
+        spacing: [1.0; 3],
+    };
+    let mut values = vec![1.5f32; grid.len()];
+    values[7] = f32::NAN;
+    let input = dir.join("nan.vti");
+    write_image(&input, &grid, &[Array::scalars("f", values)]).unwrap();
+    let e = error_of(&["tetra", s(&input), s(&dir.join("o.vtu"))]);
+    assert_mentions(&e, &["non-finite", "NaN", "7"]);
+    let mut inf = vec![0.0f64; grid.len()];
+    inf[0] = f64::INFINITY;
+    write_image(&input, &grid, &[Array::scalars("f", inf)]).unwrap();
+    let e = error_of(&["tetra", s(&input), s(&dir.join("o.vtu"))]);
+    assert_mentions(&e, &["non-finite"]);
+}
+
+#[test]
+fn two_dimensional_images() {
+    let dir = TempDir::new("bad");
+    for dims in [[8, 8, 1], [1, 5, 5], [6, 1, 1]] {
+        let grid = Grid {
+            dims,
+            origin: [0.0; 3],
+            spacing: [1.0; 3],
+        };
+        let input = dir.join("flat.vti");
+        write_image(&input, &grid, &[Array::scalars("v", vec![3u8; grid.len()])]).unwrap();
+        let e = error_of(&["tetra", s(&input), s(&dir.join("o.vtu"))]);
+        assert_mentions(&e, &["at least 2 points", "2-D"]);
+    }
+    let e = error_of(&["generate", s(&dir.join("g.vti")), "--dims", "8", "8", "1"]);
+    assert_mentions(&e, &["at least 2 points"]);
+}
+
+#[test]
+fn corrupt_files() {
+    let dir = TempDir::new("bad");
+    let out = dir.join("o.vtu");
+    let vti = dir.join("junk.vti");
+    let good = std::fs::read(fixture("appended_raw_zlib_blocks.vti")).unwrap();
+    std::fs::write(&vti, &good[..good.len() - 200]).unwrap();
+    let e = error_of(&["tetra", s(&vti), s(&out)]);
+    assert_mentions(&e, &["junk.vti", "velocity", "truncated"]);
+    std::fs::write(&vti, b"not xml at all \x00\xff").unwrap();
+    error_of(&["tetra", s(&vti), s(&out)]);
+    let vtk = dir.join("junk.vtk");
+    std::fs::write(
+        &vtk,
+        b"# vtk DataFile Version 3.0\nx\nASCII\nDATASET STRUCTURED_POINTS\nDIMENSIONS 2 2",
+    )
+    .unwrap();
+    let e = error_of(&["tetra", s(&vtk), s(&out)]);
+    assert_mentions(&e, &["junk.vtk"]);
+    // A .vtu that is not a tetrahedral mesh of the volume's kind: an image given as the mesh.
+    let mesh = dir.join("image.vtu");
+    std::fs::copy(fixture("appended_raw.vti"), &mesh).unwrap();
+    let e = error_of(&[
+        "verify",
+        s(&fixture("appended_raw.vti")),
+        s(&mesh),
+        "--tolerance",
+        "0",
+    ]);
+    assert_mentions(&e, &["ImageData", "not UnstructuredGrid"]);
+}
+
+#[test]
+fn invalid_options() {
+    let dir = TempDir::new("bad");
+    let input = fixture("appended_raw.vti");
+    let out = dir.join("o.vtu");
+    let e = error_of(&["tetra", s(&input), s(&out), "--tolerance", "-1"]);
+    assert_mentions(&e, &["tolerance"]);
+    let e = error_of(&["tetra", s(&input), s(&out), "--tolerance", "nan"]);
+    assert_mentions(&e, &["tolerance"]);
+    let e = error_of(&[
+        "tetra",
+        s(&input),
+        s(&out),
+        "--roi",
+        "50",
+        "60",
+        "0",
+        "1",
+        "0",
+        "1",
+    ]);
+    assert_mentions(&e, &["region of interest", "outside"]);
+    let e = error_of(&["tetra", s(&input), s(&out), "--roi", "0", "1"]);
+    assert_mentions(&e, &["--roi"]);
+    let e = error_of(&["generate", s(&dir.join("g.vti")), "--type", "u128"]);
+    assert_mentions(&e, &["u128"]);
+    let e = error_of(&["verify", s(&input), s(&out)]);
+    assert_mentions(&e, &["--tolerance"]);
+    error_of(&["tetra"]);
+    error_of(&["frobnicate"]);
+}

@@ -1,0 +1,90 @@
+//! Helpers of the integration tests: running the `diamonds` binary, temporary folders, fixtures.
+#![allow(dead_code)]
+
+use std::ffi::OsStr;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// A folder under the system's temporary folder, removed on drop.
+pub struct TempDir(PathBuf);
+
+impl TempDir {
+    pub fn new(tag: &str) -> Self {
+        static COUNTER: AtomicUsize = AtomicUsize::new(0);
+        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+        let dir =
+            std::env::temp_dir().join(format!("diamonds-cli-{tag}-{}-{n}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("create a temporary folder");
+        Self(dir)
+    }
+
+    pub fn join(&self, name: &str) -> PathBuf {
+        self.0.join(name)
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// What a run of `diamonds` did.
+#[derive(Debug)]
+pub struct Run {
+    pub code: i32,
+    pub stdout: String,
+    pub stderr: String,
+}
+
+impl Run {
+    /// Asserts success and returns stdout.
+    pub fn ok(self) -> String {
+        assert_eq!(self.code, 0, "diamonds failed: {self:#?}");
+        self.stdout
+    }
+
+    /// Asserts a clean user error (exit 2, `error: …`, no panic) and returns the message.
+    pub fn user_error(self) -> String {
+        assert_eq!(self.code, 2, "expected exit code 2: {self:#?}");
+        assert!(
+            self.stderr.starts_with("error: "),
+            "expected 'error: …' on stderr: {self:#?}"
+        );
+        for bad in ["panicked", "RUST_BACKTRACE", "internal error"] {
+            assert!(!self.stderr.contains(bad), "{bad} in stderr: {self:#?}");
+        }
+        self.stderr
+    }
+}
+
+/// Runs `diamonds` with `args`.
+pub fn diamonds<I, S>(args: I) -> Run
+where
+    I: IntoIterator<Item = S>,
+    S: AsRef<OsStr>,
+{
+    let out = Command::new(env!("CARGO_BIN_EXE_diamonds"))
+        .args(args)
+        .output()
+        .expect("run diamonds");
+    Run {
+        code: out.status.code().unwrap_or(-1),
+        stdout: String::from_utf8_lossy(&out.stdout).into_owned(),
+        stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
+    }
+}
+
+/// A reader fixture (written by VTK itself, see tests/fixtures/make_fixtures.py).
+pub fn fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures")
+        .join(name)
+}
+
+/// `p` as `&str` for argument lists.
+pub fn s(p: &Path) -> &str {
+    p.to_str().expect("UTF-8 path")
+}

@@ -1,0 +1,223 @@
+//! The VTK reader on files written by VTK itself (tests/fixtures, see make_fixtures.py) in every
+//! encoding, and the writer's output read back.
+
+mod common;
+
+use common::{fixture, TempDir};
+use diamonds::Grid;
+use diamonds_cli::read::{read_image, read_unstructured};
+use diamonds_cli::write::{write_image, write_tets, TetGrid};
+use diamonds_cli::Array;
+use vtkio::model::IOBuffer;
+
+/// Every fixture holding the three point arrays.
+const ENCODINGS: &[&str] = &[
+    "ascii.vti",
+    "inline_base64.vti",
+    "inline_zlib_header64.vti",
+    "appended_raw.vti",
+    "appended_raw_zlib_blocks.vti",
+    "appended_raw_zlib_header64.vti",
+    "appended_base64.vti",
+    "appended_base64_zlib_blocks.vti",
+    "appended_raw_lz4_blocks.vti",
+    "appended_raw_lzma_blocks.vti",
+    "appended_raw_zlib_bigendian.vti",
+    "legacy_ascii.vtk",
+    "legacy_binary.vtk",
+];
+
+#[test]
+fn every_encoding_vtk_writes_reads_the_same_image() {
+    // Extent 2..6 × 1..4 × 3..5, origin (0.5, -1, 2), spacing (0.25, 0.5, 1.5): the first point is at
+    // origin + spacing × extent start.
+    let dims = [5, 4, 3];
+    let mut density = Vec::new();
+    let mut velocity = Vec::new();
+    for k in 0..3 {
+        for j in 0..4 {
+            for i in 0..5 {
+                density.push((i + 10 * j + 100 * k - 50) as i16);
+                velocity.extend([i as f32, j as f32, k as f32]);
+            }
+        }
+    }
+    let temperature: Vec<f32> = density.iter().map(|&d| d as f32 / 4.0).collect();
+    for name in ENCODINGS {
+        let image = read_image(&fixture(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(
+            image.grid,
+            Grid {
+                dims,
+                origin: [1.0, -0.5, 6.5],
+                spacing: [0.25, 0.5, 1.5]
+            },
+            "{name}"
+        );
+        let names: Vec<_> = image.point_data.iter().map(|a| a.name.as_str()).collect();
+        assert_eq!(names, ["density", "temperature", "velocity"], "{name}");
+        assert_eq!(image.active_scalars.as_deref(), Some("density"), "{name}");
+        let [d, t, v] = &image.point_data[..] else {
+            unreachable!()
+        };
+        assert_eq!(d.data, IOBuffer::I16(density.clone()), "{name}: density");
+        assert_eq!(
+            t.data,
+            IOBuffer::F32(temperature.clone()),
+            "{name}: temperature"
+        );
+        assert_eq!(v.components, 3, "{name}");
+        assert_eq!(v.data, IOBuffer::F32(velocity.clone()), "{name}: velocity");
+        assert_eq!(image.scalars(None).unwrap().name, "density", "{name}");
+        assert_eq!(
+            image.scalars(Some("temperature")).unwrap().name,
+            "temperature"
+        );
+    }
+}
+
+#[test]
+fn cell_data_and_vector_only_images_are_refused_for_meshing() {
+    let cells = read_image(&fixture("cell_data_only.vti")).unwrap();
+    assert!(cells.point_data.is_empty());
+    assert_eq!(cells.cell_arrays, ["pressure"]);
+    let e = cells.scalars(None).unwrap_err().0;
+    assert!(e.contains("only cell data (pressure)"), "{e}");
+    let e = cells.scalars(Some("pressure")).unwrap_err().0;
+    assert!(e.contains("cell data"), "{e}");
+
+    let vectors = read_image(&fixture("vector_only.vti")).unwrap();
+    let e = vectors.scalars(None).unwrap_err().0;
+    assert!(
+        e.contains("no single-component") && e.contains("velocity (3 components)"),
+        "{e}"
+    );
+    let e = vectors.scalars(Some("velocity")).unwrap_err().0;
+    assert!(e.contains("has 3 components"), "{e}");
+}
+
+#[test]
+fn written_images_read_back_exactly() {
+    let dir = TempDir::new("reader");
+    let grid = Grid {
+        dims: [3, 4, 5],
+        origin: [-1.0 / 3.0, 0.1, 1e-7],
+        spacing: [0.1, 2.0 / 7.0, 3.3],
+    };
+    let n = grid.len();
+    let arrays = vec![
+        Array::scalars("u8", (0..n).map(|i| i as u8).collect::<Vec<_>>()),
+        Array::scalars("i8", (0..n).map(|i| -(i as i8)).collect::<Vec<_>>()),
+        Array::scalars("u16", (0..n).map(|i| 1000 * i as u16).collect::<Vec<_>>()),
+        Array::scalars("i16", (0..n).map(|i| -300 * i as i16).collect::<Vec<_>>()),
+        Array::scalars("u32", (0..n).map(|i| 1 << (i % 32)).collect::<Vec<u32>>()),
+        Array::scalars("i32", (0..n).map(|i| -(i as i32) << 20).collect::<Vec<_>>()),
+        Array::scalars("i64", (0..n).map(|i| (i as i64) << 40).collect::<Vec<_>>()),
+        Array::scalars("f32", (0..n).map(|i| i as f32 / 3.0).collect::<Vec<_>>()),
+        Array::scalars(
+            "f64 <&\"name\">",
+            (0..n).map(|i| (i as f64).sqrt()).collect::<Vec<_>>(),
+        ),
+        Array {
+            name: "vectors".into(),
+            components: 3,
+            data: (0..3 * n)
+                .map(|i| i as f64 * 0.5)
+                .collect::<Vec<_>>()
+                .into(),
+        },
+    ];
+    let path = dir.join("all.vti");
+    write_image(&path, &grid, &arrays).unwrap();
+    let image = read_image(&path).unwrap();
+    assert_eq!(image.grid, grid, "origin and spacing keep full precision");
+    assert_eq!(image.point_data, arrays);
+    assert_eq!(image.active_scalars.as_deref(), Some("u8"));
+}
+
+#[test]
+fn written_meshes_read_back_exactly() {
+    let dir = TempDir::new("reader");
+    let points = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, 0.0, 1.0],
+        [1.0, 1.0, 1.0],
+    ];
+    let tets = [[0, 1, 2, 3], [1, 4, 2, 3]];
+    let point_data = vec![Array::scalars("value", vec![1u8, 2, 3, 4, 5])];
+    let cell_data = vec![
+        Array::scalars("Level", vec![3u8, 4]),
+        Array::scalars("ApproximationError", vec![0.5f32, 0.25]),
+    ];
+    let field_data = vec![
+        Array::scalars("Tolerance", vec![0.5f64]),
+        Array::scalars("NumberOfTetrahedra", vec![2i64]),
+    ];
+    let path = dir.join("mesh.vtu");
+    write_tets(
+        &path,
+        TetGrid {
+            points: &points,
+            tets: &tets,
+            point_data: point_data.clone(),
+            cell_data: cell_data.clone(),
+            field_data: field_data.clone(),
+        },
+    )
+    .unwrap();
+    let mesh = read_unstructured(&path).unwrap();
+    assert_eq!(mesh.points, points);
+    assert_eq!(mesh.connectivity, [0, 1, 2, 3, 1, 4, 2, 3]);
+    assert_eq!(mesh.offsets, [4, 8]);
+    assert_eq!(mesh.types, [10, 10]);
+    assert_eq!(mesh.point_data, point_data);
+    assert_eq!(mesh.cell_data, cell_data);
+    assert_eq!(mesh.field_data, field_data);
+}
+
+#[test]
+fn corrupt_files_are_errors_not_panics() {
+    let dir = TempDir::new("reader");
+    let good = std::fs::read(fixture("appended_raw_zlib_blocks.vti")).unwrap();
+    let header_end = good
+        .windows(15)
+        .position(|w| w == b"<AppendedData e")
+        .unwrap();
+    let data_end = good
+        .windows(15)
+        .rposition(|w| w == b"</AppendedData>")
+        .unwrap();
+    // Truncations of the binary part, and bytes flipped in it.
+    let path = dir.join("bad.vti");
+    for cut in (header_end..data_end - 8).step_by(7) {
+        std::fs::write(&path, &good[..cut]).unwrap();
+        assert!(
+            read_image(&path).is_err(),
+            "truncated at {cut} was accepted"
+        );
+    }
+    for at in (header_end + 40..good.len() - 20).step_by(5) {
+        let mut bad = good.clone();
+        bad[at] ^= 0x5a;
+        std::fs::write(&path, &bad).unwrap();
+        let _ = read_image(&path); // error or (if the flip hit padding) data, never a panic
+    }
+    for junk in [
+        &b""[..],
+        b"<VTKFile",
+        b"\x00\x01\x02",
+        b"<a><b></a>",
+        b"<VTKFile type=\"ImageData\"/>",
+    ] {
+        std::fs::write(&path, junk).unwrap();
+        assert!(read_image(&path).is_err(), "{junk:?} was accepted");
+    }
+    let legacy = dir.join("bad.vtk");
+    let good = std::fs::read(fixture("legacy_binary.vtk")).unwrap();
+    for cut in (0..good.len()).step_by(11) {
+        std::fs::write(&legacy, &good[..cut]).unwrap();
+        let _ = read_image(&legacy);
+    }
+}
