@@ -1,6 +1,6 @@
 //! The subcommands as library functions: [`tetra`], [`generate`] and [`verify`].
 
-use crate::read::{extension, read_image, read_unstructured, Image};
+use crate::read::{extension, read_image, read_unstructured};
 use crate::write::{write_image, write_tets, TetGrid};
 use crate::{bail, Array, Result};
 use diamonds::validate::{check_mesh, check_tolerance};
@@ -69,12 +69,16 @@ fn check_tolerance_value(tolerance: f64) -> Result<()> {
     Ok(())
 }
 
-/// The output mesh of `image` for `query`, with every input point array passed through, cell data
-/// `Level` and `ApproximationError`, field data `Tolerance`, `NumberOfTetrahedra`, `MaximumError`.
-pub fn mesh_arrays(image: &Image, mesh: &TetMesh, tolerance: f64) -> TetGridData {
-    let point_data = image
-        .point_data
-        .iter()
+/// The data of the output mesh: `point_arrays` (input point data, one tuple per input point) at the
+/// mesh points, cell data `Level` and `ApproximationError`, field data `Tolerance`,
+/// `NumberOfTetrahedra` and `MaximumError`.
+pub fn mesh_arrays<'a>(
+    point_arrays: impl IntoIterator<Item = &'a Array>,
+    mesh: &TetMesh,
+    tolerance: f64,
+) -> TetGridData {
+    let point_data = point_arrays
+        .into_iter()
         .filter_map(|a| a.gather(&mesh.point_ids))
         .collect();
     let cell_data = vec![
@@ -115,15 +119,8 @@ pub fn tetra(opts: &TetraOptions) -> Result<TetraSummary> {
         .scalars(opts.array.as_deref())
         .map_err(|e| crate::Error(format!("'{}': {e}", opts.input.display())))?;
     let read_seconds = start.elapsed().as_secs_f64();
-    // The selected array first: it becomes the active scalars of the output.
-    let mut image_out = image.clone();
-    if let Some(i) = image_out
-        .point_data
-        .iter()
-        .position(|a| a.name == array.name)
-    {
-        let selected = image_out.point_data.remove(i);
-        image_out.point_data.insert(0, selected);
+    for w in &image.warnings {
+        eprintln!("warning: '{}': {w}", opts.input.display());
     }
     let grid = image.grid;
     let start = Instant::now();
@@ -137,7 +134,9 @@ pub fn tetra(opts: &TetraOptions) -> Result<TetraSummary> {
     })?;
     let query_seconds = start.elapsed().as_secs_f64();
     let start = Instant::now();
-    let data = mesh_arrays(&image_out, &mesh, opts.tolerance);
+    // The meshed array first: it becomes the active scalars of the output.
+    let others = image.point_data.iter().filter(|a| !std::ptr::eq(*a, array));
+    let data = mesh_arrays(std::iter::once(array).chain(others), &mesh, opts.tolerance);
     write_tets(
         &opts.output,
         TetGrid {

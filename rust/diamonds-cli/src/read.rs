@@ -33,6 +33,8 @@ pub struct Image {
     pub cell_arrays: Vec<String>,
     /// The active scalars named by the file (`Scalars="…"`, legacy `SCALARS`).
     pub active_scalars: Option<String>,
+    /// Arrays left out while reading (non-numeric types), for the user.
+    pub warnings: Vec<String>,
 }
 
 /// An unstructured grid, as read from a `.vtu` file.
@@ -520,11 +522,27 @@ impl<'a> XmlDoc<'a> {
         r.map_err(|e| Error(format!("data array '{name}': {e}")))
     }
 
-    /// Decodes every array of `section` (absent section: none).
-    fn decode_section(&self, section: Option<&Section>, tuples: usize) -> Result<Vec<Array>> {
-        section
-            .map(|s| s.arrays.iter().map(|a| self.decode(a, tuples)).collect())
-            .unwrap_or(Ok(Vec::new()))
+    /// Decodes every array of `section` (absent section: none). Arrays of a type that cannot be
+    /// meshed or passed through (strings, bits) are left out with a warning in `warnings`.
+    fn decode_section(
+        &self,
+        section: Option<&Section>,
+        tuples: usize,
+        warnings: &mut Vec<String>,
+    ) -> Result<Vec<Array>> {
+        let mut out = Vec::new();
+        for a in section.map(|s| &s.arrays[..]).unwrap_or_default() {
+            let type_name = a.attrs.get("type").unwrap_or("");
+            if Kind::of(type_name).is_err() {
+                warnings.push(format!(
+                    "array '{}' of type {type_name} left out (not a numeric array)",
+                    a.attrs.get("Name").unwrap_or("")
+                ));
+                continue;
+            }
+            out.push(self.decode(a, tuples)?);
+        }
+        Ok(out)
     }
 }
 
@@ -898,13 +916,15 @@ fn xml_image(bytes: &[u8]) -> Result<Image> {
     }
     let n = point_count(dims)?;
     let point_section = piece.section("PointData");
+    let mut warnings = Vec::new();
+    let point_data = doc.decode_section(point_section, n, &mut warnings)?;
     Ok(Image {
         grid: Grid {
             dims,
             origin,
             spacing,
         },
-        point_data: doc.decode_section(point_section, n)?,
+        point_data,
         cell_arrays: piece
             .section("CellData")
             .map(|s| {
@@ -915,6 +935,7 @@ fn xml_image(bytes: &[u8]) -> Result<Image> {
             })
             .unwrap_or_default(),
         active_scalars: point_section.and_then(|s| s.attrs.get("Scalars").map(str::to_string)),
+        warnings,
     })
 }
 
@@ -993,8 +1014,8 @@ fn xml_unstructured(bytes: &[u8]) -> Result<Unstructured> {
         connectivity,
         offsets,
         types,
-        point_data: doc.decode_section(piece.section("PointData"), n_points)?,
-        cell_data: doc.decode_section(piece.section("CellData"), n_cells)?,
+        point_data: doc.decode_section(piece.section("PointData"), n_points, &mut Vec::new())?,
+        cell_data: doc.decode_section(piece.section("CellData"), n_cells, &mut Vec::new())?,
         field_data: doc
             .field_data
             .iter()
@@ -1113,6 +1134,7 @@ fn legacy_image(bytes: &[u8]) -> Result<Image> {
         point_data,
         cell_arrays: cell_data.into_iter().map(|a| a.name).collect(),
         active_scalars,
+        warnings: Vec::new(),
     })
 }
 

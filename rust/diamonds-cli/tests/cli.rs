@@ -297,7 +297,26 @@ fn every_reader_fixture_meshes_and_verifies() {
         }
         seen += 1;
     }
-    assert_eq!(seen, 13);
+    assert_eq!(seen, 14);
+}
+
+#[test]
+fn non_numeric_arrays_are_left_out_with_a_warning() {
+    let dir = TempDir::new("cli");
+    let input = fixture("with_string_array.vti");
+    let out = dir.join("strings.vtu");
+    let run = diamonds(["tetra", s(&input), s(&out)]);
+    assert_eq!(run.code, 0, "{run:#?}");
+    assert!(
+        run.stderr.contains("warning: '")
+            && run
+                .stderr
+                .contains("array 'labels' of type String left out"),
+        "{run:#?}"
+    );
+    let mesh = read_unstructured(&out).unwrap();
+    let names: Vec<_> = mesh.point_data.iter().map(|a| a.name.as_str()).collect();
+    assert_eq!(names, ["density", "temperature", "velocity"]);
 }
 
 #[test]

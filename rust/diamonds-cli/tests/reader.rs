@@ -97,6 +97,19 @@ fn cell_data_and_vector_only_images_are_refused_for_meshing() {
 }
 
 #[test]
+fn string_arrays_are_left_out_with_a_warning() {
+    let image = read_image(&fixture("with_string_array.vti")).unwrap();
+    let names: Vec<_> = image.point_data.iter().map(|a| a.name.as_str()).collect();
+    assert_eq!(names, ["density", "temperature", "velocity"]);
+    assert_eq!(image.warnings.len(), 1, "{:?}", image.warnings);
+    assert!(
+        image.warnings[0].contains("'labels'"),
+        "{:?}",
+        image.warnings
+    );
+}
+
+#[test]
 fn written_images_read_back_exactly() {
     let dir = TempDir::new("reader");
     let grid = Grid {
