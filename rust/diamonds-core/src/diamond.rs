@@ -319,6 +319,19 @@ pub fn signed_volume6(t: &Tet) -> i64 {
     e(t[1]).dot(e(t[2]).cross(e(t[3])))
 }
 
+/// Every diamond of the hierarchy over `lattice`, reached from the root through children (for tests).
+#[cfg(test)]
+pub(crate) fn all_diamonds(lattice: &Lattice) -> Vec<Diamond> {
+    let mut seen = std::collections::HashSet::new();
+    let mut stack = vec![Diamond::root(lattice)];
+    while let Some(d) = stack.pop() {
+        if seen.insert(d) {
+            stack.extend(d.children(lattice));
+        }
+    }
+    seen.into_iter().collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -326,18 +339,6 @@ mod tests {
 
     fn lattice(n: usize) -> Lattice {
         Lattice::new([n + 1; 3]).unwrap()
-    }
-
-    /// Every diamond of the hierarchy over a (N+1)^3 lattice, reached from the root through children.
-    fn all_diamonds(l: &Lattice) -> Vec<Diamond> {
-        let mut seen = HashSet::new();
-        let mut stack = vec![Diamond::root(l)];
-        while let Some(d) = stack.pop() {
-            if seen.insert(d) {
-                stack.extend(d.children(l));
-            }
-        }
-        seen.into_iter().collect()
     }
 
     fn key(t: &Tet) -> [IVec3; 4] {

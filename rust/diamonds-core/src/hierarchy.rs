@@ -337,11 +337,7 @@ mod tests {
     #[test]
     fn aborts_when_asked() {
         let samples = vec![0u8; 17 * 17 * 17];
-        let grid = Grid {
-            dims: [17; 3],
-            origin: [0.0; 3],
-            spacing: [1.0; 3],
-        };
+        let grid = Grid::new([17; 3]);
         let err = Hierarchy::build(grid, ScalarSlice::U8(&samples), &mut |f| f < 0.5).unwrap_err();
         assert_eq!(err, Error::Aborted);
     }

@@ -368,9 +368,11 @@ pub fn brute_force_points(t: &Tet) -> Vec<IVec3> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::volume::Grid;
+    use crate::diamond::all_diamonds;
 
-    fn noise(n: usize) -> Vec<u16> {
+    /// A volume of deterministic pseudo-random samples (xorshift), 12 bits.
+    fn noise(grid: Grid) -> Vec<u16> {
+        let n = grid.len();
         // Deterministic pseudo-random samples (xorshift).
         let mut x = 0x2545_f491_4f6c_dd1du64;
         (0..n)
@@ -386,22 +388,12 @@ mod tests {
     #[test]
     fn matches_brute_force_on_every_tet_of_a_16_cube() {
         let n = 16usize;
-        let grid = Grid {
-            dims: [n + 1; 3],
-            origin: [0.0; 3],
-            spacing: [1.0; 3],
-        };
-        let samples = noise(grid.len());
+        let grid = Grid::new([n + 1; 3]);
+        let samples = noise(grid);
         let vol = Volume::new(grid, &samples).unwrap();
         let l = Lattice::new(grid.dims).unwrap();
-        let mut stack = vec![Diamond::root(&l)];
-        let mut seen = std::collections::HashSet::new();
         let mut tets = 0;
-        while let Some(d) = stack.pop() {
-            if !seen.insert(d) {
-                continue;
-            }
-            stack.extend(d.children(&l));
+        for d in all_diamonds(&l) {
             for t in d.tets(&l) {
                 tets += 1;
                 let got = scan_tet(&vol, &t);
@@ -438,7 +430,7 @@ mod tests {
             origin: [0.0; 3],
             spacing: [1.0; 3],
         };
-        let samples = noise(grid.len());
+        let samples = noise(grid);
         let vol = Volume::new(grid, &samples).unwrap();
         let l = Lattice::new(grid.dims).unwrap();
         let stencils = Stencils::new(&grid);
@@ -468,12 +460,8 @@ mod tests {
     #[test]
     fn finest_diamonds_match_their_tets() {
         let n = 16usize;
-        let grid = Grid {
-            dims: [n + 1; 3],
-            origin: [0.0; 3],
-            spacing: [1.0; 3],
-        };
-        let samples = noise(grid.len());
+        let grid = Grid::new([n + 1; 3]);
+        let samples = noise(grid);
         let vol = Volume::new(grid, &samples).unwrap();
         let l = Lattice::new(grid.dims).unwrap();
         let mut checked = 0;
@@ -502,13 +490,7 @@ mod tests {
     #[test]
     fn normal_components_are_powers_of_two() {
         let l = Lattice::new([33; 3]).unwrap();
-        let mut stack = vec![Diamond::root(&l)];
-        let mut seen = std::collections::HashSet::new();
-        while let Some(d) = stack.pop() {
-            if !seen.insert(d) {
-                continue;
-            }
-            stack.extend(d.children(&l));
+        for d in all_diamonds(&l) {
             for t in d.tets(&l) {
                 let p = Planes::new(&t);
                 for n in p.normals {
@@ -523,11 +505,7 @@ mod tests {
     #[test]
     fn linear_field_has_exactly_zero_error() {
         let n = 32usize;
-        let grid = Grid {
-            dims: [n + 1; 3],
-            origin: [0.0; 3],
-            spacing: [1.0; 3],
-        };
+        let grid = Grid::new([n + 1; 3]);
         let samples: Vec<i16> = (0..grid.len())
             .map(|i| {
                 let [x, y, z] = grid.ijk(i);

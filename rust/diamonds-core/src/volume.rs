@@ -11,6 +11,15 @@ pub struct Grid {
 }
 
 impl Grid {
+    /// A grid of `dims` points with VTK's default geometry: origin 0, spacing 1.
+    pub fn new(dims: [usize; 3]) -> Self {
+        Self {
+            dims,
+            origin: [0.0; 3],
+            spacing: [1.0; 3],
+        }
+    }
+
     /// Validates dimensions (≥ 2 points per axis) and geometry (finite origin, finite positive spacing).
     pub fn validate(&self) -> Result<()> {
         if self.dims.iter().any(|&d| d < 2) {
@@ -245,11 +254,7 @@ mod tests {
     use super::*;
 
     fn grid(dims: [usize; 3]) -> Grid {
-        Grid {
-            dims,
-            origin: [0.0; 3],
-            spacing: [1.0; 3],
-        }
+        Grid::new(dims)
     }
 
     #[test]
