@@ -25,16 +25,17 @@
  *    bits of that vertex's coordinates (Weiss & De Floriani §4, Eq. 1), so the hierarchy needs no
  *    pointers: its per-diamond data is an array parallel to the samples.
  * 3. Exact error. For every diamond the build pass enumerates the integer lattice points inside
- *    each of its tetrahedra (Marchesin et al., "3D ROAM for Scalable Volume Visualization", §4.1:
- *    LEB tetrahedra have edge vectors in {-1,0,1} and a face parallel to a coordinate plane, so
- *    they slice into triangles) and stores the maximum |sample - linear interpolant|. This is the
+ *    each of its tetrahedra (Marchesin et al., "3D ROAM for Scalable Volume Visualization", §4.1;
+ *    here row by row along x, each row cut by the four face planes in exact integer arithmetic)
+ *    and stores the maximum |sample - linear interpolant|. This is the
  *    exact error over the samples, not an estimate, stored rounded up (an upper bound within
  *    0.8 %, and 0 exactly when the error is 0). The hierarchy costs 4 bytes per input point.
- * 4. Selective refinement. A query starts from the coarsest mesh and splits the diamond of
- *    largest error first, after splitting its unsplit parents (the closure of Gregorski §4), until
- *    every diamond meets Tolerance, or until the next split would exceed
- *    MaximumNumberOfTetrahedra. Because a diamond is split only with all its parents, the result
- *    is always conforming: no cracks, no hanging vertices.
+ * 4. Selective refinement. A query starts from the coarsest mesh that fits the image and splits
+ *    every diamond whose error exceeds Tolerance, after splitting its unsplit parents (the closure
+ *    of Gregorski §4), until every diamond meets Tolerance. With MaximumNumberOfTetrahedra the
+ *    diamond of largest error goes first and the query stops before the next split would exceed
+ *    the budget. Because a diamond is split only with all its parents, the result is always
+ *    conforming: no cracks, no hanging vertices.
  *
  * Domain handling: image dimensions need not be 2^k+1. Tetrahedra that cross a far face of the
  * image are always refined until they lie inside it, and tetrahedra outside are dropped, so the
