@@ -26,6 +26,8 @@ fn tolerance_holds_at_every_sample_on_odd_dims() {
         [10, 3, 7],
         [2, 2, 2],
         [40, 9, 26],
+        [130, 2, 3],
+        [3, 70, 2],
     ] {
         let (g, v) = ml_u8(dims);
         let h = build(g, ScalarSlice::U8(&v));
