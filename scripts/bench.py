@@ -72,6 +72,9 @@ def worker(method, path, tolerance):
         result["total"] = result["build"] + result["query"]
         f.UpdatePropertyInformation()
         result["builds"] = int(f.GetProperty("NumberOfHierarchyBuilds").GetElement(0))
+        result["bytes_per_point"] = int(f.GetProperty("HierarchyMemorySize").GetElement(0)) / (
+            reader.GetDataInformation().GetNumberOfPoints()
+        )
         fd = f.FieldData
         result["max_error"] = fd["MaximumError"].GetRange()[1] if "MaximumError" in fd.keys() else None
     result["tets"] = f.GetDataInformation().GetNumberOfCells()
@@ -127,8 +130,8 @@ def main():
             "",
             f"Tetrahedralize: **{ref['tets']:,} tets**, {fmt(ref['total'])} s, peak +{fmt(ref['peak_mib'], 0)} MiB.",
             "",
-            "| threads | tolerance | tets | fewer tets | build s | query s | total s | faster | peak MiB | less memory | max error | base tets |",
-            "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+            "| threads | tolerance | tets | fewer tets | build s | query s | total s | faster | peak MiB | less memory | max error | base tets | hierarchy B/point |",
+            "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
         ]
         for threads in THREADS:
             for tol in TOLERANCES:
@@ -140,7 +143,7 @@ def main():
                     f"| {threads} | {tol:g} | {r['tets']:,} | {ref['tets'] / r['tets']:.1f}× | {fmt(r['build'])} | "
                     f"{fmt(r['query'])} | {fmt(r['total'])} | {ref['total'] / r['total']:.1f}× | "
                     f"{fmt(r['peak_mib'], 0)} | {ref['peak_mib'] / max(r['peak_mib'], 1e-9):.1f}× | "
-                    f"{r['max_error']:g} | {r['base_tets']:,} |"
+                    f"{r['max_error']:g} | {r['base_tets']:,} | {r['bytes_per_point']:g} |"
                 )
         lines.append("")
     text = "\n".join(lines) + "\n"
