@@ -5,7 +5,9 @@
 use crate::volume::{Grid, Sample, Volume};
 use crate::TetMesh;
 use glam::{DMat3, DVec3, I64Vec3};
+use rayon::prelude::*;
 use std::collections::HashMap;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// What [`check_mesh`] measured.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -110,52 +112,99 @@ pub fn check_mesh(mesh: &TetMesh, grid: &Grid) -> Result<MeshReport, String> {
 
 /// Checks that every input sample lies in some tetrahedron of `mesh` and that the linear interpolation
 /// of every tetrahedron containing it is within `tolerance` of it. Returns the largest error found.
-/// Brute force over each tetrahedron's bounding box with `f64` barycentric coordinates.
+/// Brute force over each tetrahedron's bounding box with `f64` barycentric coordinates, in parallel.
 pub fn check_tolerance<T: Sample>(
     mesh: &TetMesh,
     volume: &Volume<'_, T>,
     tolerance: f64,
 ) -> Result<f64, String> {
     let grid = volume.grid;
-    let mut covered = vec![false; grid.len()];
-    let mut worst = 0.0f64;
+    let covered: Vec<AtomicBool> = (0..grid.len()).map(|_| AtomicBool::new(false)).collect();
     let slack = 1e-9 * (1.0 + tolerance);
-    for (c, t) in mesh.tets.iter().enumerate() {
-        let ids = t.map(|v| mesh.point_ids[v as usize]);
-        let p = ids.map(|i| {
-            let [x, y, z] = grid.ijk(i);
-            DVec3::new(x as f64, y as f64, z as f64)
-        });
-        let f = ids.map(|i| volume.samples[i].to_f64());
-        let inv = DMat3::from_cols(p[1] - p[0], p[2] - p[0], p[3] - p[0]).inverse();
-        let lo = p[0].min(p[1]).min(p[2].min(p[3]));
-        let hi = p[0].max(p[1]).max(p[2].max(p[3]));
-        for z in lo.z as usize..=hi.z as usize {
-            for y in lo.y as usize..=hi.y as usize {
-                for x in lo.x as usize..=hi.x as usize {
-                    let l = inv * (DVec3::new(x as f64, y as f64, z as f64) - p[0]);
-                    let l0 = 1.0 - l.element_sum();
-                    if l.min_element() < -1e-9 || l0 < -1e-9 {
-                        continue;
+    let worst = mesh
+        .tets
+        .par_iter()
+        .enumerate()
+        .try_fold(
+            || 0.0f64,
+            |mut worst, (c, t)| {
+                let ids = t.map(|v| mesh.point_ids[v as usize]);
+                let p = ids.map(|i| {
+                    let [x, y, z] = grid.ijk(i);
+                    DVec3::new(x as f64, y as f64, z as f64)
+                });
+                let f = ids.map(|i| volume.samples[i].to_f64());
+                let allowed = tolerance + slack * (1.0 + f.iter().fold(0.0f64, |m, v| m.max(v.abs())));
+                let inv = DMat3::from_cols(p[1] - p[0], p[2] - p[0], p[3] - p[0]).inverse();
+                let lo = p[0].min(p[1]).min(p[2].min(p[3]));
+                let hi = p[0].max(p[1]).max(p[2].max(p[3]));
+                for z in lo.z as usize..=hi.z as usize {
+                    for y in lo.y as usize..=hi.y as usize {
+                        for x in lo.x as usize..=hi.x as usize {
+                            let l = inv * (DVec3::new(x as f64, y as f64, z as f64) - p[0]);
+                            let l0 = 1.0 - l.element_sum();
+                            if l.min_element() < -1e-9 || l0 < -1e-9 {
+                                continue;
+                            }
+                            let i = grid.index(x, y, z);
+                            covered[i].store(true, Ordering::Relaxed);
+                            let interp = f[0] * l0 + f[1] * l.x + f[2] * l.y + f[3] * l.z;
+                            let e = (interp - volume.samples[i].to_f64()).abs();
+                            if e > allowed {
+                                return Err(format!(
+                                    "sample ({x}, {y}, {z}) = {} but tet {c} interpolates {interp} (error {e} > tolerance {tolerance})",
+                                    volume.samples[i].to_f64()
+                                ));
+                            }
+                            worst = worst.max(e);
+                        }
                     }
-                    let i = grid.index(x, y, z);
-                    covered[i] = true;
-                    let interp = f[0] * l0 + f[1] * l.x + f[2] * l.y + f[3] * l.z;
-                    let e = (interp - volume.samples[i].to_f64()).abs();
-                    if e > tolerance + slack * (1.0 + f.iter().fold(0.0f64, |m, v| m.max(v.abs())))
-                    {
-                        return Err(format!(
-                            "sample ({x}, {y}, {z}) = {} but tet {c} interpolates {interp} (error {e} > tolerance {tolerance})",
-                            volume.samples[i].to_f64()
-                        ));
-                    }
-                    worst = worst.max(e);
                 }
-            }
-        }
-    }
-    if let Some(i) = covered.iter().position(|&c| !c) {
+                Ok(worst)
+            },
+        )
+        .try_reduce(|| 0.0, |a, b| Ok(a.max(b)))?;
+    if let Some(i) = covered.iter().position(|c| !c.load(Ordering::Relaxed)) {
         return Err(format!("sample {:?} lies in no tetrahedron", grid.ijk(i)));
     }
     Ok(worst)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{Hierarchy, Query, ScalarSlice};
+
+    #[test]
+    fn the_checks_catch_broken_meshes() {
+        let grid = Grid::new([9, 7, 5]);
+        let samples: Vec<u8> = (0..grid.len()).map(|i| (i * 37 % 251) as u8).collect();
+        let volume = Volume::new(grid, &samples[..]).unwrap();
+        let h = Hierarchy::build(grid, ScalarSlice::U8(&samples), &mut |_| true).unwrap();
+        let mesh = h.query(&Query::tolerance(20.0)).unwrap();
+        check_mesh(&mesh, &grid).unwrap();
+        check_tolerance(&mesh, &volume, 20.0).unwrap();
+        // A missing tetrahedron: a hole.
+        let mut holed = mesh.clone();
+        holed.tets.pop();
+        holed.levels.pop();
+        holed.errors.pop();
+        assert!(check_mesh(&holed, &grid).unwrap_err().contains("sum"));
+        // An inverted tetrahedron.
+        let mut inverted = mesh.clone();
+        inverted.tets[0].swap(0, 1);
+        assert!(check_mesh(&inverted, &grid)
+            .unwrap_err()
+            .contains("negatively"));
+        // A sample off by more than the tolerance.
+        let mut changed = samples.clone();
+        let i = (0..grid.len())
+            .find(|&i| !mesh.point_ids.contains(&i))
+            .unwrap();
+        changed[i] = changed[i].wrapping_add(128);
+        let other = Volume::new(grid, &changed[..]).unwrap();
+        assert!(check_tolerance(&mesh, &other, 20.0)
+            .unwrap_err()
+            .contains("tolerance"));
+    }
 }
