@@ -22,6 +22,7 @@
 pub mod diamond;
 pub mod fields;
 pub mod hierarchy;
+pub mod isosurface;
 pub mod lattice;
 pub mod mesh;
 pub mod refine;
@@ -30,6 +31,7 @@ pub mod validate;
 pub mod volume;
 
 pub use hierarchy::{Hierarchy, Progress};
+pub use isosurface::{IsoQuery, IsoSurface};
 pub use mesh::TetMesh;
 pub use refine::Query;
 pub use volume::{Grid, ScalarSlice, ScalarType, Volume};
