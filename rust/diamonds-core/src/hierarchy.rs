@@ -161,7 +161,7 @@ impl Hierarchy {
 
     /// Extracts the adaptive mesh for `query` (Gregorski §4 selective refinement with closure).
     pub fn query(&self, query: &Query) -> Result<TetMesh> {
-        let split = Refiner::run(self, query)?;
+        let split = Refiner::run(self, query, &|d| self.error(d))?;
         Ok(crate::mesh::extract(self, &split))
     }
 

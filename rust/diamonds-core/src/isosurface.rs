@@ -1,6 +1,22 @@
-//! Multiresolution isosurfaces from the diamond hierarchy (Gregorski §6, §6.1–6.2; Weiss & De Floriani §2.1, §5.1).
+//! Multiresolution isosurfaces from the diamond hierarchy (Gregorski §6, §6.1–6.2; Weiss & De Floriani
+//! §2.1, §5.1).
+//!
+//! A query refines the hierarchy with the *isosurface error* of Gregorski §6.2 as the diamond error:
+//! for each tetrahedron `T` of a diamond, `ie_T = ae / ‖∇T‖` (the diamond's approximation error over the
+//! magnitude of the tetrahedron's linear gradient, in world units) clamped to the tetrahedron's size,
+//! because a surface drawn through `T` never leaves it. Diamonds whose sample range misses every
+//! isovalue are *empty* (Gregorski §6.1) and never split. Tolerance 0 splits every non-empty diamond,
+//! so the surface is exactly the full-resolution one. The surface is then extracted from the leaves of
+//! the adaptive, conforming mesh by marching tetrahedra; a point is shared by every triangle through
+//! its mesh edge, so the surface is crack-free wherever the full-resolution one is.
 
-use crate::{Hierarchy, Result, ScalarSlice, TetMesh};
+use crate::diamond::{signed_volume6, Diamond};
+use crate::lattice::{Lattice, Placement, Tet};
+use crate::refine::{Query, Refiner};
+use crate::volume::{Grid, Sample, Volume};
+use crate::{with_volume, Error, Hierarchy, Result, ScalarSlice, TetMesh};
+use glam::{DMat3, DVec3, IVec3};
+use rustc_hash::FxHashMap;
 
 /// An isosurface query.
 #[derive(Clone, Debug, PartialEq)]
@@ -18,6 +34,20 @@ pub struct IsoQuery {
     pub compute_normals: bool,
     /// Also return the tetrahedra that carry the surface.
     pub carrier_tetrahedra: bool,
+}
+
+impl IsoQuery {
+    /// One isovalue at `tolerance`, with normals.
+    pub fn new(isovalue: f64, tolerance: f64) -> Self {
+        Self {
+            isovalues: vec![isovalue],
+            tolerance,
+            max_triangles: 0,
+            region_of_interest: None,
+            compute_normals: true,
+            carrier_tetrahedra: false,
+        }
+    }
 }
 
 /// An extracted isosurface.
@@ -41,6 +71,245 @@ impl Hierarchy {
     /// Extracts the isosurface(s) of `query` from the adaptive mesh; `scalars` must be the samples the
     /// hierarchy was built from.
     pub fn isosurface(&self, scalars: ScalarSlice<'_>, query: &IsoQuery) -> Result<IsoSurface> {
-        todo!("{:?} {:?}", scalars.len(), query)
+        if query.isovalues.is_empty() || query.isovalues.iter().any(|v| !v.is_finite()) {
+            return Err(Error::Parameter(format!(
+                "isovalues must be one or more finite numbers (got {:?})",
+                query.isovalues
+            )));
+        }
+        if scalars.len() != self.grid().len() {
+            return Err(Error::Length {
+                len: scalars.len(),
+                expected: self.grid().len(),
+                dims: self.grid().dims,
+            });
+        }
+        with_volume!(*self.grid(), scalars, |v| self.isosurface_of(&v, query))
     }
+
+    fn isosurface_of<T: Sample>(
+        &self,
+        volume: &Volume<'_, T>,
+        query: &IsoQuery,
+    ) -> Result<IsoSurface> {
+        let mut surface = self.isosurface_at(volume, query, query.tolerance)?;
+        if query.max_triangles == 0 || surface.triangles.len() <= query.max_triangles {
+            return Ok(surface);
+        }
+        // Budget: the smallest tolerance whose surface fits, by bisection on the tolerance (the
+        // triangle count does not grow with it). At the data diagonal nothing non-empty is split.
+        let b = self.grid().bounds();
+        let diagonal = DVec3::new(b[1] - b[0], b[3] - b[2], b[5] - b[4]).length();
+        let (mut lo, mut hi) = (query.tolerance, diagonal.max(query.tolerance));
+        let mut best = self.isosurface_at(volume, query, hi)?;
+        for _ in 0..24 {
+            let mid = 0.5 * (lo + hi);
+            let s = self.isosurface_at(volume, query, mid)?;
+            if s.triangles.len() <= query.max_triangles {
+                (hi, best) = (mid, s);
+            } else {
+                lo = mid;
+            }
+            if hi - lo <= 1e-3 * hi {
+                break;
+            }
+        }
+        surface = best;
+        Ok(surface)
+    }
+
+    fn isosurface_at<T: Sample>(
+        &self,
+        volume: &Volume<'_, T>,
+        query: &IsoQuery,
+        tolerance: f64,
+    ) -> Result<IsoSurface> {
+        let lattice = *self.lattice();
+        let isovalues = &query.isovalues;
+        let criterion = |d: Diamond| {
+            if !lattice.in_domain(d.center) {
+                return 0.0; // split in the base mesh, or outside the domain
+            }
+            let (lo, hi) = self.range(d);
+            if !isovalues.iter().any(|&v| lo <= v && v <= hi) {
+                0.0 // empty (Gregorski §6.1)
+            } else if tolerance == 0.0 {
+                f64::INFINITY
+            } else {
+                isosurface_error(self, volume, d)
+            }
+        };
+        let refine = Query {
+            tolerance,
+            max_tetrahedra: 0,
+            region_of_interest: query.region_of_interest,
+        };
+        let split = Refiner::run(self, &refine, &criterion)?;
+        let carriers = crate::mesh::leaves_where(&lattice, &split, |t| {
+            let f = t.map(|p| volume.at(p.x as usize, p.y as usize, p.z as usize));
+            isovalues.iter().any(|&v| crosses(&f, v))
+        });
+        let mut surface = marching_tetrahedra(volume, &carriers, isovalues, query.compute_normals);
+        surface.error_bound = carriers
+            .iter()
+            .filter_map(Diamond::of_tet)
+            .map(|d| isosurface_error(self, volume, d))
+            .fold(0.0, f64::max);
+        if query.carrier_tetrahedra {
+            surface.carrier = Some(carrier_mesh(self, &carriers));
+        }
+        Ok(surface)
+    }
+}
+
+/// Does the tetrahedron with vertex values `f` carry the isosurface of `v`? (Vertices at `v` count as above.)
+#[inline]
+fn crosses(f: &[f64; 4], v: f64) -> bool {
+    let min = f[0].min(f[1]).min(f[2].min(f[3]));
+    let max = f[0].max(f[1]).max(f[2].max(f[3]));
+    min < v && v <= max
+}
+
+/// World position of a lattice point.
+#[inline]
+fn world(grid: &Grid, p: IVec3) -> DVec3 {
+    DVec3::from(grid.point([p.x as usize, p.y as usize, p.z as usize]))
+}
+
+/// Gradient (world units) of the linear interpolant on `t`.
+fn tet_gradient<T: Sample>(volume: &Volume<'_, T>, t: &Tet) -> DVec3 {
+    let p = t.map(|q| world(&volume.grid, q));
+    let f = t.map(|q| volume.at(q.x as usize, q.y as usize, q.z as usize));
+    let m = DMat3::from_cols(p[1] - p[0], p[2] - p[0], p[3] - p[0]);
+    m.transpose().inverse() * DVec3::new(f[1] - f[0], f[2] - f[0], f[3] - f[0])
+}
+
+/// Gregorski §6.2, Eq. (5): the largest `min(ae / ‖∇T‖, size(T))` over the diamond's inside tetrahedra.
+fn isosurface_error<T: Sample>(h: &Hierarchy, volume: &Volume<'_, T>, d: Diamond) -> f64 {
+    let ae = h.error(d);
+    if ae == 0.0 {
+        return 0.0;
+    }
+    let lattice = h.lattice();
+    d.tets(lattice)
+        .iter()
+        .filter(|t| lattice.place(t) == Placement::Inside)
+        .map(|t| {
+            let p = t.map(|q| world(&volume.grid, q));
+            let size = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)]
+                .iter()
+                .map(|&(a, b)| p[a].distance(p[b]))
+                .fold(0.0, f64::max);
+            let g = tet_gradient(volume, t).length();
+            if g > 0.0 {
+                (ae / g).min(size)
+            } else {
+                size
+            }
+        })
+        .fold(0.0, f64::max)
+}
+
+/// Gradient at a lattice point by central differences (one-sided on the boundary), world units.
+fn point_gradient<T: Sample>(volume: &Volume<'_, T>, p: IVec3) -> DVec3 {
+    let grid = &volume.grid;
+    let mut g = DVec3::ZERO;
+    for a in 0..3 {
+        let hi = grid.dims[a] as i32 - 1;
+        let (mut lo_p, mut hi_p) = (p, p);
+        lo_p[a] = (p[a] - 1).max(0);
+        hi_p[a] = (p[a] + 1).min(hi);
+        let at = |q: IVec3| volume.at(q.x as usize, q.y as usize, q.z as usize);
+        g[a] = (at(hi_p) - at(lo_p)) / ((hi_p[a] - lo_p[a]) as f64 * grid.spacing[a]);
+    }
+    g
+}
+
+/// Marching tetrahedra over `tets` (all inside the grid) for every isovalue. Points are shared by edge
+/// and isovalue, so the surface is crack-free across face-adjacent tetrahedra; triangles are oriented
+/// toward increasing values.
+pub fn marching_tetrahedra<T: Sample>(
+    volume: &Volume<'_, T>,
+    tets: &[Tet],
+    isovalues: &[f64],
+    compute_normals: bool,
+) -> IsoSurface {
+    let grid = &volume.grid;
+    let lattice_index = |p: IVec3| grid.index(p.x as usize, p.y as usize, p.z as usize);
+    let mut surface = IsoSurface::default();
+    let mut ids: FxHashMap<(usize, usize, usize), u32> = FxHashMap::default();
+    for t in tets {
+        let f = t.map(|p| volume.at(p.x as usize, p.y as usize, p.z as usize));
+        let gradient = tet_gradient(volume, t);
+        for (k, &v) in isovalues.iter().enumerate() {
+            if !crosses(&f, v) {
+                continue;
+            }
+            let mut point = |a: usize, b: usize| -> u32 {
+                let (ia, ib) = (lattice_index(t[a]), lattice_index(t[b]));
+                let key = (ia.min(ib), ia.max(ib), k);
+                *ids.entry(key).or_insert_with(|| {
+                    // Interpolate from the lower id so that both tets sharing the edge agree bit for bit.
+                    let (a, b) = if ia < ib { (a, b) } else { (b, a) };
+                    let s = (v - f[a]) / (f[b] - f[a]);
+                    let (pa, pb) = (world(grid, t[a]), world(grid, t[b]));
+                    surface.points.push((pa + s * (pb - pa)).to_array());
+                    surface.values.push(v);
+                    if compute_normals {
+                        let (ga, gb) = (point_gradient(volume, t[a]), point_gradient(volume, t[b]));
+                        let n = (ga + s * (gb - ga)).normalize_or(gradient.normalize_or_zero());
+                        surface.normals.push(n.as_vec3().to_array());
+                    }
+                    (surface.points.len() - 1) as u32
+                })
+            };
+            let above: Vec<usize> = (0..4).filter(|&i| f[i] >= v).collect();
+            let below: Vec<usize> = (0..4).filter(|&i| f[i] < v).collect();
+            let polygon: Vec<u32> = match (above.len(), below.len()) {
+                (1, 3) => below.iter().map(|&b| point(above[0], b)).collect(),
+                (3, 1) => above.iter().map(|&a| point(a, below[0])).collect(),
+                _ => {
+                    let ([a, b], [c, d]) = ([above[0], above[1]], [below[0], below[1]]);
+                    vec![point(a, c), point(a, d), point(b, d), point(b, c)]
+                }
+            };
+            for tri in [[0, 1, 2], [0, 2, 3]].iter().take(polygon.len() - 2) {
+                let mut tri = tri.map(|i| polygon[i]);
+                let p = tri.map(|i| DVec3::from(surface.points[i as usize]));
+                if (p[1] - p[0]).cross(p[2] - p[0]).dot(gradient) < 0.0 {
+                    tri.swap(1, 2);
+                }
+                surface.triangles.push(tri);
+            }
+        }
+    }
+    surface
+}
+
+/// The carrier tetrahedra as a mesh of their own (points deduplicated by input point).
+fn carrier_mesh(h: &Hierarchy, tets: &[Tet]) -> TetMesh {
+    let lattice: &Lattice = h.lattice();
+    let grid = h.grid();
+    let mut point_ids: Vec<usize> = tets.iter().flatten().map(|&p| lattice.index(p)).collect();
+    point_ids.sort_unstable();
+    point_ids.dedup();
+    let id = |p: IVec3| point_ids.binary_search(&lattice.index(p)).expect("listed") as u32;
+    let mut mesh = TetMesh::default();
+    for t in tets {
+        let mut t = *t;
+        if signed_volume6(&t) < 0 {
+            t.swap(2, 3);
+        }
+        let (depth, error) = match Diamond::of_tet(&t) {
+            Some(d) => (d.depth(lattice), h.error(d) as f32),
+            None => (3 * lattice.levels, 0.0),
+        };
+        mesh.tets.push(t.map(id));
+        mesh.levels.push(depth as u8);
+        mesh.errors.push(error);
+        mesh.max_error = mesh.max_error.max(error as f64);
+    }
+    mesh.points = point_ids.iter().map(|&i| grid.point(grid.ijk(i))).collect();
+    mesh.point_ids = point_ids;
+    mesh
 }

@@ -65,6 +65,26 @@ fn subtrees(lattice: &Lattice, split: &SplitSet) -> Vec<Tet> {
     leaves
 }
 
+/// The inside leaves of the split set for which `keep` holds, in a deterministic order.
+pub(crate) fn leaves_where(
+    lattice: &Lattice,
+    split: &SplitSet,
+    keep: impl Fn(&Tet) -> bool + Sync,
+) -> Vec<Tet> {
+    subtrees(lattice, split)
+        .into_par_iter()
+        .flat_map_iter(|t| {
+            let mut out = Vec::new();
+            walk(lattice, split, t, &mut |t| {
+                if keep(t) {
+                    out.push(*t)
+                }
+            });
+            out
+        })
+        .collect()
+}
+
 /// Number of inside leaves of the split set.
 pub(crate) fn count_tets(h: &Hierarchy, split: &SplitSet) -> usize {
     subtrees(h.lattice(), split)

@@ -134,7 +134,6 @@ impl SplitQueue {
 
 /// The refinement state of one query.
 pub(crate) struct Refiner<'h> {
-    hierarchy: &'h Hierarchy,
     lattice: Lattice,
     split: SplitSet,
     queue: SplitQueue,
@@ -142,18 +141,25 @@ pub(crate) struct Refiner<'h> {
     /// Region of interest in lattice coordinates (closed box).
     roi: Option<(glam::DVec3, glam::DVec3)>,
     tolerance: f64,
+    /// The diamond error that drives refinement (data units for meshes, world units for isosurfaces).
+    criterion: &'h dyn Fn(Diamond) -> f64,
 }
 
 impl<'h> Refiner<'h> {
-    fn new(hierarchy: &'h Hierarchy, split: SplitSet, tets: usize) -> Self {
+    fn new(
+        hierarchy: &'h Hierarchy,
+        split: SplitSet,
+        tets: usize,
+        criterion: &'h dyn Fn(Diamond) -> f64,
+    ) -> Self {
         Self {
-            hierarchy,
             lattice: *hierarchy.lattice(),
             split,
             queue: SplitQueue::Unordered(Vec::new()),
             tets,
             roi: None,
             tolerance: 0.0,
+            criterion,
         }
     }
 
@@ -161,7 +167,7 @@ impl<'h> Refiner<'h> {
     /// Returns the split set and the number of tetrahedra inside the domain.
     pub(crate) fn base_mesh(hierarchy: &'h Hierarchy) -> (SplitSet, usize) {
         let lattice = *hierarchy.lattice();
-        let mut r = Self::new(hierarchy, SplitSet::new(&lattice), 0);
+        let mut r = Self::new(hierarchy, SplitSet::new(&lattice), 0, &|_| 0.0);
         let mut stack = vec![Diamond::root(&lattice)];
         while let Some(d) = stack.pop() {
             if r.split.contains(d) || place_diamond(&lattice, d) != Placement::Straddling {
@@ -178,8 +184,12 @@ impl<'h> Refiner<'h> {
         (r.split, tets)
     }
 
-    /// Runs `query` from the base mesh and returns the split set.
-    pub(crate) fn run(hierarchy: &'h Hierarchy, query: &Query) -> Result<SplitSet> {
+    /// Runs `query` from the base mesh with `criterion` as the diamond error and returns the split set.
+    pub(crate) fn run(
+        hierarchy: &'h Hierarchy,
+        query: &Query,
+        criterion: &'h dyn Fn(Diamond) -> f64,
+    ) -> Result<SplitSet> {
         if !query.tolerance.is_finite() || query.tolerance < 0.0 {
             return Err(Error::Parameter(format!(
                 "tolerance must be a finite number ≥ 0 (got {})",
@@ -190,6 +200,7 @@ impl<'h> Refiner<'h> {
             hierarchy,
             hierarchy.base().clone(),
             hierarchy.base_tetrahedra(),
+            criterion,
         );
         r.tolerance = query.tolerance;
         let budget = query.max_tetrahedra;
@@ -248,7 +259,7 @@ impl<'h> Refiner<'h> {
         }
     }
 
-    /// The error that drives refinement: the diamond's error inside the region of interest, 0 outside.
+    /// The error that drives refinement: the criterion inside the region of interest, 0 outside.
     fn error(&self, d: Diamond) -> f64 {
         if let Some((lo, hi)) = self.roi {
             let (dlo, dhi) = d.bounds();
@@ -256,7 +267,7 @@ impl<'h> Refiner<'h> {
                 return 0.0;
             }
         }
-        self.hierarchy.error(d)
+        (self.criterion)(d)
     }
 
     /// Number of `d`'s tetrahedra inside the domain (each becomes two when `d` is split).

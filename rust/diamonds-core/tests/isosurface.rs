@@ -1,0 +1,236 @@
+//! Isosurface properties: watertight, consistently oriented, exact at tolerance 0 (same as marching
+//! tetrahedra over the full-resolution LEB mesh), Hausdorff distance to analytic surfaces shrinking with
+//! the tolerance, isovalue changes equal to fresh runs, budgets honoured.
+
+use diamonds::diamond::{bisect, Diamond};
+use diamonds::fields::{sample, sphere_distance, torus_distance, unit_grid};
+use diamonds::isosurface::marching_tetrahedra;
+use diamonds::lattice::{Lattice, Placement, Tet};
+use diamonds::{Grid, Hierarchy, IsoQuery, IsoSurface, ScalarSlice, Volume};
+use glam::DVec3;
+use std::collections::HashMap;
+
+fn build(grid: Grid, s: &[f32]) -> Hierarchy {
+    Hierarchy::build(grid, ScalarSlice::F32(s), &mut |_| true).expect("build")
+}
+
+fn sphere(dims: [usize; 3], r: f64) -> (Grid, Vec<f32>) {
+    let g = unit_grid(dims);
+    let v = sample(&g, |x, y, z| sphere_distance(r)(x, y, z) as f32);
+    (g, v)
+}
+
+/// Every edge in exactly two triangles (a closed surface away from the boundary), no degenerate ids.
+fn assert_watertight(s: &IsoSurface, what: &str) {
+    assert!(!s.triangles.is_empty(), "{what}: empty surface");
+    let mut edges: HashMap<(u32, u32), u32> = HashMap::new();
+    for t in &s.triangles {
+        assert!(
+            t[0] != t[1] && t[1] != t[2] && t[0] != t[2],
+            "{what}: degenerate {t:?}"
+        );
+        for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
+            *edges.entry((a.min(b), a.max(b))).or_default() += 1;
+        }
+    }
+    for (e, n) in edges {
+        assert_eq!(n, 2, "{what}: edge {e:?} in {n} triangles");
+    }
+}
+
+fn area(s: &IsoSurface) -> f64 {
+    s.triangles
+        .iter()
+        .map(|t| {
+            let p = t.map(|i| DVec3::from(s.points[i as usize]));
+            0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length()
+        })
+        .sum()
+}
+
+/// Largest distance from the surface's points and triangle centroids to the sphere of radius `r`.
+fn distance_to_sphere(s: &IsoSurface, r: f64) -> f64 {
+    let centroids = s.triangles.iter().map(|t| {
+        t.iter()
+            .map(|&i| DVec3::from(s.points[i as usize]))
+            .sum::<DVec3>()
+            / 3.0
+    });
+    s.points
+        .iter()
+        .map(|&p| DVec3::from(p))
+        .chain(centroids)
+        .map(|p| (p.length() - r).abs())
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn watertight_and_oriented_at_every_tolerance() {
+    for dims in [[33, 33, 33], [40, 29, 35]] {
+        let (g, v) = sphere(dims, 0.6);
+        let h = build(g, &v);
+        let mut last = usize::MAX;
+        for tol in [0.0, 0.005, 0.02, 0.1] {
+            let s = h
+                .isosurface(ScalarSlice::F32(&v), &IsoQuery::new(0.0, tol))
+                .unwrap();
+            assert_watertight(&s, &format!("{dims:?} tol {tol}"));
+            assert!(
+                s.triangles.len() <= last,
+                "{dims:?}: more triangles at a larger tolerance"
+            );
+            last = s.triangles.len();
+            assert!(
+                s.error_bound <= tol,
+                "{dims:?}: bound {} > {tol}",
+                s.error_bound
+            );
+            // Oriented toward increasing distance: outward.
+            for t in &s.triangles {
+                let p = t.map(|i| DVec3::from(s.points[i as usize]));
+                let n = (p[1] - p[0]).cross(p[2] - p[0]);
+                assert!(
+                    n.dot(p[0] + p[1] + p[2]) >= 0.0,
+                    "{dims:?}: inward triangle {p:?}"
+                );
+            }
+            for (n, p) in s.normals.iter().zip(&s.points) {
+                let n = glam::Vec3::from(*n);
+                assert!((n.length() - 1.0).abs() < 1e-5);
+                assert!(
+                    n.as_dvec3().dot(DVec3::from(*p)) > 0.0,
+                    "inward normal at {p:?}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn tolerance_zero_is_marching_tetrahedra_at_full_resolution() {
+    let (g, v) = sphere([17, 17, 17], 0.55);
+    let h = build(g, &v);
+    let adaptive = h
+        .isosurface(ScalarSlice::F32(&v), &IsoQuery::new(0.0, 0.0))
+        .unwrap();
+    // Reference: every root tetrahedron bisected to the unit cubes.
+    let l = Lattice::new(g.dims).unwrap();
+    let mut tets: Vec<Tet> = Diamond::root(&l).tets(&l).to_vec();
+    for _ in 0..3 * l.levels {
+        tets = tets.iter().flat_map(bisect).collect();
+    }
+    assert!(tets.iter().all(|t| l.place(t) == Placement::Inside));
+    let vol = Volume::new(g, &v[..]).unwrap();
+    let full = marching_tetrahedra(&vol, &tets, &[0.0], false);
+    assert_eq!(adaptive.triangles.len(), full.triangles.len());
+    assert_eq!(adaptive.points.len(), full.points.len());
+    assert!((area(&adaptive) - area(&full)).abs() <= 1e-9 * area(&full));
+    assert_eq!(adaptive.error_bound, 0.0);
+}
+
+#[test]
+fn hausdorff_distance_shrinks_with_the_tolerance() {
+    let r = 0.6;
+    let (g, v) = sphere([65, 65, 65], r);
+    let h = build(g, &v);
+    let exact = distance_to_sphere(
+        &h.isosurface(ScalarSlice::F32(&v), &IsoQuery::new(0.0, 0.0))
+            .unwrap(),
+        r,
+    );
+    let mut last = f64::INFINITY;
+    for tol in [0.2, 0.05, 0.01, 0.0] {
+        let s = h
+            .isosurface(ScalarSlice::F32(&v), &IsoQuery::new(0.0, tol))
+            .unwrap();
+        let d = distance_to_sphere(&s, r);
+        assert!(
+            d <= tol + exact + 1e-9,
+            "tol {tol}: distance {d} > tolerance + full-resolution error {exact}"
+        );
+        assert!(d <= last + 1e-12, "tol {tol}: {d} > {last}");
+        last = d;
+    }
+    // The torus: a surface with a hole, two isovalues at once.
+    let gt = unit_grid([49, 49, 49]);
+    let vt = sample(&gt, |x, y, z| torus_distance(0.5, 0.2)(x, y, z) as f32);
+    let ht = build(gt, &vt);
+    let q = IsoQuery {
+        isovalues: vec![0.0, 0.08],
+        ..IsoQuery::new(0.0, 0.01)
+    };
+    let s = ht.isosurface(ScalarSlice::F32(&vt), &q).unwrap();
+    assert_watertight(&s, "two tori");
+    assert!(s.values.contains(&0.0) && s.values.contains(&0.08));
+}
+
+#[test]
+fn isovalue_change_equals_a_fresh_run() {
+    let (g, v) = sphere([33, 30, 31], 0.6);
+    let h = build(g, &v);
+    let _first = h
+        .isosurface(ScalarSlice::F32(&v), &IsoQuery::new(0.0, 0.01))
+        .unwrap();
+    let changed = h
+        .isosurface(ScalarSlice::F32(&v), &IsoQuery::new(-0.2, 0.01))
+        .unwrap();
+    let fresh = build(g, &v)
+        .isosurface(ScalarSlice::F32(&v), &IsoQuery::new(-0.2, 0.01))
+        .unwrap();
+    assert_eq!(changed, fresh);
+}
+
+#[test]
+fn budget_region_and_carriers() {
+    let (g, v) = sphere([65, 65, 65], 0.6);
+    let h = build(g, &v);
+    let full = h
+        .isosurface(ScalarSlice::F32(&v), &IsoQuery::new(0.0, 0.0))
+        .unwrap();
+    let q = IsoQuery {
+        max_triangles: full.triangles.len() / 10,
+        ..IsoQuery::new(0.0, 0.0)
+    };
+    let s = h.isosurface(ScalarSlice::F32(&v), &q).unwrap();
+    assert!(s.triangles.len() <= q.max_triangles && s.triangles.len() > q.max_triangles / 4);
+    assert_watertight(&s, "budget");
+    // Full resolution only inside the region of interest.
+    let q = IsoQuery {
+        region_of_interest: Some([0.0, 1.0, -1.0, 1.0, -1.0, 1.0]),
+        ..IsoQuery::new(0.0, 0.0)
+    };
+    let s = h.isosurface(ScalarSlice::F32(&v), &q).unwrap();
+    assert_watertight(&s, "region");
+    assert!(s.triangles.len() < full.triangles.len());
+    // Carrier tetrahedra: each crosses the isovalue, and they are the leaves that made the surface.
+    let q = IsoQuery {
+        carrier_tetrahedra: true,
+        ..IsoQuery::new(0.0, 0.02)
+    };
+    let s = h.isosurface(ScalarSlice::F32(&v), &q).unwrap();
+    let carrier = s.carrier.expect("asked for");
+    assert!(!carrier.tets.is_empty() && carrier.tets.len() <= s.triangles.len());
+    for t in &carrier.tets {
+        let f = t.map(|p| v[carrier.point_ids[p as usize]] as f64);
+        assert!(f.iter().any(|&x| x < 0.0) && f.iter().any(|&x| x >= 0.0));
+    }
+    // Bad parameters.
+    assert!(h
+        .isosurface(
+            ScalarSlice::F32(&v),
+            &IsoQuery {
+                isovalues: vec![],
+                ..IsoQuery::new(0.0, 0.1)
+            }
+        )
+        .is_err());
+    assert!(h
+        .isosurface(ScalarSlice::F32(&v), &IsoQuery::new(f64::NAN, 0.1))
+        .is_err());
+    assert!(h
+        .isosurface(ScalarSlice::F32(&v), &IsoQuery::new(0.0, -1.0))
+        .is_err());
+    assert!(h
+        .isosurface(ScalarSlice::F32(&v[1..]), &IsoQuery::new(0.0, 0.1))
+        .is_err());
+}
