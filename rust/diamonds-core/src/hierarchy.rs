@@ -21,6 +21,8 @@ use crate::scan::{scan_finest_diamond, scan_tet, Stencils, TetStats};
 use crate::volume::{Sample, Volume};
 use crate::{with_volume, Error, Grid, Result, ScalarSlice, TetMesh};
 use rayon::prelude::*;
+use std::sync::atomic::AtomicU16;
+use std::sync::OnceLock;
 
 /// Progress callback: called on the calling thread with a fraction in `[0, 1]`; return `false` to abort.
 pub type Progress<'a> = &'a mut dyn FnMut(f64) -> bool;
@@ -33,6 +35,15 @@ pub struct Record {
     /// Sample range, quantised outwards over the volume's range.
     min: u8,
     max: u8,
+}
+
+impl Record {
+    /// A diamond split in the base mesh: error 0 and the whole value range, so that no query culls it.
+    const UNKNOWN_RANGE: Self = Self {
+        error: 0,
+        min: 0,
+        max: u8::MAX,
+    };
 }
 
 /// Encodes a non-negative error as a bfloat16, rounding up.
@@ -79,6 +90,8 @@ pub struct Hierarchy {
     value_range: (f64, f64),
     base: SplitSet,
     base_tets: usize,
+    /// Per-diamond isosurface errors, filled lazily by isosurface queries (see [`crate::isosurface`]).
+    pub(crate) iso_errors: OnceLock<Vec<AtomicU16>>,
 }
 
 impl Hierarchy {
@@ -151,6 +164,7 @@ impl Hierarchy {
             value_range,
             base: SplitSet::new(&lattice),
             base_tets: 0,
+            iso_errors: OnceLock::new(),
         };
         let (base, base_tets) = Refiner::base_mesh(&hierarchy);
         hierarchy.base = base;
@@ -255,8 +269,8 @@ fn diamond_record<T: Sample>(
                 stats = stats.merge(scan.unwrap_or_else(|| scan_tet(volume, &t)));
             }
             Placement::Outside => {}
-            // Split unconditionally in the base mesh: no error needed.
-            Placement::Straddling => return Record::default(),
+            // Split unconditionally in the base mesh: no error needed, and a range that culls nothing.
+            Placement::Straddling => return Record::UNKNOWN_RANGE,
         }
     }
     if stats.min > stats.max {

@@ -11,12 +11,14 @@
 //! its mesh edge, so the surface is crack-free wherever the full-resolution one is.
 
 use crate::diamond::{signed_volume6, Diamond};
+use crate::hierarchy::{decode_error, encode_error};
 use crate::lattice::{Lattice, Placement, Tet};
 use crate::refine::{Query, Refiner};
 use crate::volume::{Grid, Sample, Volume};
 use crate::{with_volume, Error, Hierarchy, Result, ScalarSlice, TetMesh};
 use glam::{DMat3, DVec3, IVec3};
 use rustc_hash::FxHashMap;
+use std::sync::atomic::{AtomicU16, Ordering};
 
 /// An isosurface query.
 #[derive(Clone, Debug, PartialEq)]
@@ -136,7 +138,7 @@ impl Hierarchy {
             } else if tolerance == 0.0 {
                 f64::INFINITY
             } else {
-                isosurface_error(self, volume, d)
+                self.cached_isosurface_error(volume, d)
             }
         };
         let refine = Query {
@@ -145,7 +147,16 @@ impl Hierarchy {
             region_of_interest: query.region_of_interest,
         };
         let split = Refiner::run(self, &refine, &criterion)?;
-        let carriers = crate::mesh::leaves_where(&lattice, &split, |t| {
+        // Walk only below tetrahedra whose diamond's range holds an isovalue.
+        let empty = |t: &Tet| {
+            Diamond::of_tet(t).is_some_and(|d| {
+                lattice.in_domain(d.center) && {
+                    let (lo, hi) = self.range(d);
+                    !isovalues.iter().any(|&v| lo <= v && v <= hi)
+                }
+            })
+        };
+        let carriers = crate::mesh::leaves_where(&lattice, &split, empty, |t| {
             let f = t.map(|p| volume.at(p.x as usize, p.y as usize, p.z as usize));
             isovalues.iter().any(|&v| crosses(&f, v))
         });
@@ -153,12 +164,34 @@ impl Hierarchy {
         surface.error_bound = carriers
             .iter()
             .filter_map(Diamond::of_tet)
-            .map(|d| isosurface_error(self, volume, d))
+            .map(|d| self.cached_isosurface_error(volume, d))
             .fold(0.0, f64::max);
         if query.carrier_tetrahedra {
             surface.carrier = Some(carrier_mesh(self, &carriers));
         }
         Ok(surface)
+    }
+}
+
+impl Hierarchy {
+    /// The isosurface error of `d` (central vertex in the domain). It does not depend on the isovalue, so
+    /// it is computed the first time a query needs it and kept: an isovalue change only computes the
+    /// errors of diamonds no earlier query visited. Stored rounded up like the approximation error.
+    fn cached_isosurface_error<T: Sample>(&self, volume: &Volume<'_, T>, d: Diamond) -> f64 {
+        const UNKNOWN: u16 = u16::MAX;
+        let cache = self.iso_errors.get_or_init(|| {
+            (0..self.grid().len())
+                .map(|_| AtomicU16::new(UNKNOWN))
+                .collect()
+        });
+        let slot = &cache[self.lattice().index(d.center)];
+        let code = slot.load(Ordering::Relaxed);
+        if code != UNKNOWN {
+            return decode_error(code);
+        }
+        let code = encode_error(isosurface_error(self, volume, d));
+        slot.store(code, Ordering::Relaxed);
+        decode_error(code)
     }
 }
 

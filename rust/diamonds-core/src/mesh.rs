@@ -34,10 +34,22 @@ fn is_split(split: &SplitSet, t: &Tet) -> bool {
 
 /// Visits the inside leaves below `t`, depth first.
 fn walk(lattice: &Lattice, split: &SplitSet, t: Tet, visit: &mut dyn FnMut(&Tet)) {
+    walk_pruned(lattice, split, t, &|_| false, visit);
+}
+
+/// [`walk`], skipping the subtrees of the tetrahedra for which `prune` holds.
+fn walk_pruned(
+    lattice: &Lattice,
+    split: &SplitSet,
+    t: Tet,
+    prune: &dyn Fn(&Tet) -> bool,
+    visit: &mut dyn FnMut(&Tet),
+) {
     let mut stack = vec![t];
     while let Some(t) = stack.pop() {
         match lattice.place(&t) {
             Placement::Outside => {}
+            _ if prune(&t) => {}
             _ if is_split(split, &t) => stack.extend(bisect(&t)),
             Placement::Inside => visit(&t),
             Placement::Straddling => unreachable!("straddling diamonds are split in the base mesh"),
@@ -65,17 +77,19 @@ fn subtrees(lattice: &Lattice, split: &SplitSet) -> Vec<Tet> {
     leaves
 }
 
-/// The inside leaves of the split set for which `keep` holds, in a deterministic order.
+/// The inside leaves of the split set for which `keep` holds, in a deterministic order; subtrees of
+/// tetrahedra for which `prune` holds are skipped.
 pub(crate) fn leaves_where(
     lattice: &Lattice,
     split: &SplitSet,
+    prune: impl Fn(&Tet) -> bool + Sync,
     keep: impl Fn(&Tet) -> bool + Sync,
 ) -> Vec<Tet> {
     subtrees(lattice, split)
         .into_par_iter()
         .flat_map_iter(|t| {
             let mut out = Vec::new();
-            walk(lattice, split, t, &mut |t| {
+            walk_pruned(lattice, split, t, &prune, &mut |t| {
                 if keep(t) {
                     out.push(*t)
                 }

@@ -66,7 +66,7 @@ fn distance_to_sphere(s: &IsoSurface, r: f64) -> f64 {
 
 #[test]
 fn watertight_and_oriented_at_every_tolerance() {
-    for dims in [[33, 33, 33], [40, 29, 35]] {
+    for dims in [[33, 33, 33], [40, 29, 35], [60, 60, 60]] {
         let (g, v) = sphere(dims, 0.6);
         let h = build(g, &v);
         let mut last = usize::MAX;
@@ -108,24 +108,39 @@ fn watertight_and_oriented_at_every_tolerance() {
 
 #[test]
 fn tolerance_zero_is_marching_tetrahedra_at_full_resolution() {
-    let (g, v) = sphere([17, 17, 17], 0.55);
-    let h = build(g, &v);
-    let adaptive = h
-        .isosurface(ScalarSlice::F32(&v), &IsoQuery::new(0.0, 0.0))
-        .unwrap();
-    // Reference: every root tetrahedron bisected to the unit cubes.
-    let l = Lattice::new(g.dims).unwrap();
-    let mut tets: Vec<Tet> = Diamond::root(&l).tets(&l).to_vec();
-    for _ in 0..3 * l.levels {
-        tets = tets.iter().flat_map(bisect).collect();
+    // Aligned and unaligned grids (with the root's central vertex inside the domain or not), surfaces
+    // that stay inside or reach the far faces.
+    for (dims, r) in [
+        ([17, 17, 17], 0.55),
+        ([13, 20, 9], 0.7),
+        ([60, 60, 60], 0.9),
+        ([60, 60, 60], 1.2),
+    ] {
+        let (g, v) = sphere(dims, r);
+        let h = build(g, &v);
+        let adaptive = h
+            .isosurface(ScalarSlice::F32(&v), &IsoQuery::new(0.0, 0.0))
+            .unwrap();
+        // Reference: every root tetrahedron bisected to the unit cubes, those inside the grid kept.
+        let l = Lattice::new(g.dims).unwrap();
+        let mut tets: Vec<Tet> = Diamond::root(&l).tets(&l).to_vec();
+        for _ in 0..3 * l.levels {
+            tets = tets.iter().flat_map(bisect).collect();
+        }
+        tets.retain(|t| l.place(t) == Placement::Inside);
+        let vol = Volume::new(g, &v[..]).unwrap();
+        let full = marching_tetrahedra(&vol, &tets, &[0.0], false);
+        assert!(!full.triangles.is_empty());
+        assert_eq!(
+            adaptive.triangles.len(),
+            full.triangles.len(),
+            "{dims:?} r {r}"
+        );
+        assert_eq!(adaptive.points.len(), full.points.len(), "{dims:?} r {r}");
+        let (a, b) = (area(&adaptive), area(&full));
+        assert!((a - b).abs() <= 1e-9 * b, "{dims:?} r {r}: area {a} vs {b}");
+        assert_eq!(adaptive.error_bound, 0.0);
     }
-    assert!(tets.iter().all(|t| l.place(t) == Placement::Inside));
-    let vol = Volume::new(g, &v[..]).unwrap();
-    let full = marching_tetrahedra(&vol, &tets, &[0.0], false);
-    assert_eq!(adaptive.triangles.len(), full.triangles.len());
-    assert_eq!(adaptive.points.len(), full.points.len());
-    assert!((area(&adaptive) - area(&full)).abs() <= 1e-9 * area(&full));
-    assert_eq!(adaptive.error_bound, 0.0);
 }
 
 #[test]
