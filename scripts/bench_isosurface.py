@@ -1,0 +1,237 @@
+"""Benchmark: Adaptive Isosurface vs Flying Edges (+ DecimatePro, + QuadricDecimation), one run.
+
+    bash scripts/bench.sh            # runs both benchmarks (after scripts/setup.sh)
+
+For each dataset (bonsai 256^3 iso 40, neghip 64^3, hydrogen orbital 64^3 from ../shared/data/volumes),
+every case in a fresh pvpython process so that peak memory is its own:
+  * vtkFlyingEdges3D at full resolution: the reference surface;
+  * Adaptive Isosurface at tolerances of 0.25, 0.5, 1 and 2 % of the data diagonal: first extraction
+    (hierarchy build included), then an isovalue change (to iso + 5 % of the range) at the same tolerance;
+  * Flying Edges + vtkDecimatePro and + vtkQuadricDecimation reduced to the triangle count we reached.
+Each surface's symmetric Hausdorff distance to the full-resolution Flying Edges surface (max and RMS of the
+point-to-surface distances both ways, vtkHausdorffDistancePointSetFilter) is measured afterwards, outside
+the timings. Appends to docs/benchmarks.md and writes docs/images/isosurface-hausdorff.png.
+"""
+
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+SHARED = os.path.join(os.path.dirname(ROOT), "shared", "data", "volumes")
+PLUGIN = os.path.join(ROOT, "build", "lib", "paraview-5.11", "plugins", "Diamonds")
+DATASETS = [
+    ("bonsai 256³ u8, iso 40", "bonsai_256x256x256_uint8_lossy.vti", 40.0),
+    ("neghip 64³ u8, iso 100", "neghip_64x64x64_uint8.vti", 100.0),
+    ("hydrogen orbital 64³ f32, iso 0.05", "hydrogen_orbital_64x64x64_float32.vti", 0.05),
+]
+RELATIVE_TOLERANCES = [0.0025, 0.005, 0.01, 0.02]
+
+
+def rss_kib(field):
+    with open("/proc/self/status") as f:
+        for line in f:
+            if line.startswith(field + ":"):
+                return int(line.split()[1])
+    raise RuntimeError(field)
+
+
+def worker(spec):
+    """Runs one case described by `spec` (JSON) and prints its result."""
+    from paraview import servermanager, simple
+    from vtkmodules.vtkFiltersCore import vtkDecimatePro, vtkFlyingEdges3D, vtkQuadricDecimation
+    from vtkmodules.vtkIOXML import vtkXMLImageDataReader, vtkXMLPolyDataWriter
+
+    method = spec["method"]
+    if method == "adaptive":
+        reader = simple.XMLImageDataReader(FileName=[spec["path"]])
+        reader.UpdatePipeline()
+        array = reader.PointData.keys()[0]
+    else:
+        reader = vtkXMLImageDataReader()
+        reader.SetFileName(spec["path"])
+        reader.Update()
+        image = reader.GetOutput()
+        image.GetPointData().SetActiveScalars(image.GetPointData().GetArrayName(0))
+    with open("/proc/self/clear_refs", "w") as f:
+        f.write("5")  # reset the peak RSS
+    base = rss_kib("VmRSS")
+    result = {}
+    if method == "adaptive":
+        f = simple.AdaptiveIsosurface(Input=reader)
+        f.ContourBy = ["POINTS", array]
+        f.Isosurfaces = [spec["iso"]]
+        f.Tolerance = spec["tolerance"]
+        f.ComputeNormals = 1
+        t = time.perf_counter()
+        f.UpdatePipeline()
+        result["first"] = time.perf_counter() - t
+        surface = servermanager.Fetch(f)
+        result["triangles"] = surface.GetNumberOfCells()
+        result["peak_mib"] = (rss_kib("VmHWM") - base) / 1024.0
+        f.Isosurfaces = [spec["iso"] + spec["iso_step"]]
+        t = time.perf_counter()
+        f.UpdatePipeline()
+        result["change"] = time.perf_counter() - t
+    else:
+        fe = vtkFlyingEdges3D()
+        fe.SetInputData(image)
+        fe.SetValue(0, spec["iso"])
+        fe.ComputeNormalsOn()
+        t = time.perf_counter()
+        fe.Update()
+        result["contour"] = time.perf_counter() - t
+        surface = fe.GetOutput()
+        if method != "flyingedges":
+            full = surface.GetNumberOfCells()
+            dec = vtkDecimatePro() if method == "decimatepro" else vtkQuadricDecimation()
+            dec.SetInputData(surface)
+            dec.SetTargetReduction(max(0.0, min(0.999, 1.0 - spec["target"] / full)))
+            if method == "decimatepro":
+                dec.PreserveTopologyOff()
+            t = time.perf_counter()
+            dec.Update()
+            result["decimate"] = time.perf_counter() - t
+            surface = dec.GetOutput()
+        result["triangles"] = surface.GetNumberOfCells()
+        result["peak_mib"] = (rss_kib("VmHWM") - base) / 1024.0
+    writer = vtkXMLPolyDataWriter()
+    writer.SetInputData(surface)
+    writer.SetFileName(spec["out"])
+    writer.Write()
+    print("RESULT " + json.dumps(result))
+
+
+def hausdorff(spec):
+    """Symmetric Hausdorff distance (max, RMS) between two .vtp files."""
+    import math
+
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    from vtkmodules.vtkFiltersModeling import vtkHausdorffDistancePointSetFilter
+    from vtkmodules.vtkIOXML import vtkXMLPolyDataReader
+
+    surfaces = []
+    for path in (spec["a"], spec["b"]):
+        r = vtkXMLPolyDataReader()
+        r.SetFileName(path)
+        r.Update()
+        surfaces.append(r.GetOutput())
+    h = vtkHausdorffDistancePointSetFilter()
+    h.SetInputData(0, surfaces[0])
+    h.SetInputData(1, surfaces[1])
+    h.SetTargetDistanceMethodToPointToCell()
+    h.Update()
+    d = []
+    for port in (0, 1):
+        d.extend(vtk_to_numpy(h.GetOutput(port).GetPointData().GetArray("Distance")).tolist())
+    rms = math.sqrt(sum(x * x for x in d) / max(len(d), 1))
+    print("RESULT " + json.dumps({"max": max(d) if d else 0.0, "rms": rms}))
+
+
+def run(kind, spec, threads=2):
+    env = dict(os.environ, PV_PLUGIN_PATH=PLUGIN, RAYON_NUM_THREADS=str(threads))
+    cmd = ["pvpython", os.path.abspath(__file__), kind, json.dumps(spec)]
+    out = subprocess.run(cmd, env=env, capture_output=True, text=True, check=False)
+    for line in out.stdout.splitlines():
+        if line.startswith("RESULT "):
+            return json.loads(line[len("RESULT "):])
+    sys.exit(f"benchmark case failed: {' '.join(cmd)}\n{out.stdout}\n{out.stderr}")
+
+
+def main():
+    if not os.path.isdir(SHARED):
+        sys.exit(f"skipped: {SHARED} not found (the benchmark needs ../shared/data/volumes)")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from vtkmodules.vtkIOXML import vtkXMLImageDataReader
+
+    tmp = tempfile.mkdtemp(prefix="diamonds-bench-")
+    lines = [
+        "",
+        "# Isosurfaces",
+        "",
+        "Written by `bash scripts/bench.sh`. Adaptive Isosurface vs Flying Edges at full resolution and",
+        "Flying Edges + DecimatePro / + QuadricDecimation reduced to our triangle count, 2 threads for us",
+        "(VTK's filters are single-threaded here). *First* includes the hierarchy build; *change* is an",
+        "isovalue change (+5 % of the range) at the same tolerance on the kept hierarchy. Hausdorff: symmetric,",
+        "to the full-resolution Flying Edges surface (max and RMS of point-to-surface distances, world units).",
+        "",
+    ]
+    fig, axes = plt.subplots(1, len(DATASETS), figsize=(6 * len(DATASETS), 4.5))
+    for (label, name, iso), ax in zip(DATASETS, axes):
+        path = os.path.join(SHARED, name)
+        r = vtkXMLImageDataReader()
+        r.SetFileName(path)
+        r.Update()
+        img = r.GetOutput()
+        lo, hi = img.GetPointData().GetArray(0).GetRange()
+        b = img.GetBounds()
+        diagonal = ((b[1] - b[0]) ** 2 + (b[3] - b[2]) ** 2 + (b[5] - b[4]) ** 2) ** 0.5
+        reference = os.path.join(tmp, f"{name}-fe.vtp")
+        print(f"== {label}: Flying Edges", flush=True)
+        fe = run("--worker", {"method": "flyingedges", "path": path, "iso": iso, "out": reference})
+        lines += [
+            f"## {label}",
+            "",
+            f"Flying Edges (full resolution): **{fe['triangles']:,} triangles** in {fe['contour']:.2f} s, peak +{fe['peak_mib']:.0f} MiB.",
+            "",
+            "| tolerance (% diagonal) | method | triangles | time s | isovalue change s | Hausdorff max | Hausdorff RMS | peak MiB |",
+            "|---:|---|---:|---:|---:|---:|---:|---:|",
+        ]
+        curves = {"Adaptive Isosurface": [], "Flying Edges + DecimatePro": [], "Flying Edges + QuadricDecimation": []}
+        for rel in RELATIVE_TOLERANCES:
+            tol = rel * diagonal
+            out = os.path.join(tmp, f"{name}-{rel}-ours.vtp")
+            print(f"== {label}: Adaptive Isosurface at {rel * 100:g} % of the diagonal", flush=True)
+            ours = run("--worker", {"method": "adaptive", "path": path, "iso": iso, "tolerance": tol,
+                                    "iso_step": 0.05 * (hi - lo), "out": out})
+            h = run("--hausdorff", {"a": out, "b": reference})
+            curves["Adaptive Isosurface"].append((ours["triangles"], h["max"]))
+            lines.append(
+                f"| {rel * 100:g} | Adaptive Isosurface | {ours['triangles']:,} | {ours['first']:.2f} | {ours['change']:.3f} | "
+                f"{h['max']:.3g} | {h['rms']:.3g} | {ours['peak_mib']:.0f} |"
+            )
+            for method, title in [("decimatepro", "Flying Edges + DecimatePro"),
+                                  ("quadric", "Flying Edges + QuadricDecimation")]:
+                out = os.path.join(tmp, f"{name}-{rel}-{method}.vtp")
+                print(f"== {label}: {title} to {ours['triangles']:,} triangles", flush=True)
+                dec = run("--worker", {"method": method, "path": path, "iso": iso,
+                                       "target": ours["triangles"], "out": out})
+                h = run("--hausdorff", {"a": out, "b": reference})
+                curves[title].append((dec["triangles"], h["max"]))
+                lines.append(
+                    f"| {rel * 100:g} | {title} | {dec['triangles']:,} | {dec['contour'] + dec['decimate']:.2f} | — | "
+                    f"{h['max']:.3g} | {h['rms']:.3g} | {dec['peak_mib']:.0f} |"
+                )
+        lines.append("")
+        for title, points in curves.items():
+            points.sort()
+            ax.plot([p[0] for p in points], [p[1] for p in points], marker="o", label=title)
+        ax.set_xscale("log")
+        ax.set_xlabel("triangles")
+        ax.set_ylabel("Hausdorff distance to full resolution (max)")
+        ax.set_title(label)
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(os.path.join(ROOT, "docs", "images", "isosurface-hausdorff.png"), dpi=100)
+    lines.append("![Hausdorff distance against triangle count](images/isosurface-hausdorff.png)")
+    text = "\n".join(lines) + "\n"
+    with open(os.path.join(ROOT, "docs", "benchmarks.md"), "a") as f:
+        f.write(text)
+    print(text)
+
+
+if __name__ == "__main__":
+    if len(sys.argv) > 2 and sys.argv[1] == "--worker":
+        worker(json.loads(sys.argv[2]))
+    elif len(sys.argv) > 2 and sys.argv[1] == "--hausdorff":
+        hausdorff(json.loads(sys.argv[2]))
+    else:
+        main()
