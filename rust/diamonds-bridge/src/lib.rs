@@ -9,9 +9,10 @@
 //! - in: the image geometry ([`ffi::GridSpec`]), the samples as raw bytes plus a type tag
 //!   ([`ffi::ScalarType`]; the bytes are reinterpreted in place, never copied), a progress
 //!   observer implemented in C++ (`include/progress.h`), and the query parameters
-//!   ([`ffi::QuerySpec`]);
-//! - out: an opaque [`Hierarchy`] the filter keeps between executions (`rust::Box<Hierarchy>`), and
-//!   an opaque [`Mesh`] whose arrays C++ reads as slices.
+//!   ([`ffi::QuerySpec`] for a mesh; the isovalues as a slice plus [`ffi::IsoSpec`] for an
+//!   isosurface, which also reads the samples again);
+//! - out: an opaque [`Hierarchy`] the filters keep between executions (`rust::Box<Hierarchy>`), an
+//!   opaque [`Mesh`] and an opaque [`Surface`] whose arrays C++ reads as slices.
 //!
 //! **No panic crosses.** An unwinding panic that reaches a C++ frame aborts the process, i.e. the
 //! user's whole ParaView session. Every bridge function therefore runs its body inside
@@ -23,7 +24,7 @@ use std::any::Any;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::pin::Pin;
 
-use diamonds::{Grid, Query, ScalarSlice, TetMesh};
+use diamonds::{Grid, IsoQuery, IsoSurface, Query, ScalarSlice, TetMesh};
 
 #[cxx::bridge(namespace = "diamonds::bridge")]
 mod ffi {
@@ -60,6 +61,22 @@ mod ffi {
         region_of_interest: [f64; 6],
     }
 
+    /// One isosurface query (see `diamonds::IsoQuery`); the isovalues are passed separately.
+    struct IsoSpec {
+        /// Isosurface error bound in world units; 0 = full resolution wherever the surface passes.
+        tolerance: f64,
+        /// Maximum number of triangles, 0 = no limit.
+        max_triangles: usize,
+        /// Whether `region_of_interest` applies.
+        use_region_of_interest: bool,
+        /// World box `[xmin, xmax, ymin, ymax, zmin, zmax]`: refined to `tolerance` inside, coarse outside.
+        region_of_interest: [f64; 6],
+        /// Point normals from the gradient (unit, toward increasing values).
+        compute_normals: bool,
+        /// Also return the tetrahedra that carry the surface.
+        carrier_tetrahedra: bool,
+    }
+
     unsafe extern "C++" {
         include!("diamonds-bridge/include/progress.h");
 
@@ -74,6 +91,8 @@ mod ffi {
         type Hierarchy;
         /// The adaptive tetrahedral mesh returned by one query.
         type Mesh;
+        /// The triangles of one isosurface query (and, when asked, the tetrahedra carrying them).
+        type Surface;
 
         /// Builds the hierarchy of `samples` (raw bytes of `scalar_type` values, x fastest) on `grid`.
         fn build_hierarchy(
@@ -86,6 +105,15 @@ mod ffi {
         fn query(self: &Hierarchy, query: &QuerySpec) -> Result<Box<Mesh>>;
         /// Bytes of per-diamond metadata held by the hierarchy.
         fn metadata_bytes(self: &Hierarchy) -> Result<usize>;
+        /// Extracts the isosurfaces of `isovalues`. `samples` (of `scalar_type`) must be the very
+        /// samples the hierarchy was built from: the caller keeps them alive and unchanged.
+        fn isosurface(
+            self: &Hierarchy,
+            scalar_type: ScalarType,
+            samples: &[u8],
+            isovalues: &[f64],
+            spec: &IsoSpec,
+        ) -> Result<Box<Surface>>;
 
         /// Input point id (relative to the grid given to the build) of each output point.
         fn point_ids(self: &Mesh) -> Result<&[usize]>;
@@ -97,16 +125,41 @@ mod ffi {
         fn errors(self: &Mesh) -> Result<&[f32]>;
         /// Largest error bound of the mesh.
         fn max_error(self: &Mesh) -> Result<f64>;
+
+        /// World coordinates, three per point.
+        fn points(self: &Surface) -> Result<&[f64]>;
+        /// Unit normals toward increasing values, three per point; empty unless asked for.
+        fn normals(self: &Surface) -> Result<&[f32]>;
+        /// Three point indices per triangle, oriented so that the normal points toward increasing
+        /// values.
+        fn triangles(self: &Surface) -> Result<&[u32]>;
+        /// The isovalue of each point.
+        fn values(self: &Surface) -> Result<&[f64]>;
+        /// Largest isosurface error (world units) of the diamonds carrying the surface.
+        fn error_bound(self: &Surface) -> Result<f64>;
+        /// Whether the carrier tetrahedra are there to take (asked for and not taken yet).
+        fn has_carrier(self: &Surface) -> Result<bool>;
+        /// Moves the tetrahedra carrying the surface out; an error unless `carrier_tetrahedra` was
+        /// asked for, or when already taken.
+        fn take_carrier(self: &mut Surface) -> Result<Box<Mesh>>;
     }
 }
 
-pub use ffi::{GridSpec, QuerySpec, ScalarType};
+pub use ffi::{GridSpec, IsoSpec, QuerySpec, ScalarType};
 
 /// Opaque handle on a [`diamonds::Hierarchy`] for C++.
 pub struct Hierarchy(diamonds::Hierarchy);
 
 /// Opaque handle on a [`TetMesh`] for C++, checked for consistency before it is handed over.
 pub struct Mesh(TetMesh);
+
+/// Opaque handle on a [`diamonds::IsoSurface`] for C++, checked for consistency before it is handed
+/// over. The carrier mesh is moved out of the surface into a [`Mesh`] so that C++ reads it through
+/// the same accessors as a query's mesh.
+pub struct Surface {
+    surface: IsoSurface,
+    carrier: Option<Box<Mesh>>,
+}
 
 /// Runs `body`, turning a panic into an error message instead of letting it unwind into C++.
 ///
@@ -213,6 +266,87 @@ impl Hierarchy {
     fn metadata_bytes(&self) -> Result<usize, String> {
         guard("measuring the hierarchy", || Ok(self.0.metadata_bytes()))
     }
+
+    /// Extracts the isosurfaces of `isovalues` and checks the result before C++ indexes with it.
+    /// `samples` must be the samples the hierarchy was built from.
+    pub fn isosurface(
+        &self,
+        scalar_type: ScalarType,
+        samples: &[u8],
+        isovalues: &[f64],
+        spec: &IsoSpec,
+    ) -> Result<Box<Surface>, String> {
+        guard("extracting the isosurface", || {
+            let scalars = typed_slice(scalar_type, samples)?;
+            let expected = self.0.grid().len();
+            if scalars.len() != expected {
+                return Err(format!(
+                    "the sample array has {} values but the hierarchy was built for {expected} points",
+                    scalars.len()
+                ));
+            }
+            let query = IsoQuery {
+                isovalues: isovalues.to_vec(),
+                tolerance: spec.tolerance,
+                max_triangles: spec.max_triangles,
+                region_of_interest: spec
+                    .use_region_of_interest
+                    .then_some(spec.region_of_interest),
+                compute_normals: spec.compute_normals,
+                carrier_tetrahedra: spec.carrier_tetrahedra,
+            };
+            let mut surface = self
+                .0
+                .isosurface(scalars, &query)
+                .map_err(|e| e.to_string())?;
+            check_surface(&surface, &query)?;
+            let carrier = surface.carrier.take();
+            if let Some(mesh) = &carrier {
+                check_mesh(mesh, expected)?;
+            }
+            Ok(Box::new(Surface {
+                surface,
+                carrier: carrier.map(|mesh| Box::new(Mesh(mesh))),
+            }))
+        })
+    }
+}
+
+/// The consistency C++ relies on when it copies a surface into VTK arrays: one value (and one
+/// normal, when asked for) per point, triangle corners inside `points`, a carrier exactly when
+/// asked for. A violation is a core bug, reported as an error.
+fn check_surface(surface: &IsoSurface, query: &IsoQuery) -> Result<(), String> {
+    let n_points = surface.points.len();
+    let bug = |what: String| Err(format!("internal error in the Diamonds core: {what}"));
+    if surface.values.len() != n_points {
+        return bug(format!(
+            "{n_points} isosurface points but {} values",
+            surface.values.len()
+        ));
+    }
+    let normals = if query.compute_normals { n_points } else { 0 };
+    if surface.normals.len() != normals {
+        return bug(format!(
+            "{n_points} isosurface points but {} normals (normals asked for: {})",
+            surface.normals.len(),
+            query.compute_normals
+        ));
+    }
+    if let Some(t) = surface
+        .triangles
+        .iter()
+        .find(|t| t.iter().any(|&c| c as usize >= n_points))
+    {
+        return bug(format!("triangle {t:?} refers past the {n_points} points"));
+    }
+    if surface.carrier.is_some() != query.carrier_tetrahedra {
+        return bug(format!(
+            "carrier tetrahedra asked for: {}, returned: {}",
+            query.carrier_tetrahedra,
+            surface.carrier.is_some()
+        ));
+    }
+    Ok(())
 }
 
 /// The consistency C++ relies on when it indexes VTK arrays with the mesh: equal lengths,
@@ -271,6 +405,53 @@ impl Mesh {
     /// The mesh as the core returned it.
     pub fn inner(&self) -> &TetMesh {
         &self.0
+    }
+}
+
+impl Surface {
+    fn points(&self) -> Result<&[f64], String> {
+        guard("reading the isosurface", || {
+            Ok(bytemuck::cast_slice(&self.surface.points))
+        })
+    }
+
+    fn normals(&self) -> Result<&[f32], String> {
+        guard("reading the isosurface", || {
+            Ok(bytemuck::cast_slice(&self.surface.normals))
+        })
+    }
+
+    fn triangles(&self) -> Result<&[u32], String> {
+        guard("reading the isosurface", || {
+            Ok(bytemuck::cast_slice(&self.surface.triangles))
+        })
+    }
+
+    fn values(&self) -> Result<&[f64], String> {
+        guard("reading the isosurface", || Ok(&self.surface.values[..]))
+    }
+
+    fn error_bound(&self) -> Result<f64, String> {
+        guard("reading the isosurface", || Ok(self.surface.error_bound))
+    }
+
+    fn has_carrier(&self) -> Result<bool, String> {
+        guard("reading the isosurface", || Ok(self.carrier.is_some()))
+    }
+
+    /// Moves the carrier tetrahedra out (once).
+    pub fn take_carrier(&mut self) -> Result<Box<Mesh>, String> {
+        guard("reading the isosurface", || {
+            self.carrier.take().ok_or_else(|| {
+                "no carrier tetrahedra: not asked for (IsoSpec::carrier_tetrahedra) or already taken"
+                    .to_string()
+            })
+        })
+    }
+
+    /// The surface as the core returned it (its carrier is taken with [`Surface::take_carrier`]).
+    pub fn inner(&self) -> &IsoSurface {
+        &self.surface
     }
 }
 
@@ -400,5 +581,147 @@ mod tests {
         let mut bad = good;
         bad.levels.clear();
         assert!(check_mesh(&bad, 8).is_err());
+    }
+
+    /// A distance field to a point on a 17^3 grid (spacing 0.5): the isosurface `r` is a sphere.
+    fn sphere_volume() -> (GridSpec, Vec<f32>) {
+        let grid = GridSpec {
+            dims: [17, 17, 17],
+            origin: [-4.0, -4.0, -4.0],
+            spacing: [0.5, 0.5, 0.5],
+        };
+        let mut values = Vec::with_capacity(17 * 17 * 17);
+        for k in 0..17 {
+            for j in 0..17 {
+                for i in 0..17 {
+                    let p = [i, j, k].map(|c| -4.0 + 0.5 * c as f64);
+                    let r = ((p[0] - 0.3).powi(2) + (p[1] + 0.2).powi(2) + p[2].powi(2)).sqrt();
+                    values.push(r as f32);
+                }
+            }
+        }
+        (grid, values)
+    }
+
+    fn iso_spec(tolerance: f64) -> IsoSpec {
+        IsoSpec {
+            tolerance,
+            max_triangles: 0,
+            use_region_of_interest: false,
+            region_of_interest: [0.0; 6],
+            compute_normals: true,
+            carrier_tetrahedra: true,
+        }
+    }
+
+    #[test]
+    fn isosurface_through_the_bridge() {
+        let (grid, values) = sphere_volume();
+        let bytes: &[u8] = bytemuck::cast_slice(&values);
+        let h = build_with(&grid, ScalarType::F32, bytes, &mut |_| true).unwrap();
+        for tolerance in [0.0, 0.25] {
+            let s = h
+                .isosurface(ScalarType::F32, bytes, &[2.5], &iso_spec(tolerance))
+                .unwrap();
+            let points = s.points().unwrap();
+            let n = points.len() / 3;
+            let triangles = s.triangles().unwrap();
+            assert!(n > 0 && !triangles.is_empty());
+            assert!(triangles.chunks_exact(3).remainder().is_empty());
+            assert!(triangles.iter().all(|&c| (c as usize) < n));
+            assert_eq!(s.values().unwrap(), vec![2.5; n].as_slice());
+            let normals = s.normals().unwrap();
+            assert_eq!(normals.len(), 3 * n);
+            for v in normals.chunks(3) {
+                let len = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+                assert!((len - 1.0).abs() < 1e-3, "normal {v:?}");
+            }
+            // Every vertex near the sphere of radius 2.5 around (0.3, -0.2, 0).
+            for p in points.chunks(3) {
+                let r = ((p[0] - 0.3).powi(2) + (p[1] + 0.2).powi(2) + p[2].powi(2)).sqrt();
+                assert!((r - 2.5).abs() < tolerance + 0.5, "vertex {p:?} at r = {r}");
+            }
+            assert!(s.error_bound().unwrap() <= tolerance + 1e-12);
+            let mut s = s;
+            assert!(s.has_carrier().unwrap());
+            let carrier = s.take_carrier().unwrap();
+            assert!(!carrier.tets().unwrap().is_empty());
+            assert!(carrier
+                .point_ids()
+                .unwrap()
+                .iter()
+                .all(|&id| id < values.len()));
+            assert!(!s.has_carrier().unwrap());
+            assert!(s.take_carrier().err().unwrap().contains("already taken"));
+        }
+    }
+
+    #[test]
+    fn isosurface_without_carrier_or_normals() {
+        let (grid, values) = sphere_volume();
+        let bytes: &[u8] = bytemuck::cast_slice(&values);
+        let h = build_with(&grid, ScalarType::F32, bytes, &mut |_| true).unwrap();
+        let spec = IsoSpec {
+            compute_normals: false,
+            carrier_tetrahedra: false,
+            ..iso_spec(0.1)
+        };
+        let mut s = h
+            .isosurface(ScalarType::F32, bytes, &[1.5, 3.0], &spec)
+            .unwrap();
+        assert!(s.normals().unwrap().is_empty());
+        assert!(!s.has_carrier().unwrap());
+        assert!(s.take_carrier().err().unwrap().contains("not asked for"));
+        let values_seen: std::collections::BTreeSet<u64> =
+            s.values().unwrap().iter().map(|v| v.to_bits()).collect();
+        assert_eq!(values_seen.len(), 2, "two isovalues, two surfaces");
+    }
+
+    #[test]
+    fn isosurface_bad_inputs_are_errors() {
+        let (grid, values) = sphere_volume();
+        let bytes: &[u8] = bytemuck::cast_slice(&values);
+        let h = build_with(&grid, ScalarType::F32, bytes, &mut |_| true).unwrap();
+        let short = h.isosurface(ScalarType::F32, &bytes[..4 * 100], &[2.5], &iso_spec(0.0));
+        assert!(short.err().unwrap().contains("100 values"));
+        let negative = h.isosurface(ScalarType::F32, bytes, &[2.5], &iso_spec(-1.0));
+        assert!(negative.err().unwrap().contains("tolerance"));
+        let nan = h.isosurface(ScalarType::F32, bytes, &[f64::NAN], &iso_spec(0.0));
+        assert!(nan.is_err());
+    }
+
+    #[test]
+    fn check_surface_catches_inconsistent_surfaces() {
+        let query = IsoQuery {
+            isovalues: vec![1.0],
+            tolerance: 0.0,
+            max_triangles: 0,
+            region_of_interest: None,
+            compute_normals: true,
+            carrier_tetrahedra: false,
+        };
+        let good = IsoSurface {
+            points: vec![[0.0; 3]; 3],
+            normals: vec![[0.0, 0.0, 1.0]; 3],
+            triangles: vec![[0, 1, 2]],
+            values: vec![1.0; 3],
+            error_bound: 0.0,
+            carrier: None,
+        };
+        assert!(check_surface(&good, &query).is_ok());
+        let mut bad = good.clone();
+        bad.triangles[0][1] = 3;
+        assert!(check_surface(&bad, &query).is_err());
+        let mut bad = good.clone();
+        bad.normals.pop();
+        assert!(check_surface(&bad, &query).is_err());
+        let mut bad = good.clone();
+        bad.values.pop();
+        assert!(check_surface(&bad, &query).is_err());
+        let carrier = IsoQuery {
+            carrier_tetrahedra: true,
+            ..query
+        };
+        assert!(check_surface(&good, &carrier).is_err());
     }
 }
