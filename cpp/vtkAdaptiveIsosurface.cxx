@@ -1,0 +1,426 @@
+#include "vtkAdaptiveIsosurface.h"
+
+#include "vtkCellArray.h"
+#include "vtkContourValues.h"
+#include "vtkDataArray.h"
+#include "vtkDataSetAttributes.h"
+#include "vtkDoubleArray.h"
+#include "vtkFieldData.h"
+#include "vtkFloatArray.h"
+#include "vtkIdTypeArray.h"
+#include "vtkImageData.h"
+#include "vtkInformation.h"
+#include "vtkInformationVector.h"
+#include "vtkObjectFactory.h"
+#include "vtkPointData.h"
+#include "vtkPoints.h"
+#include "vtkPolyData.h"
+#include "vtkStreamingDemandDrivenPipeline.h"
+#include "vtkTypeInt32Array.h"
+#include "vtkTypeInt64Array.h"
+#include "vtkUnstructuredGrid.h"
+
+// The hierarchy cache and the cxx bridge (shared with vtkAdaptiveTetrahedra). Kept out of the
+// public header: the VTK wrappers parse that one.
+#include "vtkDiamondsHierarchyCache.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <limits>
+#include <optional>
+#include <string>
+#include <vector>
+
+vtkStandardNewMacro(vtkAdaptiveIsosurface);
+
+namespace
+{
+namespace bridge = diamonds::bridge;
+using vtkDiamonds::NamedArray;
+using vtkDiamonds::OneValue;
+
+const vtkDiamonds::FilterText Text = { "Adaptive Isosurface", "contour", "contours",
+  "Contour By" };
+} // namespace
+
+class vtkAdaptiveIsosurface::vtkInternals
+{
+public:
+  // The extraction reads the samples again: keep them with the hierarchy.
+  vtkDiamonds::HierarchyCache Cache{ true };
+};
+
+//------------------------------------------------------------------------------
+vtkAdaptiveIsosurface::vtkAdaptiveIsosurface()
+  : ContourValues(vtkContourValues::New())
+  , Tolerance(0.0)
+  , RelativeTolerance(0.0)
+  , MaximumNumberOfTriangles(0)
+  , UseRegionOfInterest(0)
+  , RegionOfInterest{ 0.0, 1.0, 0.0, 1.0, 0.0, 1.0 }
+  , ComputeNormals(1)
+  , ComputeScalars(0)
+  , GenerateCarrierTetrahedra(0)
+  , NumberOfHierarchyBuilds(0)
+  , Internals(new vtkInternals)
+{
+  this->SetNumberOfOutputPorts(2);
+  // Default: the active point scalars.
+  this->SetInputArrayToProcess(
+    0, 0, 0, vtkDataObject::FIELD_ASSOCIATION_POINTS, vtkDataSetAttributes::SCALARS);
+}
+
+//------------------------------------------------------------------------------
+vtkAdaptiveIsosurface::~vtkAdaptiveIsosurface()
+{
+  this->ContourValues->Delete();
+  delete this->Internals;
+}
+
+//------------------------------------------------------------------------------
+vtkMTimeType vtkAdaptiveIsosurface::GetMTime()
+{
+  return std::max(this->Superclass::GetMTime(), this->ContourValues->GetMTime());
+}
+
+//------------------------------------------------------------------------------
+void vtkAdaptiveIsosurface::SetValue(int i, double value)
+{
+  this->ContourValues->SetValue(i, value);
+}
+
+double vtkAdaptiveIsosurface::GetValue(int i)
+{
+  return this->ContourValues->GetValue(i);
+}
+
+double* vtkAdaptiveIsosurface::GetValues()
+{
+  return this->ContourValues->GetValues();
+}
+
+void vtkAdaptiveIsosurface::SetNumberOfContours(int number)
+{
+  this->ContourValues->SetNumberOfContours(number);
+}
+
+vtkIdType vtkAdaptiveIsosurface::GetNumberOfContours()
+{
+  return this->ContourValues->GetNumberOfContours();
+}
+
+void vtkAdaptiveIsosurface::GenerateValues(int numContours, double rangeStart, double rangeEnd)
+{
+  this->ContourValues->GenerateValues(numContours, rangeStart, rangeEnd);
+}
+
+//------------------------------------------------------------------------------
+int vtkAdaptiveIsosurface::FillInputPortInformation(int, vtkInformation* info)
+{
+  info->Set(vtkAlgorithm::INPUT_REQUIRED_DATA_TYPE(), "vtkImageData");
+  return 1;
+}
+
+//------------------------------------------------------------------------------
+int vtkAdaptiveIsosurface::FillOutputPortInformation(int port, vtkInformation* info)
+{
+  // Port 0: the isosurface; port 1: the tetrahedra carrying it.
+  info->Set(vtkDataObject::DATA_TYPE_NAME(), port == 0 ? "vtkPolyData" : "vtkUnstructuredGrid");
+  return 1;
+}
+
+//------------------------------------------------------------------------------
+int vtkAdaptiveIsosurface::RequestUpdateExtent(
+  vtkInformation* request, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
+{
+  if (!this->Superclass::RequestUpdateExtent(request, inputVector, outputVector))
+  {
+    return 0;
+  }
+  // Each piece is processed over its own extent: with a ghost layer, two pieces would both
+  // extract the surface inside it. (Pieces of an image share their boundary plane of points.)
+  vtkInformation* inInfo = inputVector[0]->GetInformationObject(0);
+  inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_GHOST_LEVELS(), 0);
+  return 1;
+}
+
+//------------------------------------------------------------------------------
+vtkIdType vtkAdaptiveIsosurface::GetHierarchyMemorySize()
+{
+  return this->Internals->Cache.GetMemorySize(this);
+}
+
+//------------------------------------------------------------------------------
+void vtkAdaptiveIsosurface::ReleaseHierarchy()
+{
+  this->Internals->Cache.Release();
+}
+
+//------------------------------------------------------------------------------
+int vtkAdaptiveIsosurface::RequestData(
+  vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
+{
+  vtkImageData* input = vtkImageData::GetData(inputVector[0]);
+  vtkPolyData* output = vtkPolyData::GetData(outputVector, 0);
+  vtkUnstructuredGrid* carrier = vtkUnstructuredGrid::GetData(outputVector, 1);
+  if (!input || !output || !carrier)
+  {
+    vtkErrorMacro(<< "Adaptive Isosurface needs a vtkImageData input.");
+    return 0;
+  }
+  // Every error below leaves empty outputs.
+  output->Initialize();
+  carrier->Initialize();
+  this->RelativeTolerance = 0.0;
+
+  // ---- Parameters.
+  const int numValues = static_cast<int>(this->ContourValues->GetNumberOfContours());
+  if (numValues < 1)
+  {
+    vtkErrorMacro(<< "No isovalue: add at least one value to Isosurfaces (SetValue).");
+    return 0;
+  }
+  std::vector<double> isovalues(this->ContourValues->GetValues(),
+    this->ContourValues->GetValues() + numValues);
+  for (int i = 0; i < numValues; ++i)
+  {
+    if (!std::isfinite(isovalues[i]))
+    {
+      vtkErrorMacro(<< "Isosurfaces value " << i << " is " << isovalues[i]
+                    << "; every isovalue must be a finite number.");
+      return 0;
+    }
+  }
+  if (!std::isfinite(this->Tolerance) || this->Tolerance < 0.0)
+  {
+    vtkErrorMacro(<< "Tolerance must be a finite number >= 0 (got " << this->Tolerance
+                  << "); it is in world units, 0 gives the full-resolution surface.");
+    return 0;
+  }
+  if (this->MaximumNumberOfTriangles < 0)
+  {
+    vtkErrorMacro(<< "MaximumNumberOfTriangles must be >= 0 (got "
+                  << this->MaximumNumberOfTriangles << "); 0 means no limit.");
+    return 0;
+  }
+
+  // ---- Geometry.
+  if (input->GetNumberOfPoints() == 0)
+  {
+    // Not an error: e.g. an empty piece when a parallel run has more ranks than image slabs.
+    vtkDebugMacro(<< "The input image is empty; the output is empty.");
+    return 1;
+  }
+  if (!vtkDiamonds::CheckAxisAligned(this, Text, input))
+  {
+    return 0;
+  }
+  double wholeBounds[6];
+  vtkDiamonds::WholeBounds(inputVector, input, wholeBounds);
+  const double diagonal = std::sqrt(std::pow(wholeBounds[1] - wholeBounds[0], 2) +
+    std::pow(wholeBounds[3] - wholeBounds[2], 2) + std::pow(wholeBounds[5] - wholeBounds[4], 2));
+  const double relativeTolerance = diagonal > 0.0 ? this->Tolerance / diagonal : 0.0;
+
+  // ---- The array to contour.
+  int association = vtkDataObject::FIELD_ASSOCIATION_POINTS;
+  vtkDataArray* selected = this->GetInputArrayToProcess(0, inputVector, association);
+  vtkDataArray* array = vtkDiamonds::SelectPointArray(this, Text, input, selected, association);
+  if (!array)
+  {
+    return 0;
+  }
+  const std::string name = array->GetName() ? array->GetName() : "";
+
+  // ---- Hierarchy: built only when the array or the geometry changed.
+  vtkDiamonds::HierarchyCache& cache = this->Internals->Cache;
+  switch (cache.Update(this, Text, input, array, 0.0, 0.7))
+  {
+    case vtkDiamonds::HierarchyCache::Status::Built:
+      ++this->NumberOfHierarchyBuilds;
+      break;
+    case vtkDiamonds::HierarchyCache::Status::Kept:
+      break;
+    case vtkDiamonds::HierarchyCache::Status::Aborted:
+      return 1;
+    case vtkDiamonds::HierarchyCache::Status::Failed:
+      return 0;
+  }
+  this->UpdateProgress(0.7);
+  if (this->CheckAbort())
+  {
+    return 1;
+  }
+
+  // ---- Extraction.
+  bridge::IsoSpec spec;
+  spec.tolerance = this->Tolerance;
+  spec.max_triangles = static_cast<std::size_t>(this->MaximumNumberOfTriangles);
+  spec.use_region_of_interest = false;
+  std::copy(this->RegionOfInterest, this->RegionOfInterest + 6, spec.region_of_interest.begin());
+  spec.compute_normals = this->ComputeNormals != 0;
+  spec.carrier_tetrahedra = this->GenerateCarrierTetrahedra != 0;
+  if (this->UseRegionOfInterest)
+  {
+    bool touchesPiece = false;
+    if (!vtkDiamonds::CheckRegionOfInterest(
+          this, this->RegionOfInterest, inputVector, input, touchesPiece))
+    {
+      return 0;
+    }
+    if (touchesPiece)
+    {
+      spec.use_region_of_interest = true;
+    }
+    else
+    {
+      // The region misses this piece: no diamond here is of interest, i.e. the coarsest surface.
+      spec.tolerance = std::numeric_limits<double>::max();
+    }
+  }
+
+  std::optional<rust::Box<bridge::Surface>> surface;
+  try
+  {
+    surface.emplace(cache.GetHierarchy().isosurface(cache.GetSampleType(), cache.GetSamples(),
+      rust::Slice<const double>(isovalues.data(), isovalues.size()), spec));
+  }
+  catch (const rust::Error& e)
+  {
+    vtkErrorMacro(<< "Adaptive Isosurface extraction failed for array \"" << name
+                  << "\": " << e.what());
+    return 0;
+  }
+  this->UpdateProgress(0.9);
+  if (this->CheckAbort())
+  {
+    return 1;
+  }
+
+  // ---- Output port 0: the surface.
+  rust::Slice<const double> xyz;
+  rust::Slice<const float> normals;
+  rust::Slice<const std::uint32_t> triangles;
+  rust::Slice<const double> values;
+  double errorBound = 0.0;
+  try
+  {
+    xyz = (*surface)->points();
+    normals = (*surface)->normals();
+    triangles = (*surface)->triangles();
+    values = (*surface)->values();
+    errorBound = (*surface)->error_bound();
+  }
+  catch (const rust::Error& e)
+  {
+    vtkErrorMacro(<< e.what());
+    return 0;
+  }
+  const vtkIdType numPoints = static_cast<vtkIdType>(values.size());
+  const vtkIdType numTriangles = static_cast<vtkIdType>(triangles.size() / 3);
+
+  vtkNew<vtkDoubleArray> pointArray;
+  pointArray->SetNumberOfComponents(3);
+  pointArray->SetNumberOfTuples(numPoints);
+  std::copy(xyz.begin(), xyz.end(), pointArray->GetPointer(0));
+  vtkNew<vtkPoints> points;
+  points->SetData(pointArray);
+  output->SetPoints(points);
+
+  // Triangles: 32-bit connectivity when the point count allows (half the memory), else 64-bit.
+  vtkNew<vtkCellArray> polys;
+  if (numPoints <= std::numeric_limits<vtkTypeInt32>::max())
+  {
+    polys->SetData(3, NamedArray<vtkTypeInt32Array>(nullptr, 3 * numTriangles, triangles.data()));
+  }
+  else
+  {
+    vtkNew<vtkTypeInt64Array> connectivity;
+    connectivity->SetNumberOfValues(3 * numTriangles);
+    std::copy(triangles.begin(), triangles.end(), connectivity->GetPointer(0));
+    polys->SetData(3, connectivity);
+  }
+  output->SetPolys(polys);
+
+  if (this->ComputeNormals)
+  {
+    vtkNew<vtkFloatArray> normalArray;
+    normalArray->SetName("Normals");
+    normalArray->SetNumberOfComponents(3);
+    normalArray->SetNumberOfTuples(numPoints);
+    std::copy(normals.begin(), normals.end(), normalArray->GetPointer(0));
+    output->GetPointData()->SetNormals(normalArray);
+  }
+  if (this->ComputeScalars)
+  {
+    // Of the input array's type, as vtkFlyingEdges3D does.
+    vtkSmartPointer<vtkDataArray> scalars =
+      vtkSmartPointer<vtkDataArray>::Take(vtkDataArray::CreateDataArray(array->GetDataType()));
+    scalars->SetName(name.c_str());
+    scalars->SetNumberOfComponents(1);
+    scalars->SetNumberOfTuples(numPoints);
+    for (vtkIdType i = 0; i < numPoints; ++i)
+    {
+      scalars->SetComponent(i, 0, values[i]);
+    }
+    output->GetPointData()->SetScalars(scalars);
+  }
+
+  this->RelativeTolerance = relativeTolerance;
+  vtkFieldData* fieldData = output->GetFieldData();
+  fieldData->PassData(input->GetFieldData());
+  fieldData->AddArray(OneValue<vtkDoubleArray>("ErrorBound", errorBound));
+  fieldData->AddArray(OneValue<vtkIdTypeArray>("NumberOfTriangles", numTriangles));
+  fieldData->AddArray(OneValue<vtkDoubleArray>("Tolerance", this->Tolerance));
+  fieldData->AddArray(OneValue<vtkDoubleArray>("RelativeTolerance", relativeTolerance));
+
+  // ---- Output port 1: the tetrahedra carrying the surface.
+  if (this->GenerateCarrierTetrahedra)
+  {
+    std::optional<rust::Box<bridge::Mesh>> mesh;
+    try
+    {
+      mesh.emplace((*surface)->take_carrier());
+    }
+    catch (const rust::Error& e)
+    {
+      vtkErrorMacro(<< e.what());
+      output->Initialize();
+      return 0;
+    }
+    vtkIdType numTets = 0;
+    double maxError = 0.0;
+    if (!vtkDiamonds::MeshToUnstructuredGrid(this, **mesh, input, carrier, numTets, maxError))
+    {
+      output->Initialize();
+      carrier->Initialize();
+      return 0;
+    }
+    carrier->GetFieldData()->AddArray(OneValue<vtkIdTypeArray>("NumberOfTetrahedra", numTets));
+    carrier->GetFieldData()->AddArray(OneValue<vtkDoubleArray>("MaximumError", maxError));
+  }
+
+  this->UpdateProgress(1.0);
+  return 1;
+}
+
+//------------------------------------------------------------------------------
+void vtkAdaptiveIsosurface::PrintSelf(ostream& os, vtkIndent indent)
+{
+  this->Superclass::PrintSelf(os, indent);
+  this->ContourValues->PrintSelf(os, indent.GetNextIndent());
+  os << indent << "Tolerance: " << this->Tolerance << "\n";
+  os << indent << "RelativeTolerance: " << this->RelativeTolerance << "\n";
+  os << indent << "MaximumNumberOfTriangles: " << this->MaximumNumberOfTriangles << "\n";
+  os << indent << "UseRegionOfInterest: " << (this->UseRegionOfInterest ? "On" : "Off") << "\n";
+  os << indent << "RegionOfInterest: (" << this->RegionOfInterest[0] << ", "
+     << this->RegionOfInterest[1] << ", " << this->RegionOfInterest[2] << ", "
+     << this->RegionOfInterest[3] << ", " << this->RegionOfInterest[4] << ", "
+     << this->RegionOfInterest[5] << ")\n";
+  os << indent << "ComputeNormals: " << (this->ComputeNormals ? "On" : "Off") << "\n";
+  os << indent << "ComputeScalars: " << (this->ComputeScalars ? "On" : "Off") << "\n";
+  os << indent << "GenerateCarrierTetrahedra: " << (this->GenerateCarrierTetrahedra ? "On" : "Off")
+     << "\n";
+  os << indent << "NumberOfHierarchyBuilds: " << this->NumberOfHierarchyBuilds << "\n";
+  os << indent << "HierarchyMemorySize: " << this->GetHierarchyMemorySize() << "\n";
+}

@@ -1,0 +1,267 @@
+/**
+ * @class   vtkAdaptiveIsosurface
+ * @brief   multiresolution, crack-free isosurfaces of an image within a world-space tolerance
+ *
+ * vtkAdaptiveIsosurface extracts isosurfaces (one per contour value) of a 3-D vtkImageData as a
+ * vtkPolyData of triangles, straight from a diamond hierarchy of the image: where the surface is
+ * nearly flat it is made of a few large triangles, where it is curved or detailed of small ones,
+ * and every part of it lies within Tolerance (world units) of the full-resolution surface, in
+ * the sense of the isosurface error below. Tolerance 0 gives the full-resolution surface, i.e.
+ * marching tetrahedra over the finest longest-edge-bisection mesh of the image. The output is
+ * watertight wherever the full-resolution surface is (closed surfaces that do not reach the image
+ * boundary stay closed): no cracks between coarse and fine regions.
+ *
+ * The algorithm (Gregorski et al. 2002, "Recursive Tetrahedral Meshes for Scientific
+ * Visualization", §6, §6.1–6.2; Weiss & De Floriani, "Isodiamond Hierarchies", §2.1, §5.1):
+ *
+ * 1. Diamond hierarchy. The same hierarchy as vtkAdaptiveTetrahedra's (see that class for the
+ *    lattice, the diamonds and the exact per-diamond approximation error): the image is embedded in
+ *    a (2^L+1)^3 lattice, split into tetrahedra by longest-edge bisection, and tetrahedra sharing a
+ *    split edge form diamonds that are always split together, so any refinement is a conforming
+ *    tetrahedral mesh. Each diamond also stores the range (min, max) of the samples it covers.
+ * 2. Culling of empty diamonds (Gregorski §6.1). A diamond whose value range does not contain any
+ *    isovalue cannot hold the surface: it is never split (only as far as its neighbours' splits
+ *    force it, for conformity). The refinement work therefore follows the surface, not the volume.
+ * 3. Isosurface error (Gregorski §6.2). A diamond's approximation error e (data units: the largest
+ *    difference between a sample and the linear interpolation) moves the surface by about
+ *    e / |gradient| in space; that distance, clamped to the size of the diamond's tetrahedra (the
+ *    surface cannot move further than the cell that holds it), is the diamond's isosurface error,
+ *    in world units. Diamonds containing an isovalue are split, their parents first (closure),
+ *    while their isosurface error exceeds Tolerance; with MaximumNumberOfTriangles, the diamond of
+ *    largest isosurface error goes first and refinement stops before the budget would be exceeded.
+ * 4. Marching tetrahedra on the resulting adaptive, conforming mesh: in each tetrahedron that
+ *    straddles an isovalue, the surface is the linear interpolant's zero set (one or two
+ *    triangles). Surface points live on mesh edges and are shared by edge (deduplicated through
+ *    the edge's two lattice endpoints), and the mesh is conforming, so neighbouring tetrahedra
+ *    produce the same point on their common edge: the surface has no cracks and no T-junctions.
+ *    Triangles are consistently oriented: their normal (right-hand rule) points toward
+ *    increasing values.
+ *
+ * Interaction. The hierarchy is built once per input array (one pass over the samples) and kept
+ * between executions; changing the contour values, Tolerance, MaximumNumberOfTriangles or the
+ * region of interest re-runs only the extraction, which reads the samples again where the surface
+ * passes (the filter keeps a reference to the input array for that, see Memory below).
+ * GetNumberOfHierarchyBuilds() counts the builds. The hierarchy is rebuilt when the input array,
+ * its values (MTime), its name or the image geometry (extent, origin, spacing) change.
+ *
+ * Options:
+ * - contour values (SetValue / SetNumberOfContours / GenerateValues, as vtkFlyingEdges3D): one
+ *   surface per value, all in the one output; at least one is required.
+ * - Tolerance: world units, >= 0 (default 0: full resolution). A good start is 0.5 %-1 % of the
+ *   image diagonal; ParaView's property panel sets 0.5 % of the longest side of the input bounds.
+ *   The field data "RelativeTolerance" and GetRelativeTolerance() give it as a fraction of the
+ *   diagonal of the whole image.
+ * - MaximumNumberOfTriangles: 0 = no limit.
+ * - UseRegionOfInterest / RegionOfInterest: Tolerance applies only to diamonds touching the box
+ *   (world bounds); elsewhere the surface is as coarse as conformity allows.
+ * - ComputeNormals (default on): point normals "Normals" (float, unit length) from the gradient
+ *   of the samples at the lattice points (central differences, one-sided at the image boundary),
+ *   interpolated along the edge; they point toward increasing values, like the triangle
+ *   orientation (vtkFlyingEdges3D and vtkContourFilter orient both toward decreasing values).
+ * - ComputeScalars (default off): a point array named like the processed array, of its type, whose
+ *   value at every point is the point's isovalue.
+ * - GenerateCarrierTetrahedra (default off): fills output port 1 with the tetrahedra of the adaptive
+ *   mesh that carry the surface, as a vtkUnstructuredGrid like vtkAdaptiveTetrahedra's output
+ *   (VTK_TETRA, input point data passed through, cell data "Level" and "ApproximationError",
+ *   field data "NumberOfTetrahedra" and "MaximumError"). Port 1 is an empty vtkUnstructuredGrid
+ *   otherwise.
+ *
+ * Output port 0 (vtkPolyData): points in double precision; triangles only; point data "Normals"
+ * (when ComputeNormals) and the scalar (when ComputeScalars); field data "ErrorBound" (double, the
+ * largest isosurface error, world units, of the diamonds carrying the surface: at most Tolerance
+ * unless the triangle budget stopped refinement), "NumberOfTriangles", "Tolerance" and
+ * "RelativeTolerance", next to the input's field data. Unlike vtkFlyingEdges3D, the other input
+ * point arrays are not interpolated onto the surface.
+ *
+ * Memory. The hierarchy costs 4 bytes per input point, plus 2 per point for the per-diamond
+ * isosurface errors that the first extraction caches (they do not depend on the isovalue, so an
+ * isovalue change reuses them). To re-read samples near the surface, the filter holds a reference
+ * to the processed input array while the hierarchy is cached (no copy, except for 64-bit integer
+ * or non-contiguous arrays, which are converted once); ReleaseHierarchy() drops both.
+ *
+ * Distributed data (MPI): every process extracts the surface of its own piece of the image with
+ * its own hierarchy (pieces share their boundary plane of points; the filter asks for no ghost
+ * levels). Each piece's surface is crack-free and within Tolerance, but two pieces refine their
+ * shared plane independently, so the surfaces of neighbouring pieces may not match exactly along
+ * it (small cracks or overlaps there, within the tolerance). The region of
+ * interest and RelativeTolerance refer to the whole data set; a piece the region does not touch
+ * gets its coarsest surface. An empty piece gives an empty output without an error.
+ *
+ * Errors (vtkErrorMacro, empty outputs, no crash): no contour value, or a NaN/Inf one; negative or
+ * non-finite Tolerance; negative MaximumNumberOfTriangles; fewer than 2 points along an axis (2-D
+ * images); no point scalars (cell data only: apply Cell Data to Point Data first); a
+ * multi-component array; NaN or Inf samples; a region of interest outside the image; an oriented
+ * image; an image of more than 2^32 points or whose hierarchy would not fit in memory. Arrays of
+ * 8-, 16- and 32-bit integers, float and double are read in place; 64-bit integer arrays are
+ * converted to double with a warning (refused beyond 2^53).
+ *
+ * Progress is reported through UpdateProgress (hierarchy build, then the extraction, then the
+ * output); AbortExecute / CheckAbort interrupts the build and leaves the outputs empty.
+ *
+ * The core is written in Rust (crate diamonds-core) and reached through one cxx bridge (crate
+ * diamonds-bridge); it runs on a thread pool of its own, independent of VTK's SMP backend.
+ *
+ * @sa
+ * vtkFlyingEdges3D, vtkContourFilter (full-resolution isosurfaces), vtkDecimatePro,
+ * vtkQuadricDecimation (reducing them afterwards), vtkAdaptiveTetrahedra (the adaptive mesh of the
+ * same hierarchy)
+ */
+
+#ifndef vtkAdaptiveIsosurface_h
+#define vtkAdaptiveIsosurface_h
+
+#include "vtkDiamondsModule.h" // For export macro
+#include "vtkPolyDataAlgorithm.h"
+
+class vtkContourValues;
+
+class VTKDIAMONDS_EXPORT vtkAdaptiveIsosurface : public vtkPolyDataAlgorithm
+{
+public:
+  static vtkAdaptiveIsosurface* New();
+  vtkTypeMacro(vtkAdaptiveIsosurface, vtkPolyDataAlgorithm);
+  void PrintSelf(ostream& os, vtkIndent indent) override;
+
+  /**
+   * Includes the MTime of the contour values.
+   */
+  vtkMTimeType GetMTime() override;
+
+  ///@{
+  /**
+   * The contour values (isovalues), as in vtkFlyingEdges3D: SetValue(i, v) sets value i (growing
+   * the list as needed), SetNumberOfContours(n) resizes it, GenerateValues(n, min, max) fills it
+   * with n equally spaced values. Each value gives one surface. Default: none (at least one is
+   * required; ParaView's panel starts with the middle of the array's range).
+   */
+  void SetValue(int i, double value);
+  double GetValue(int i);
+  double* GetValues();
+  void SetNumberOfContours(int number);
+  vtkIdType GetNumberOfContours();
+  void GenerateValues(int numContours, double rangeStart, double rangeEnd);
+  ///@}
+
+  ///@{
+  /**
+   * Isosurface error tolerance in world units: every part of the output lies within this distance
+   * (in the sense of Gregorski's isosurface error) of the full-resolution surface. 0 (default)
+   * gives the full-resolution surface. Must be >= 0.
+   */
+  vtkSetMacro(Tolerance, double);
+  vtkGetMacro(Tolerance, double);
+  ///@}
+
+  /**
+   * Tolerance divided by the diagonal of the whole input image at the last execution (0 before the
+   * first execution or for an empty input).
+   */
+  vtkGetMacro(RelativeTolerance, double);
+
+  ///@{
+  /**
+   * Upper bound on the number of output triangles; 0 (default) means no limit. When the budget
+   * binds, the diamonds of largest isosurface error are split first and Tolerance may not be met
+   * (the field data ErrorBound tells what was reached). Must be >= 0.
+   */
+  vtkSetMacro(MaximumNumberOfTriangles, vtkIdType);
+  vtkGetMacro(MaximumNumberOfTriangles, vtkIdType);
+  ///@}
+
+  ///@{
+  /**
+   * When on, Tolerance applies only to diamonds that touch RegionOfInterest; the surface stays
+   * coarse elsewhere. Default off.
+   */
+  vtkSetMacro(UseRegionOfInterest, vtkTypeBool);
+  vtkGetMacro(UseRegionOfInterest, vtkTypeBool);
+  vtkBooleanMacro(UseRegionOfInterest, vtkTypeBool);
+  ///@}
+
+  ///@{
+  /**
+   * The region of interest as world bounds (xmin, xmax, ymin, ymax, zmin, zmax). It must touch the
+   * image bounds; it may extend beyond them. Default (0, 1, 0, 1, 0, 1).
+   */
+  vtkSetVector6Macro(RegionOfInterest, double);
+  vtkGetVector6Macro(RegionOfInterest, double);
+  ///@}
+
+  ///@{
+  /**
+   * Point normals "Normals" from the sample gradient, unit length, toward increasing values.
+   * Default on.
+   */
+  vtkSetMacro(ComputeNormals, vtkTypeBool);
+  vtkGetMacro(ComputeNormals, vtkTypeBool);
+  vtkBooleanMacro(ComputeNormals, vtkTypeBool);
+  ///@}
+
+  ///@{
+  /**
+   * A point array named like the processed array (same type) holding each point's isovalue.
+   * Default off.
+   */
+  vtkSetMacro(ComputeScalars, vtkTypeBool);
+  vtkGetMacro(ComputeScalars, vtkTypeBool);
+  vtkBooleanMacro(ComputeScalars, vtkTypeBool);
+  ///@}
+
+  ///@{
+  /**
+   * When on, output port 1 holds the tetrahedra carrying the surface (see the class comment);
+   * otherwise it is empty. Default off.
+   */
+  vtkSetMacro(GenerateCarrierTetrahedra, vtkTypeBool);
+  vtkGetMacro(GenerateCarrierTetrahedra, vtkTypeBool);
+  vtkBooleanMacro(GenerateCarrierTetrahedra, vtkTypeBool);
+  ///@}
+
+  /**
+   * Number of times this filter has built a diamond hierarchy (one per execution whose input array
+   * or geometry changed; none when only the contour values, Tolerance, the budget or the region
+   * changed).
+   */
+  vtkGetMacro(NumberOfHierarchyBuilds, vtkIdType);
+
+  /**
+   * Bytes of per-diamond data held by the cached hierarchy (0 when none is cached): 4 per input
+   * point, not counting the cached isosurface errors (2 per point) nor the input array it keeps a
+   * reference to.
+   */
+  vtkIdType GetHierarchyMemorySize();
+
+  /**
+   * Frees the cached hierarchy and the reference to the input array; the next execution rebuilds.
+   */
+  void ReleaseHierarchy();
+
+protected:
+  vtkAdaptiveIsosurface();
+  ~vtkAdaptiveIsosurface() override;
+
+  int FillInputPortInformation(int port, vtkInformation* info) override;
+  int FillOutputPortInformation(int port, vtkInformation* info) override;
+  int RequestUpdateExtent(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
+  int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
+
+  vtkContourValues* ContourValues;
+  double Tolerance;
+  double RelativeTolerance;
+  vtkIdType MaximumNumberOfTriangles;
+  vtkTypeBool UseRegionOfInterest;
+  double RegionOfInterest[6];
+  vtkTypeBool ComputeNormals;
+  vtkTypeBool ComputeScalars;
+  vtkTypeBool GenerateCarrierTetrahedra;
+  vtkIdType NumberOfHierarchyBuilds;
+
+private:
+  vtkAdaptiveIsosurface(const vtkAdaptiveIsosurface&) = delete;
+  void operator=(const vtkAdaptiveIsosurface&) = delete;
+
+  class vtkInternals;
+  vtkInternals* Internals;
+};
+
+#endif
