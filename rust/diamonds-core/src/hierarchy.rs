@@ -15,13 +15,13 @@
 //! [`crate::lattice`]); their closure is the *base mesh*, computed once here.
 
 use crate::diamond::Diamond;
+use crate::isosurface::IsoCache;
 use crate::lattice::{Lattice, Placement};
 use crate::refine::{Query, Refiner, SplitSet};
 use crate::scan::{scan_finest_diamond, scan_tet, Stencils, TetStats};
 use crate::volume::{Sample, Volume};
 use crate::{with_volume, Error, Grid, Result, ScalarSlice, TetMesh};
 use rayon::prelude::*;
-use std::sync::atomic::AtomicU16;
 use std::sync::OnceLock;
 
 /// Progress callback: called on the calling thread with a fraction in `[0, 1]`; return `false` to abort.
@@ -90,8 +90,10 @@ pub struct Hierarchy {
     value_range: (f64, f64),
     base: SplitSet,
     base_tets: usize,
-    /// Per-diamond isosurface errors, filled lazily by isosurface queries (see [`crate::isosurface`]).
-    pub(crate) iso_errors: OnceLock<Vec<AtomicU16>>,
+    /// Diamonds with tetrahedra in the base mesh: where every query starts.
+    base_candidates: Vec<Diamond>,
+    /// What isosurface queries keep between isovalues (see [`crate::isosurface`]).
+    pub(crate) iso_cache: OnceLock<IsoCache>,
 }
 
 impl Hierarchy {
@@ -164,9 +166,11 @@ impl Hierarchy {
             value_range,
             base: SplitSet::new(&lattice),
             base_tets: 0,
-            iso_errors: OnceLock::new(),
+            base_candidates: Vec::new(),
+            iso_cache: OnceLock::new(),
         };
         let (base, base_tets) = Refiner::base_mesh(&hierarchy);
+        hierarchy.base_candidates = Refiner::candidates(&lattice, &base);
         hierarchy.base = base;
         hierarchy.base_tets = base_tets;
         progress(1.0);
@@ -206,6 +210,10 @@ impl Hierarchy {
 
     pub(crate) fn base(&self) -> &SplitSet {
         &self.base
+    }
+
+    pub(crate) fn base_candidates(&self) -> &[Diamond] {
+        &self.base_candidates
     }
 
     /// Error bound of diamond `d` (data units); diamonds whose central vertex is outside the domain are

@@ -11,6 +11,7 @@
 //! its mesh edge, so the surface is crack-free wherever the full-resolution one is.
 
 use crate::diamond::{signed_volume6, Diamond};
+use crate::hierarchy::place_diamond;
 use crate::hierarchy::{decode_error, encode_error};
 use crate::lattice::{Lattice, Placement, Tet};
 use crate::refine::{Query, Refiner};
@@ -147,14 +148,10 @@ impl Hierarchy {
             region_of_interest: query.region_of_interest,
         };
         let split = Refiner::run(self, &refine, &criterion)?;
-        // Walk only below tetrahedra whose diamond's range holds an isovalue.
+        // Walk only below tetrahedra whose sample range holds an isovalue.
         let empty = |t: &Tet| {
-            Diamond::of_tet(t).is_some_and(|d| {
-                lattice.in_domain(d.center) && {
-                    let (lo, hi) = self.range(d);
-                    !isovalues.iter().any(|&v| lo <= v && v <= hi)
-                }
-            })
+            let (lo, hi) = self.tet_range(volume, t);
+            !isovalues.iter().any(|&v| lo <= v && v <= hi)
         };
         let carriers = crate::mesh::leaves_where(&lattice, &split, empty, |t| {
             let f = t.map(|p| volume.at(p.x as usize, p.y as usize, p.z as usize));
@@ -173,18 +170,92 @@ impl Hierarchy {
     }
 }
 
+/// What isosurface queries keep between isovalues: the isovalue-independent isosurface error of each
+/// diamond (computed the first time a query needs it, stored rounded up like the approximation error)
+/// and the sample range of 8³ bricks, which bounds the range of any box (used to skip subtrees of the
+/// base mesh, whose diamonds carry no range of their own).
+pub(crate) struct IsoCache {
+    errors: Vec<AtomicU16>,
+    bricks: Bricks,
+}
+
+impl std::fmt::Debug for IsoCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "IsoCache({} diamonds, {} bricks)",
+            self.errors.len(),
+            self.bricks.min.len()
+        )
+    }
+}
+
+/// Sample ranges of the bricks `[8b, 8b + 8]` per axis (neighbouring bricks share a layer).
+struct Bricks {
+    dims: [usize; 3],
+    min: Vec<f64>,
+    max: Vec<f64>,
+}
+
+const BRICK: usize = 8;
+
+impl Bricks {
+    fn new<T: Sample>(volume: &Volume<'_, T>) -> Self {
+        let g = &volume.grid;
+        let dims = g.dims.map(|d| (d - 1).div_ceil(BRICK).max(1));
+        let n = dims[0] * dims[1] * dims[2];
+        let (mut min, mut max) = (vec![f64::INFINITY; n], vec![f64::NEG_INFINITY; n]);
+        for (i, s) in volume.samples.iter().enumerate() {
+            let v = s.to_f64();
+            let p = g.ijk(i);
+            // Bricks holding this sample: b with 8b ≤ p ≤ 8b + 8 on every axis.
+            let span = p.map(|c| (c.saturating_sub(1) / BRICK, c / BRICK));
+            for bz in span[2].0..=span[2].1.min(dims[2] - 1) {
+                for by in span[1].0..=span[1].1.min(dims[1] - 1) {
+                    for bx in span[0].0..=span[0].1.min(dims[0] - 1) {
+                        let b = bx + dims[0] * (by + dims[1] * bz);
+                        min[b] = min[b].min(v);
+                        max[b] = max[b].max(v);
+                    }
+                }
+            }
+        }
+        Self { dims, min, max }
+    }
+
+    /// A superset of the sample range in the box `[lo, hi]` (lattice coordinates inside the grid).
+    fn range(&self, lo: IVec3, hi: IVec3) -> (f64, f64) {
+        // The last brick of an axis also holds the samples at its far end.
+        let last = glam::UVec3::from(self.dims.map(|d| d as u32 - 1));
+        let b0 = (lo.as_uvec3() / BRICK as u32).min(last);
+        let b1 = ((hi - IVec3::ONE).max(lo).as_uvec3() / BRICK as u32).min(last);
+        let (mut a, mut b) = (f64::INFINITY, f64::NEG_INFINITY);
+        for z in b0.z..=b1.z {
+            for y in b0.y..=b1.y {
+                for x in b0.x..=b1.x {
+                    let i = x as usize + self.dims[0] * (y as usize + self.dims[1] * z as usize);
+                    a = a.min(self.min[i]);
+                    b = b.max(self.max[i]);
+                }
+            }
+        }
+        (a, b)
+    }
+}
+
 impl Hierarchy {
-    /// The isosurface error of `d` (central vertex in the domain). It does not depend on the isovalue, so
-    /// it is computed the first time a query needs it and kept: an isovalue change only computes the
-    /// errors of diamonds no earlier query visited. Stored rounded up like the approximation error.
-    fn cached_isosurface_error<T: Sample>(&self, volume: &Volume<'_, T>, d: Diamond) -> f64 {
-        const UNKNOWN: u16 = u16::MAX;
-        let cache = self.iso_errors.get_or_init(|| {
-            (0..self.grid().len())
+    fn iso_cache<T: Sample>(&self, volume: &Volume<'_, T>) -> &IsoCache {
+        self.iso_cache.get_or_init(|| IsoCache {
+            errors: (0..self.grid().len())
                 .map(|_| AtomicU16::new(UNKNOWN))
-                .collect()
-        });
-        let slot = &cache[self.lattice().index(d.center)];
+                .collect(),
+            bricks: Bricks::new(volume),
+        })
+    }
+
+    /// The isosurface error of `d` (central vertex in the domain), from the cache or computed now.
+    fn cached_isosurface_error<T: Sample>(&self, volume: &Volume<'_, T>, d: Diamond) -> f64 {
+        let slot = &self.iso_cache(volume).errors[self.lattice().index(d.center)];
         let code = slot.load(Ordering::Relaxed);
         if code != UNKNOWN {
             return decode_error(code);
@@ -193,7 +264,23 @@ impl Hierarchy {
         slot.store(code, Ordering::Relaxed);
         decode_error(code)
     }
+
+    /// A superset of the sample range of the tetrahedron `t` (inside or straddling the domain).
+    fn tet_range<T: Sample>(&self, volume: &Volume<'_, T>, t: &Tet) -> (f64, f64) {
+        let lattice = self.lattice();
+        if let Some(d) = Diamond::of_tet(t) {
+            if lattice.in_domain(d.center) && place_diamond(lattice, d) != Placement::Straddling {
+                return self.range(d);
+            }
+        }
+        let lo = t[0].min(t[1]).min(t[2].min(t[3]));
+        let hi = t[0].max(t[1]).max(t[2].max(t[3])).min(lattice.hi);
+        self.iso_cache(volume).bricks.range(lo, hi)
+    }
 }
+
+/// Marks a diamond whose isosurface error no query has computed yet.
+const UNKNOWN: u16 = u16::MAX;
 
 /// Does the tetrahedron with vertex values `f` carry the isosurface of `v`? (Vertices at `v` count as above.)
 #[inline]
@@ -345,4 +432,42 @@ fn carrier_mesh(h: &Hierarchy, tets: &[Tet]) -> TetMesh {
     mesh.points = point_ids.iter().map(|&i| grid.point(grid.ijk(i))).collect();
     mesh.point_ids = point_ids;
     mesh
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn brick_ranges_hold_every_box() {
+        let grid = Grid::new([19, 9, 26]);
+        let samples: Vec<i16> = (0..grid.len())
+            .map(|i| ((i * 7919) % 1000) as i16)
+            .collect();
+        let volume = Volume::new(grid, &samples[..]).unwrap();
+        let bricks = Bricks::new(&volume);
+        let hi = IVec3::new(18, 8, 25);
+        for (k, lo) in [
+            IVec3::ZERO,
+            IVec3::new(3, 1, 8),
+            IVec3::new(8, 8, 16),
+            IVec3::new(17, 0, 24),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            for size in [0, 1, 5, 8, 9, 30] {
+                let top = (lo + IVec3::splat(size + k as i32)).min(hi);
+                let (a, b) = bricks.range(lo, top);
+                for z in lo.z..=top.z {
+                    for y in lo.y..=top.y {
+                        for x in lo.x..=top.x {
+                            let v = volume.at(x as usize, y as usize, z as usize);
+                            assert!(a <= v && v <= b, "{lo:?}..{top:?}: {v} outside [{a}, {b}]");
+                        }
+                    }
+                }
+            }
+        }
+    }
 }

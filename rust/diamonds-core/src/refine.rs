@@ -184,6 +184,25 @@ impl<'h> Refiner<'h> {
         (r.split, tets)
     }
 
+    /// The unsplit diamonds with tetrahedra in the mesh of `split`: the root when unsplit, and the
+    /// unsplit children of split diamonds.
+    pub(crate) fn candidates(lattice: &Lattice, split: &SplitSet) -> Vec<Diamond> {
+        let mut out = Vec::new();
+        let mut seen = FxHashSet::default();
+        let mut stack = vec![Diamond::root(lattice)];
+        while let Some(d) = stack.pop() {
+            if !seen.insert(d) {
+                continue;
+            }
+            if split.contains(d) {
+                stack.extend(d.children(lattice));
+            } else if place_diamond(lattice, d) != Placement::Outside {
+                out.push(d);
+            }
+        }
+        out
+    }
+
     /// Runs `query` from the base mesh with `criterion` as the diamond error and returns the split set.
     pub(crate) fn run(
         hierarchy: &'h Hierarchy,
@@ -210,15 +229,8 @@ impl<'h> Refiner<'h> {
         if let Some(roi) = query.region_of_interest {
             r.roi = Some(lattice_box(hierarchy, roi)?);
         }
-        // Every diamond with tetrahedra in the base mesh is a candidate.
-        let mut expanded = FxHashSet::default();
-        let mut stack = vec![Diamond::root(&r.lattice)];
-        while let Some(d) = stack.pop() {
-            if !r.split.contains(d) {
-                r.consider(d);
-            } else if expanded.insert(d) {
-                stack.extend(d.children(&r.lattice));
-            }
+        for &d in hierarchy.base_candidates() {
+            r.consider(d);
         }
         let mut closure = Vec::new();
         while let Some(d) = r.queue.pop() {
