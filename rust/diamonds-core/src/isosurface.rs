@@ -11,7 +11,6 @@
 //! its mesh edge, so the surface is crack-free wherever the full-resolution one is.
 
 use crate::diamond::{signed_volume6, Diamond};
-use crate::hierarchy::place_diamond;
 use crate::hierarchy::{decode_error, encode_error};
 use crate::lattice::{Lattice, Placement, Tet};
 use crate::refine::{Query, Refiner};
@@ -269,8 +268,9 @@ impl Hierarchy {
     fn tet_range<T: Sample>(&self, volume: &Volume<'_, T>, t: &Tet) -> (f64, f64) {
         let lattice = self.lattice();
         if let Some(d) = Diamond::of_tet(t) {
-            if lattice.in_domain(d.center) && place_diamond(lattice, d) != Placement::Straddling {
-                return self.range(d);
+            let (lo, hi) = d.bounds();
+            if lattice.in_domain(lo) && lattice.in_domain(hi) {
+                return self.range(d); // the diamond, hence its range, lies inside the domain
             }
         }
         let lo = t[0].min(t[1]).min(t[2].min(t[3]));
