@@ -4,10 +4,11 @@
 #   bash scripts/test-integration.sh
 #
 # 1. tests/cpp_consumer: an external CMake project builds against the installed tree
-#    (find_package(Diamonds) in build/install) and runs vtkRTAnalyticSource -> vtkAdaptiveTetrahedra.
+#    (find_package(Diamonds) in build/install) and runs vtkRTAnalyticSource -> vtkAdaptiveTetrahedra
+#    and -> vtkAdaptiveIsosurface.
 # 2. tests/pvpython/test_*.py: the plugin auto-loaded through PV_PLUGIN_PATH, independent numpy
-#    checks of the meshes, properties, bad inputs.
-# 3. tests/pvpython/mpi_pieces.py under `mpiexec -n 2 pvbatch`.
+#    checks of the meshes and isosurfaces, properties, bad inputs.
+# 3. tests/pvpython/mpi_pieces.py and mpi_isosurface.py under `mpiexec -n 2 pvbatch`.
 # 4. scripts/demo.py under `xvfb-run -a pvbatch` (the only step that renders), into build/test-demo.
 # Ends with the line "N passed, M failed"; exits non-zero if any step failed.
 set -uo pipefail
@@ -76,8 +77,9 @@ step "C++ consumer of the installed package" cpp_consumer
 for t in tests/pvpython/test_*.py; do
   step "pvpython $t" pvpython "$t"
 done
-step "mpiexec -n 2 pvbatch tests/pvpython/mpi_pieces.py" \
-  mpiexec --allow-run-as-root --oversubscribe -n 2 pvbatch tests/pvpython/mpi_pieces.py
+for t in tests/pvpython/mpi_pieces.py tests/pvpython/mpi_isosurface.py; do
+  step "mpiexec -n 2 pvbatch $t" mpiexec --allow-run-as-root --oversubscribe -n 2 pvbatch "$t"
+done
 step "xvfb-run -a pvbatch scripts/demo.py" demo_render
 
 echo

@@ -1,5 +1,6 @@
-// Uses vtkAdaptiveTetrahedra from the installed Diamonds package in a plain VTK pipeline
-// (vtkRTAnalyticSource -> vtkAdaptiveTetrahedra) and checks its output. Exits non-zero on failure.
+// Uses vtkAdaptiveTetrahedra and vtkAdaptiveIsosurface from the installed Diamonds package in plain
+// VTK pipelines (vtkRTAnalyticSource -> filter) and checks their outputs. Exits non-zero on failure.
+#include "vtkAdaptiveIsosurface.h"
 #include "vtkAdaptiveTetrahedra.h"
 
 #include <vtkCallbackCommand.h>
@@ -12,6 +13,7 @@
 #include <vtkImageData.h>
 #include <vtkNew.h>
 #include <vtkPointData.h>
+#include <vtkPolyData.h>
 #include <vtkRTAnalyticSource.h>
 #include <vtkUnsignedCharArray.h>
 #include <vtkUnstructuredGrid.h>
@@ -189,6 +191,49 @@ int main()
   onEmpty->Update();
   Check(errors == 0 && onEmpty->GetOutput()->GetNumberOfCells() == 0,
     "empty image: empty output, no error");
+
+  // ---- vtkAdaptiveIsosurface on the same image.
+  vtkNew<vtkAdaptiveIsosurface> iso;
+  iso->SetInputConnection(source->GetOutputPort());
+  iso->SetValue(0, 157.0);
+  iso->SetTolerance(0.5);
+  iso->Update();
+  vtkPolyData* surface = iso->GetOutput(0);
+  const vtkIdType triangles = surface->GetNumberOfCells();
+  std::printf("Adaptive Isosurface 157, Tolerance 0.5: %lld points, %lld triangles\n",
+    static_cast<long long>(surface->GetNumberOfPoints()), static_cast<long long>(triangles));
+  Check(triangles > 0 && surface->GetNumberOfPolys() == triangles, "isosurface: triangles only");
+  bool threeCorners = true;
+  for (vtkIdType c = 0; c < triangles; ++c)
+  {
+    threeCorners = threeCorners && surface->GetCellType(c) == VTK_TRIANGLE;
+  }
+  Check(threeCorners, "isosurface: every cell a VTK_TRIANGLE");
+  vtkDataArray* normals = surface->GetPointData()->GetNormals();
+  bool unit = normals != nullptr && normals->GetNumberOfTuples() == surface->GetNumberOfPoints();
+  for (vtkIdType p = 0; unit && p < normals->GetNumberOfTuples(); ++p)
+  {
+    const double* n = normals->GetTuple3(p);
+    unit = std::abs(std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]) - 1.0) < 1e-4;
+  }
+  Check(unit, "isosurface: unit point normals");
+  vtkDataArray* bound = surface->GetFieldData()->GetArray("ErrorBound");
+  Check(bound != nullptr && bound->GetTuple1(0) <= 0.5, "isosurface: field data ErrorBound <= Tolerance");
+  vtkUnstructuredGrid* noCarriers = vtkUnstructuredGrid::SafeDownCast(iso->GetOutputDataObject(1));
+  Check(noCarriers != nullptr && noCarriers->GetNumberOfCells() == 0,
+    "isosurface: port 1 an empty vtkUnstructuredGrid by default");
+  iso->SetValue(0, 120.0);
+  iso->GenerateCarrierTetrahedraOn();
+  iso->Update();
+  Check(iso->GetOutput(0)->GetNumberOfCells() > 0 && iso->GetNumberOfHierarchyBuilds() == 1,
+    "isosurface: isovalue change re-extracts without a rebuild");
+  vtkUnstructuredGrid* carriers = vtkUnstructuredGrid::SafeDownCast(iso->GetOutputDataObject(1));
+  Check(carriers != nullptr && carriers->GetNumberOfCells() > 0 && OnlyTetra(carriers),
+    "isosurface: carrier tetrahedra on port 1");
+  std::printf("(an error about a missing isovalue is expected next)\n");
+  iso->SetNumberOfContours(0);
+  iso->Update();
+  Check(iso->GetOutput(0)->GetNumberOfCells() == 0, "isosurface: no isovalue, empty output");
 
   std::printf("%s: %d failure(s)\n", failures ? "FAILED" : "PASSED", failures);
   return failures ? EXIT_FAILURE : EXIT_SUCCESS;
