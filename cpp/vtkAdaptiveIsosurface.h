@@ -47,10 +47,10 @@
  * Options:
  * - contour values (SetValue / SetNumberOfContours / GenerateValues, as vtkFlyingEdges3D): one
  *   surface per value, all in the one output; at least one is required.
- * - Tolerance: world units, >= 0 (default 0: full resolution). A good start is 0.5 %-1 % of the
- *   image diagonal; ParaView's property panel sets 0.5 % of the longest side of the input bounds.
- *   The field data "RelativeTolerance" and GetRelativeTolerance() give it as a fraction of the
- *   diagonal of the whole image.
+ * - Tolerance: world units, >= 0 (default 0: full resolution). A good start is one voxel diagonal
+ *   (what ParaView's property panel sets) or 0.2 %-1 % of the image diagonal. The field data
+ *   "RelativeTolerance" and GetRelativeTolerance() give it as a fraction of the diagonal of the
+ *   whole image.
  * - MaximumNumberOfTriangles: 0 = no limit.
  * - UseRegionOfInterest / RegionOfInterest: Tolerance applies only to diamonds touching the box
  *   (world bounds); elsewhere the surface is as coarse as conformity allows.
@@ -68,10 +68,11 @@
  *
  * Output port 0 (vtkPolyData): points in double precision; triangles only; point data "Normals"
  * (when ComputeNormals) and the scalar (when ComputeScalars); field data "ErrorBound" (double, the
- * largest isosurface error, world units, of the diamonds carrying the surface: at most Tolerance
- * unless the triangle budget stopped refinement), "NumberOfTriangles", "Tolerance" and
- * "RelativeTolerance", next to the input's field data. Unlike vtkFlyingEdges3D, the other input
- * point arrays are not interpolated onto the surface.
+ * largest isosurface error, world units, of the diamonds carrying the surface, over the whole
+ * surface: at most Tolerance unless the triangle budget stopped refinement or a region of interest
+ * left the rest coarse), "NumberOfTriangles", "Tolerance" and "RelativeTolerance", next to the
+ * input's field data. Unlike vtkFlyingEdges3D, the other input point arrays are not interpolated
+ * onto the surface.
  *
  * Memory. The hierarchy costs 4 bytes per input point, plus 2 per point for the per-diamond
  * isosurface errors that the first extraction caches (they do not depend on the isovalue, so an
