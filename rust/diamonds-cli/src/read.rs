@@ -1,5 +1,5 @@
-//! Reading VTK files: image data (`.vti` XML, `.vtk` legacy `STRUCTURED_POINTS`) and unstructured grids
-//! (`.vtu` XML).
+//! Reading VTK files: image data (`.vti` XML, `.vtk` legacy `STRUCTURED_POINTS`), unstructured grids
+//! (`.vtu` XML) and polygonal data (`.vtp` XML, its `<Polys>`).
 //!
 //! Legacy files are parsed by `vtkio`. VTK XML files are parsed here, because `vtkio` (0.6.3 and
 //! 0.7.0-rc2) cannot read what VTK and ParaView write by default:
@@ -46,6 +46,19 @@ pub struct Unstructured {
     pub offsets: Vec<usize>,
     /// VTK cell types.
     pub types: Vec<u8>,
+    pub point_data: Vec<Array>,
+    pub cell_data: Vec<Array>,
+    pub field_data: Vec<Array>,
+}
+
+/// Polygonal data, as read from a `.vtp` file: its polygons (`<Polys>`); files with vertices, lines
+/// or strips are refused.
+#[derive(Clone, Debug, Default)]
+pub struct PolyData {
+    pub points: Vec<[f64; 3]>,
+    pub connectivity: Vec<usize>,
+    /// End of each polygon in `connectivity`.
+    pub offsets: Vec<usize>,
     pub point_data: Vec<Array>,
     pub cell_data: Vec<Array>,
     pub field_data: Vec<Array>,
@@ -158,6 +171,18 @@ pub fn read_unstructured(path: &Path) -> Result<Unstructured> {
     }
     let bytes = read_bytes(path)?;
     in_file(path, xml_unstructured(&bytes))
+}
+
+/// Reads the polygons of a `.vtp` (VTK XML PolyData) file.
+pub fn read_polydata(path: &Path) -> Result<PolyData> {
+    if extension(path) != "vtp" {
+        bail!(
+            "unsupported surface file '{}': expected a .vtp (VTK XML poly data) file",
+            path.display()
+        );
+    }
+    let bytes = read_bytes(path)?;
+    in_file(path, xml_polydata(&bytes))
 }
 
 // ---------------------------------------------------------------------------------------------------
@@ -956,49 +981,28 @@ fn indices(a: &Array, what: &str) -> Result<Vec<usize>> {
     }
 }
 
-fn xml_unstructured(bytes: &[u8]) -> Result<Unstructured> {
-    let doc = XmlDoc::parse(bytes)?;
-    if doc.kind != "UnstructuredGrid" {
-        bail!("holds VTK {} data, not UnstructuredGrid", doc.kind);
-    }
-    let piece = doc.piece()?;
-    let count = |key: &str| -> Result<usize> {
-        piece
-            .attrs
-            .get(key)
-            .and_then(|v| v.trim().parse().ok())
-            .ok_or_else(|| Error(format!("<Piece> lacks a valid {key}")))
-    };
-    let (n_points, n_cells) = (count("NumberOfPoints")?, count("NumberOfCells")?);
+/// A count attribute (`NumberOfPoints`, …) of a piece; `None` when absent.
+fn piece_count(piece: &XmlPiece, key: &str) -> Result<Option<usize>> {
+    piece
+        .attrs
+        .get(key)
+        .map(|v| {
+            v.trim()
+                .parse()
+                .map_err(|_| Error(format!("<Piece> has an invalid {key}=\"{v}\"")))
+        })
+        .transpose()
+}
+
+/// The `<Points>` of a piece of `n_points` points, as `f64`.
+fn xml_points(doc: &XmlDoc<'_>, piece: &XmlPiece, n_points: usize) -> Result<Vec<[f64; 3]>> {
     let points = match piece.section("Points").and_then(|s| s.arrays.first()) {
         Some(a) => doc.decode(a, n_points)?,
         None if n_points == 0 => Array::scalars("Points", Vec::<f64>::new()),
-        None => bail!("the grid has no <Points>"),
+        None => bail!("the {} has no <Points>", doc.kind),
     };
     if points.components != 3 {
         bail!("points have {} components, 3 expected", points.components);
-    }
-    let cells = piece.section("Cells");
-    let cell_xml = |name: &str| {
-        cells
-            .and_then(|s| s.arrays.iter().find(|a| a.attrs.get("Name") == Some(name)))
-            .ok_or_else(|| Error(format!("the grid has no <Cells> array '{name}'")))
-    };
-    let offsets = indices(&doc.decode(cell_xml("offsets")?, n_cells)?, "cell offsets")?;
-    let types: Vec<u8> = indices(&doc.decode(cell_xml("types")?, n_cells)?, "cell types")?
-        .into_iter()
-        .map(|t| u8::try_from(t).map_err(|_| Error(format!("invalid cell type {t}"))))
-        .collect::<Result<_>>()?;
-    if offsets.windows(2).any(|w| w[0] > w[1]) {
-        bail!("cell offsets decrease");
-    }
-    let total = offsets.last().copied().unwrap_or(0);
-    let connectivity = indices(
-        &doc.decode(cell_xml("connectivity")?, total)?,
-        "connectivity",
-    )?;
-    if let Some(&bad) = connectivity.iter().find(|&&i| i >= n_points) {
-        bail!("connectivity refers to point {bad} of {n_points}");
     }
     let (IOBuffer::F64(_) | IOBuffer::F32(_)) = points.data else {
         bail!(
@@ -1006,9 +1010,73 @@ fn xml_unstructured(bytes: &[u8]) -> Result<Unstructured> {
             points.type_name()
         );
     };
-    let points = (0..n_points)
+    Ok((0..n_points)
         .map(|p| std::array::from_fn(|a| points.value(3 * p + a)))
-        .collect();
+        .collect())
+}
+
+/// The `offsets` and `connectivity` arrays of the cell section `name` (`Cells`, `Polys`) holding
+/// `n_cells` cells on `n_points` points: `(connectivity, offsets)`.
+fn xml_cells(
+    doc: &XmlDoc<'_>,
+    piece: &XmlPiece,
+    name: &str,
+    n_cells: usize,
+    n_points: usize,
+) -> Result<(Vec<usize>, Vec<usize>)> {
+    let section = piece.section(name);
+    let array = |key: &str| {
+        section
+            .and_then(|s| s.arrays.iter().find(|a| a.attrs.get("Name") == Some(key)))
+            .ok_or_else(|| Error(format!("the {} has no <{name}> array '{key}'", doc.kind)))
+    };
+    let offsets = indices(&doc.decode(array("offsets")?, n_cells)?, "cell offsets")?;
+    if offsets.windows(2).any(|w| w[0] > w[1]) {
+        bail!("cell offsets decrease");
+    }
+    let total = offsets.last().copied().unwrap_or(0);
+    let connectivity = indices(&doc.decode(array("connectivity")?, total)?, "connectivity")?;
+    if let Some(&bad) = connectivity.iter().find(|&&i| i >= n_points) {
+        bail!("connectivity refers to point {bad} of {n_points}");
+    }
+    Ok((connectivity, offsets))
+}
+
+/// The data-set `<FieldData>` arrays (those that cannot be decoded are left out).
+fn xml_field_data(doc: &XmlDoc<'_>) -> Vec<Array> {
+    doc.field_data
+        .iter()
+        .filter_map(|a| {
+            let tuples = a.attrs.get("NumberOfTuples")?.trim().parse().ok()?;
+            doc.decode(a, tuples).ok()
+        })
+        .collect()
+}
+
+fn xml_unstructured(bytes: &[u8]) -> Result<Unstructured> {
+    let doc = XmlDoc::parse(bytes)?;
+    if doc.kind != "UnstructuredGrid" {
+        bail!("holds VTK {} data, not UnstructuredGrid", doc.kind);
+    }
+    let piece = doc.piece()?;
+    let count = |key: &str| -> Result<usize> {
+        piece_count(piece, key)?.ok_or_else(|| Error(format!("<Piece> lacks a valid {key}")))
+    };
+    let (n_points, n_cells) = (count("NumberOfPoints")?, count("NumberOfCells")?);
+    let points = xml_points(&doc, piece, n_points)?;
+    let (connectivity, offsets) = xml_cells(&doc, piece, "Cells", n_cells, n_points)?;
+    let types_xml = piece
+        .section("Cells")
+        .and_then(|s| {
+            s.arrays
+                .iter()
+                .find(|a| a.attrs.get("Name") == Some("types"))
+        })
+        .ok_or_else(|| Error("the UnstructuredGrid has no <Cells> array 'types'".into()))?;
+    let types: Vec<u8> = indices(&doc.decode(types_xml, n_cells)?, "cell types")?
+        .into_iter()
+        .map(|t| u8::try_from(t).map_err(|_| Error(format!("invalid cell type {t}"))))
+        .collect::<Result<_>>()?;
     Ok(Unstructured {
         points,
         connectivity,
@@ -1016,14 +1084,41 @@ fn xml_unstructured(bytes: &[u8]) -> Result<Unstructured> {
         types,
         point_data: doc.decode_section(piece.section("PointData"), n_points, &mut Vec::new())?,
         cell_data: doc.decode_section(piece.section("CellData"), n_cells, &mut Vec::new())?,
-        field_data: doc
-            .field_data
-            .iter()
-            .filter_map(|a| {
-                let tuples = a.attrs.get("NumberOfTuples")?.trim().parse().ok()?;
-                doc.decode(a, tuples).ok()
-            })
-            .collect(),
+        field_data: xml_field_data(&doc),
+    })
+}
+
+fn xml_polydata(bytes: &[u8]) -> Result<PolyData> {
+    let doc = XmlDoc::parse(bytes)?;
+    if doc.kind != "PolyData" {
+        bail!("holds VTK {} data, not PolyData", doc.kind);
+    }
+    let piece = doc.piece()?;
+    for (key, what) in [
+        ("NumberOfVerts", "vertices"),
+        ("NumberOfLines", "lines"),
+        ("NumberOfStrips", "triangle strips"),
+    ] {
+        if let Some(n @ 1..) = piece_count(piece, key)? {
+            bail!("the PolyData has {n} {what}; only polygons (<Polys>) are read");
+        }
+    }
+    let n_points = piece_count(piece, "NumberOfPoints")?
+        .ok_or_else(|| Error("<Piece> lacks a valid NumberOfPoints".into()))?;
+    let n_polys = piece_count(piece, "NumberOfPolys")?.unwrap_or(0);
+    let points = xml_points(&doc, piece, n_points)?;
+    let (connectivity, offsets) = if n_polys == 0 {
+        (Vec::new(), Vec::new())
+    } else {
+        xml_cells(&doc, piece, "Polys", n_polys, n_points)?
+    };
+    Ok(PolyData {
+        points,
+        connectivity,
+        offsets,
+        point_data: doc.decode_section(piece.section("PointData"), n_points, &mut Vec::new())?,
+        cell_data: doc.decode_section(piece.section("CellData"), n_polys, &mut Vec::new())?,
+        field_data: xml_field_data(&doc),
     })
 }
 
