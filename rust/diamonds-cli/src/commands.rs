@@ -1,12 +1,16 @@
-//! The subcommands as library functions: [`tetra`], [`generate`] and [`verify`].
+//! The subcommands as library functions: [`tetra`], [`iso`], [`generate`], [`verify`] and
+//! [`verify_surface`].
 
-use crate::read::{extension, read_image, read_unstructured};
-use crate::write::{write_image, write_tets, TetGrid};
+use crate::read::{extension, read_image, read_polydata, read_unstructured};
+use crate::write::{
+    checked_extension, write_image, write_tets, write_triangles, TetGrid, Triangles,
+};
 use crate::{bail, Array, Result};
 use diamonds::validate::{check_mesh, check_tolerance};
-use diamonds::{fields, with_volume, Grid, Hierarchy, Query, TetMesh};
+use diamonds::{fields, with_volume, Grid, Hierarchy, IsoQuery, Query, TetMesh};
+use rayon::prelude::*;
 use std::fmt;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Options of `diamonds tetra`.
@@ -161,6 +165,239 @@ pub fn tetra(opts: &TetraOptions) -> Result<TetraSummary> {
         write_seconds,
         base_tets: hierarchy.base_tetrahedra(),
         metadata_bytes_per_voxel: hierarchy.metadata_bytes() as f64 / grid.len() as f64,
+    })
+}
+
+/// The isosurface tolerance of `diamonds iso`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum IsoTolerance {
+    /// World units.
+    Absolute(f64),
+    /// Fraction of the diagonal of the image's bounds.
+    Relative(f64),
+}
+
+/// The default tolerance of `diamonds iso`: 0.5 % of the diagonal of the image's bounds.
+pub const DEFAULT_ISO_TOLERANCE: IsoTolerance = IsoTolerance::Relative(0.005);
+
+/// Options of `diamonds iso`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct IsoOptions {
+    pub input: PathBuf,
+    pub output: PathBuf,
+    /// Point-data array to contour (default: as for `tetra`).
+    pub array: Option<String>,
+    /// One or more isovalues in data units.
+    pub isovalues: Vec<f64>,
+    pub tolerance: IsoTolerance,
+    /// Triangle budget; 0 = no limit.
+    pub max_triangles: usize,
+    /// World box `[xmin, xmax, ymin, ymax, zmin, zmax]` where the tolerance applies.
+    pub roi: Option<[f64; 6]>,
+    /// Write point data `Normals`.
+    pub normals: bool,
+    /// Write the isovalue of each point as point data named like the input array.
+    pub scalars: bool,
+    /// Also write the tetrahedra carrying the surface to this `.vtu`.
+    pub carrier: Option<PathBuf>,
+}
+
+/// What `diamonds iso` did.
+#[derive(Clone, Debug, PartialEq)]
+pub struct IsoSummary {
+    pub array: String,
+    pub dims: [usize; 3],
+    pub isovalues: Vec<f64>,
+    pub triangles: usize,
+    pub points: usize,
+    /// Largest isosurface error of the carrying diamonds, world units.
+    pub error_bound: f64,
+    /// The tolerance in world units.
+    pub tolerance: f64,
+    /// Diagonal of the image's bounds, world units.
+    pub diagonal: f64,
+    /// Triangle budget (0 = none): the error bound may exceed the tolerance to meet it.
+    pub max_triangles: usize,
+    pub carrier_tets: Option<usize>,
+    pub read_seconds: f64,
+    pub build_seconds: f64,
+    pub extract_seconds: f64,
+    pub write_seconds: f64,
+}
+
+impl fmt::Display for IsoSummary {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let [nx, ny, nz] = self.dims;
+        let values: Vec<String> = self.isovalues.iter().map(f64::to_string).collect();
+        write!(
+            f,
+            "'{}' {nx}x{ny}x{nz} at {} {}: {} triangles, {} points, error bound {} (tolerance {} = {:.3} % of the diagonal)",
+            self.array,
+            if values.len() == 1 { "isovalue" } else { "isovalues" },
+            values.join(", "),
+            self.triangles,
+            self.points,
+            self.error_bound,
+            self.tolerance,
+            100.0 * self.tolerance / self.diagonal
+        )?;
+        if self.max_triangles > 0 {
+            write!(f, ", budget {} triangles", self.max_triangles)?;
+        }
+        if let Some(n) = self.carrier_tets {
+            write!(f, ", {n} carrier tetrahedra")?;
+        }
+        write!(
+            f,
+            ", read {:.3} s, build {:.3} s, extract {:.3} s, write {:.3} s",
+            self.read_seconds, self.build_seconds, self.extract_seconds, self.write_seconds
+        )
+    }
+}
+
+/// Length of the diagonal of the grid's bounds.
+fn diagonal(grid: &Grid) -> f64 {
+    let b = grid.bounds();
+    ((b[1] - b[0]).powi(2) + (b[3] - b[2]).powi(2) + (b[5] - b[4]).powi(2)).sqrt()
+}
+
+/// `diamonds iso`: reads the image, builds the hierarchy, extracts the isosurface(s) and writes the
+/// `.vtp` (and the carrier tetrahedra's `.vtu`).
+pub fn iso(opts: &IsoOptions) -> Result<IsoSummary> {
+    if opts.isovalues.is_empty() {
+        bail!("give at least one --isovalue");
+    }
+    if let Some(v) = opts.isovalues.iter().find(|v| !v.is_finite()) {
+        bail!("the isovalue must be a finite number (got {v})");
+    }
+    match opts.tolerance {
+        IsoTolerance::Absolute(t) if !t.is_finite() || t < 0.0 => {
+            bail!("the tolerance must be a finite number >= 0 in world units (got {t})")
+        }
+        IsoTolerance::Relative(r) if !r.is_finite() || r < 0.0 => {
+            bail!("the relative tolerance must be a finite fraction >= 0 of the diagonal (got {r})")
+        }
+        _ => {}
+    }
+    checked_extension(&opts.output, "vtp", "output")?;
+    if let Some(carrier) = &opts.carrier {
+        checked_extension(carrier, "vtu", "carrier")?;
+    }
+    let start = Instant::now();
+    let image = read_image(&opts.input)?;
+    let array = image
+        .scalars(opts.array.as_deref())
+        .map_err(|e| crate::Error(format!("'{}': {e}", opts.input.display())))?;
+    let read_seconds = start.elapsed().as_secs_f64();
+    for w in &image.warnings {
+        eprintln!("warning: '{}': {w}", opts.input.display());
+    }
+    let grid = image.grid;
+    let diagonal = diagonal(&grid);
+    let tolerance = match opts.tolerance {
+        IsoTolerance::Absolute(t) => t,
+        IsoTolerance::Relative(r) => r * diagonal,
+    };
+    let (lo, hi) = (0..array.data.len())
+        .into_par_iter()
+        .map(|k| array.value(k))
+        .fold(
+            || (f64::INFINITY, f64::NEG_INFINITY),
+            |(lo, hi), v| (lo.min(v), hi.max(v)),
+        )
+        .reduce(
+            || (f64::INFINITY, f64::NEG_INFINITY),
+            |a, b| (a.0.min(b.0), a.1.max(b.1)),
+        );
+    for v in opts.isovalues.iter().filter(|&&v| !(lo < v && v <= hi)) {
+        eprintln!(
+            "warning: isovalue {v} is outside ({lo}, {hi}], the range of '{}': no surface for it",
+            array.name
+        );
+    }
+    let start = Instant::now();
+    let hierarchy = Hierarchy::build(grid, array.scalar_slice()?, &mut |_| true)?;
+    let build_seconds = start.elapsed().as_secs_f64();
+    let start = Instant::now();
+    let surface = hierarchy.isosurface(
+        array.scalar_slice()?,
+        &IsoQuery {
+            isovalues: opts.isovalues.clone(),
+            tolerance,
+            max_triangles: opts.max_triangles,
+            region_of_interest: opts.roi,
+            compute_normals: opts.normals,
+            carrier_tetrahedra: opts.carrier.is_some(),
+        },
+    )?;
+    let extract_seconds = start.elapsed().as_secs_f64();
+    let start = Instant::now();
+    let mut point_data = Vec::new();
+    if opts.scalars {
+        point_data.push(Array::scalars(&array.name, surface.values.clone()));
+    }
+    if opts.normals {
+        point_data.push(Array {
+            name: "Normals".into(),
+            components: 3,
+            data: surface
+                .normals
+                .iter()
+                .flatten()
+                .copied()
+                .collect::<Vec<f32>>()
+                .into(),
+        });
+    }
+    write_triangles(
+        &opts.output,
+        Triangles {
+            points: &surface.points,
+            triangles: &surface.triangles,
+            point_data,
+            field_data: vec![
+                Array::scalars("ErrorBound", vec![surface.error_bound]),
+                Array::scalars("NumberOfTriangles", vec![surface.triangles.len() as i64]),
+                Array::scalars("Tolerance", vec![tolerance]),
+            ],
+        },
+    )?;
+    let carrier_tets = match (&opts.carrier, &surface.carrier) {
+        (Some(path), Some(mesh)) => {
+            // As `tetra` writes its meshes, but without the data-unit Tolerance of `tetra`.
+            let others = image.point_data.iter().filter(|a| !std::ptr::eq(*a, array));
+            let mut data = mesh_arrays(std::iter::once(array).chain(others), mesh, 0.0);
+            data.field_data.retain(|a| a.name != "Tolerance");
+            write_tets(
+                path,
+                TetGrid {
+                    points: &mesh.points,
+                    tets: &mesh.tets,
+                    point_data: data.point_data,
+                    cell_data: data.cell_data,
+                    field_data: data.field_data,
+                },
+            )?;
+            Some(mesh.tets.len())
+        }
+        _ => None,
+    };
+    let write_seconds = start.elapsed().as_secs_f64();
+    Ok(IsoSummary {
+        array: array.name.clone(),
+        dims: grid.dims,
+        isovalues: opts.isovalues.clone(),
+        triangles: surface.triangles.len(),
+        points: surface.points.len(),
+        error_bound: surface.error_bound,
+        tolerance,
+        diagonal,
+        max_triangles: opts.max_triangles,
+        carrier_tets,
+        read_seconds,
+        build_seconds,
+        extract_seconds,
+        write_seconds,
     })
 }
 
@@ -476,14 +713,163 @@ pub fn verify(
     Ok(finish(report))
 }
 
-fn finish(mut report: VerifyReport) -> VerifyReport {
-    report.lines.push(
-        if report.passed {
-            "verify: PASSED"
-        } else {
-            "verify: FAILED"
-        }
-        .to_string(),
-    );
+fn finish(report: VerifyReport) -> VerifyReport {
+    finish_as(report, "verify")
+}
+
+/// Appends `<command>: PASSED` or `<command>: FAILED`.
+fn finish_as(mut report: VerifyReport, command: &str) -> VerifyReport {
+    let outcome = if report.passed { "PASSED" } else { "FAILED" };
+    report.lines.push(format!("{command}: {outcome}"));
     report
+}
+
+/// `diamonds verify-surface`: checks a triangle surface (`.vtp`): triangles with three distinct points,
+/// every edge in exactly two triangles traversed in opposite directions (watertight and consistently
+/// oriented), except edges on a face of `image`'s bounds, which may border one triangle; unit `Normals`
+/// when the file has them. Unreadable input is an error; a failed check is reported in [`VerifyReport`].
+pub fn verify_surface(mesh_path: &Path, image: Option<&Path>) -> Result<VerifyReport> {
+    let bounds = match image {
+        Some(path) => {
+            let grid = read_image(path)?.grid;
+            grid.validate()?;
+            Some((grid.bounds(), 1e-6 * diagonal(&grid)))
+        }
+        None => None,
+    };
+    let surface = read_polydata(mesh_path)?;
+    let n = surface.offsets.len();
+    let mut report = VerifyReport {
+        lines: vec![format!(
+            "verify-surface '{}' ({n} polygons, {} points){}",
+            mesh_path.display(),
+            surface.points.len(),
+            match image {
+                Some(path) => format!(", open only on the bounds of '{}'", path.display()),
+                None => ", closed".to_string(),
+            }
+        )],
+        passed: true,
+    };
+    let triangles_ok = (|| {
+        if let Some(c) = (0..n).find(|&c| surface.offsets[c] != 3 * (c + 1)) {
+            return Err(format!("polygon {c} is not a triangle"));
+        }
+        let t = &surface.connectivity;
+        if let Some(c) = (0..n).find(|&c| {
+            t[3 * c] == t[3 * c + 1] || t[3 * c + 1] == t[3 * c + 2] || t[3 * c] == t[3 * c + 2]
+        }) {
+            return Err(format!(
+                "triangle {c} is degenerate: {:?}",
+                &t[3 * c..3 * c + 3]
+            ));
+        }
+        if let Some(a) = surface
+            .field_data
+            .iter()
+            .find(|a| a.name == "NumberOfTriangles")
+        {
+            if a.data.len() != 1 || a.value(0) != n as f64 {
+                return Err(format!(
+                    "field data NumberOfTriangles says {} for {n} triangles",
+                    a.value(0)
+                ));
+            }
+        }
+        Ok(format!("{n} triangles, three distinct points each"))
+    })();
+    if !report.check("triangles", triangles_ok) {
+        return Ok(finish_as(report, "verify-surface"));
+    }
+    // Faces of the bounds each point lies on, one bit per face.
+    let faces: Vec<u8> = surface
+        .points
+        .iter()
+        .map(|p| match bounds {
+            None => 0,
+            Some((b, eps)) => (0..6)
+                .filter(|&f| (p[f / 2] - b[f]).abs() <= eps)
+                .fold(0, |m, f| m | 1 << f),
+        })
+        .collect();
+    // Every edge as (smaller id, larger id) and whether a triangle goes from the smaller one.
+    let mut edges: Vec<(usize, usize, bool)> = surface
+        .connectivity
+        .par_chunks_exact(3)
+        .flat_map_iter(|t| {
+            [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])].map(|(a, b)| (a.min(b), a.max(b), a < b))
+        })
+        .collect();
+    edges.par_sort_unstable();
+    let (mut open, mut boundary, mut interior, mut misoriented) = (Vec::new(), 0, 0, Vec::new());
+    for group in edges.chunk_by(|x, y| (x.0, x.1) == (y.0, y.1)) {
+        let (a, b) = (group[0].0, group[0].1);
+        match group.len() {
+            1 if faces[a] & faces[b] != 0 => boundary += 1,
+            2 => {
+                interior += 1;
+                if group[0].2 == group[1].2 {
+                    misoriented.push((a, b));
+                }
+            }
+            k => open.push((a, b, k)),
+        }
+    }
+    let describe =
+        |a: usize, b: usize| format!("{a} {:?} - {b} {:?}", surface.points[a], surface.points[b]);
+    report.check(
+        "watertight",
+        match open.first() {
+            None => Ok(format!(
+                "{interior} edges in two triangles, {boundary} edges on the image bounds in one"
+            )),
+            Some(&(a, b, k)) => Err(format!(
+                "{} edges not in exactly two triangles, e.g. edge {} in {k}",
+                open.len(),
+                describe(a, b)
+            )),
+        },
+    );
+    report.check(
+        "orientation",
+        match misoriented.first() {
+            None => Ok("every shared edge traversed once each way".to_string()),
+            Some(&(a, b)) => Err(format!(
+                "{} edges traversed twice the same way, e.g. edge {}",
+                misoriented.len(),
+                describe(a, b)
+            )),
+        },
+    );
+    match surface.point_data.iter().find(|a| a.name == "Normals") {
+        None => report.lines.push("  normals: none in the file".to_string()),
+        Some(normals) if normals.components != 3 => {
+            report.check(
+                "normals",
+                Err(format!(
+                    "Normals has {} components, 3 expected",
+                    normals.components
+                )),
+            );
+        }
+        Some(normals) => {
+            let bad = (0..surface.points.len()).find_map(|p| {
+                let length = (0..3)
+                    .map(|a| normals.value(3 * p + a).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+                ((length - 1.0).abs() > 1e-3 || !length.is_finite()).then_some((p, length))
+            });
+            report.check(
+                "normals",
+                match bad {
+                    None => Ok(format!("{} unit normals", surface.points.len())),
+                    Some((p, length)) => {
+                        Err(format!("the normal at point {p} has length {length}"))
+                    }
+                },
+            );
+        }
+    }
+    Ok(finish_as(report, "verify-surface"))
 }

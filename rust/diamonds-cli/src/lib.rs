@@ -3,10 +3,11 @@
 //! The `diamonds` command line program: adaptive tetrahedral meshes of VTK image data (the core crate
 //! [`diamonds`] does the work; this crate reads and writes VTK files and reports).
 //!
-//! - [`read`]: VTK image data (`.vti` XML, `.vtk` legacy `STRUCTURED_POINTS`) and unstructured grids
-//!   (`.vtu`), every encoding VTK writes.
-//! - [`write`]: `.vti` and `.vtu` output (appended, zlib-compressed, with field data).
-//! - [`commands`]: the `tetra`, `generate` and `verify` subcommands as library functions.
+//! - [`read`]: VTK image data (`.vti` XML, `.vtk` legacy `STRUCTURED_POINTS`), unstructured grids
+//!   (`.vtu`) and polygonal data (`.vtp`), every encoding VTK writes.
+//! - [`write`]: `.vti`, `.vtu` and `.vtp` output (appended, zlib-compressed, with field data).
+//! - [`commands`]: the `tetra`, `iso`, `generate`, `verify` and `verify-surface` subcommands as library
+//!   functions.
 
 pub mod commands;
 pub mod read;

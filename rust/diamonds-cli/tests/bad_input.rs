@@ -220,3 +220,84 @@ fn invalid_options() {
     error_of(&["tetra"]);
     error_of(&["frobnicate"]);
 }
+
+#[test]
+fn invalid_iso_options() {
+    let dir = TempDir::new("bad");
+    let input = fixture("appended_raw.vti");
+    let out = dir.join("o.vtp");
+    let iso = |extra: &[&str]| {
+        let mut args = vec!["iso", s(&input), s(&out)];
+        args.extend(extra);
+        error_of(&args)
+    };
+    let e = iso(&[]);
+    assert_mentions(&e, &["--isovalue"]);
+    for bad in ["--isovalue=nan", "--isovalue=inf", "--isovalue=-inf"] {
+        let e = iso(&["--isovalue", "1", bad]);
+        assert_mentions(&e, &["isovalue", "finite"]);
+    }
+    let e = iso(&["--isovalue", "x"]);
+    assert_mentions(&e, &["--isovalue", "'x'"]);
+    let e = iso(&["--isovalue", "1", "--tolerance", "-1"]);
+    assert_mentions(&e, &["tolerance", ">= 0", "-1"]);
+    let e = iso(&["--isovalue", "1", "--tolerance", "nan"]);
+    assert_mentions(&e, &["tolerance", "finite"]);
+    let e = iso(&["--isovalue", "1", "--relative-tolerance", "-0.01"]);
+    assert_mentions(&e, &["relative tolerance", ">= 0", "diagonal"]);
+    let e = iso(&[
+        "--isovalue",
+        "1",
+        "--tolerance",
+        "1",
+        "--relative-tolerance",
+        "0.01",
+    ]);
+    assert_mentions(
+        &e,
+        &["--tolerance", "--relative-tolerance", "cannot be used with"],
+    );
+    let e = iso(&["--isovalue", "1", "--max-triangles=-5"]);
+    assert_mentions(&e, &["--max-triangles"]);
+    let e = iso(&["--isovalue", "1", "--roi", "50", "60", "0", "1", "0", "1"]);
+    assert_mentions(&e, &["region of interest", "outside"]);
+    let e = iso(&["--isovalue", "1", "--array", "velocity"]);
+    assert_mentions(&e, &["'velocity' has 3 components"]);
+    // Wrong extensions, found before any work.
+    let e = error_of(&["iso", s(&input), s(&dir.join("o.vtu")), "--isovalue", "1"]);
+    assert_mentions(&e, &["output", ".vtp"]);
+    let e = iso(&["--isovalue", "1", "--carrier", s(&dir.join("c.vtp"))]);
+    assert_mentions(&e, &["carrier", ".vtu"]);
+    let e = error_of(&["iso", "/nonexistent/volume.vti", s(&out), "--isovalue", "1"]);
+    assert_mentions(&e, &["cannot read", "/nonexistent/volume.vti"]);
+    assert!(!out.exists(), "no output after an error");
+}
+
+#[test]
+fn invalid_verify_surface_input() {
+    let dir = TempDir::new("bad");
+    let e = error_of(&["verify-surface", "/nonexistent/surface.vtp"]);
+    assert_mentions(&e, &["cannot read", "/nonexistent/surface.vtp"]);
+    let e = error_of(&["verify-surface", s(&fixture("appended_raw.vti"))]);
+    assert_mentions(&e, &["unsupported surface file", ".vtp"]);
+    // An image given as the surface, and a surface given as the image.
+    let image_as_surface = dir.join("image.vtp");
+    std::fs::copy(fixture("appended_raw.vti"), &image_as_surface).unwrap();
+    let e = error_of(&["verify-surface", s(&image_as_surface)]);
+    assert_mentions(&e, &["ImageData", "not PolyData"]);
+    let surface = dir.join("s.vtp");
+    diamonds([
+        "iso",
+        s(&fixture("appended_raw.vti")),
+        s(&surface),
+        "--isovalue",
+        "0.5",
+    ])
+    .ok();
+    let e = error_of(&["verify-surface", s(&surface), "--image", s(&surface)]);
+    assert_mentions(&e, &["unsupported input file"]);
+    // Truncated.
+    let good = std::fs::read(&surface).unwrap();
+    std::fs::write(&surface, &good[..good.len() - 40]).unwrap();
+    error_of(&["verify-surface", s(&surface)]);
+}

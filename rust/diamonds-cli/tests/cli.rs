@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{diamonds, fixture, s, TempDir};
+use common::{diamonds, field_value, fixture, s, TempDir};
 use diamonds::Grid;
 use diamonds_cli::read::{read_image, read_unstructured, Unstructured};
 use diamonds_cli::write::write_image;
@@ -12,13 +12,7 @@ use diamonds_cli::Array;
 
 /// The field-data value `name` of a mesh.
 fn field(mesh: &Unstructured, name: &str) -> f64 {
-    let a = mesh
-        .field_data
-        .iter()
-        .find(|a| a.name == name)
-        .unwrap_or_else(|| panic!("no field data {name}: {:?}", mesh.field_data));
-    assert_eq!(a.data.len(), 1, "{name}");
-    a.value(0)
+    field_value(&mesh.field_data, name)
 }
 
 fn cell_array<'m>(mesh: &'m Unstructured, name: &str) -> &'m Array {

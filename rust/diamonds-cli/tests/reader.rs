@@ -1,12 +1,13 @@
 //! The VTK reader on files written by VTK itself (tests/fixtures, see make_fixtures.py) in every
-//! encoding, and the writer's output read back.
+//! encoding, images and surfaces, and the writer's output read back.
 
 mod common;
 
 use common::{fixture, TempDir};
 use diamonds::Grid;
-use diamonds_cli::read::{read_image, read_unstructured};
-use diamonds_cli::write::{write_image, write_tets, TetGrid};
+use diamonds_cli::commands::verify_surface;
+use diamonds_cli::read::{read_image, read_polydata, read_unstructured};
+use diamonds_cli::write::{write_image, write_tets, write_triangles, TetGrid, Triangles};
 use diamonds_cli::Array;
 use vtkio::model::IOBuffer;
 
@@ -191,6 +192,120 @@ fn written_meshes_read_back_exactly() {
 }
 
 #[test]
+fn vtk_written_surfaces_read_the_same_and_verify() {
+    let ascii = read_polydata(&fixture("surface_ascii.vtp")).unwrap();
+    let appended = read_polydata(&fixture("surface_appended_zlib_blocks.vtp")).unwrap();
+    for (name, s) in [("ascii", &ascii), ("appended", &appended)] {
+        assert_eq!((s.points.len(), s.offsets.len()), (34, 64), "{name}");
+        assert!(s.offsets.iter().enumerate().all(|(c, &o)| o == 3 * (c + 1)));
+        for p in &s.points {
+            let r = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+            assert!((r - 0.5).abs() < 1e-6, "{name}: {p:?} off the sphere");
+        }
+        let normals = &s.point_data[0];
+        assert_eq!((normals.name.as_str(), normals.components), ("Normals", 3));
+        assert_eq!(normals.type_name(), "Float32");
+    }
+    assert_eq!(ascii.connectivity, appended.connectivity);
+    for (a, b) in ascii.points.iter().zip(&appended.points) {
+        assert!((0..3).all(|k| (a[k] - b[k]).abs() < 1e-6), "{a:?} {b:?}");
+    }
+    // A closed, consistently oriented surface with unit normals.
+    for name in ["surface_ascii.vtp", "surface_appended_zlib_blocks.vtp"] {
+        let report = verify_surface(&fixture(name), None).unwrap();
+        assert!(report.passed, "{name}: {:#?}", report.lines);
+    }
+    let e = read_polydata(&fixture("lines.vtp")).unwrap_err().0;
+    assert!(e.contains("1 lines") && e.contains("only polygons"), "{e}");
+    let e = read_polydata(&fixture("ascii.vti")).unwrap_err().0;
+    assert!(e.contains("unsupported surface file"), "{e}");
+}
+
+#[test]
+fn written_surfaces_read_back_exactly() {
+    let dir = TempDir::new("reader");
+    let points = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0 / 3.0, 0.0],
+        [0.0, 0.0, 1e-9],
+    ];
+    let triangles = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]];
+    let point_data = vec![
+        Array::scalars("value", vec![0.5f64, 0.5, 0.75, 0.75]),
+        Array {
+            name: "Normals".into(),
+            components: 3,
+            data: vec![
+                0.0f32, 0.0, -1.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.6, 0.8, 0.0,
+            ]
+            .into(),
+        },
+    ];
+    let field_data = vec![
+        Array::scalars("ErrorBound", vec![0.125f64]),
+        Array::scalars("NumberOfTriangles", vec![4i64]),
+    ];
+    let path = dir.join("surface.vtp");
+    write_triangles(
+        &path,
+        Triangles {
+            points: &points,
+            triangles: &triangles,
+            point_data: point_data.clone(),
+            field_data: field_data.clone(),
+        },
+    )
+    .unwrap();
+    let text = String::from_utf8_lossy(&std::fs::read(&path).unwrap()).into_owned();
+    assert!(
+        text.contains("<PointData Scalars=\"value\" Normals=\"Normals\">"),
+        "active scalars and normals"
+    );
+    let surface = read_polydata(&path).unwrap();
+    assert_eq!(surface.points, points);
+    assert_eq!(surface.connectivity, [0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3]);
+    assert_eq!(surface.offsets, [3, 6, 9, 12]);
+    assert_eq!(surface.point_data, point_data);
+    assert!(surface.cell_data.is_empty());
+    assert_eq!(surface.field_data, field_data);
+    // An empty surface too.
+    write_triangles(
+        &path,
+        Triangles {
+            points: &[],
+            triangles: &[],
+            point_data: Vec::new(),
+            field_data: Vec::new(),
+        },
+    )
+    .unwrap();
+    let surface = read_polydata(&path).unwrap();
+    assert!(surface.points.is_empty() && surface.offsets.is_empty());
+    // Wrong extension, wrong data length.
+    assert!(write_triangles(
+        &dir.join("surface.vtu"),
+        Triangles {
+            points: &points,
+            triangles: &triangles,
+            point_data: Vec::new(),
+            field_data: Vec::new(),
+        },
+    )
+    .is_err());
+    assert!(write_triangles(
+        &path,
+        Triangles {
+            points: &points,
+            triangles: &triangles,
+            point_data: vec![Array::scalars("short", vec![1u8])],
+            field_data: Vec::new(),
+        },
+    )
+    .is_err());
+}
+
+#[test]
 fn corrupt_files_are_errors_not_panics() {
     let dir = TempDir::new("reader");
     let good = std::fs::read(fixture("appended_raw_zlib_blocks.vti")).unwrap();
@@ -226,6 +341,13 @@ fn corrupt_files_are_errors_not_panics() {
     ] {
         std::fs::write(&path, junk).unwrap();
         assert!(read_image(&path).is_err(), "{junk:?} was accepted");
+    }
+    let surface = dir.join("bad.vtp");
+    let good = std::fs::read(fixture("surface_appended_zlib_blocks.vtp")).unwrap();
+    for cut in (0..good.len()).step_by(13) {
+        std::fs::write(&surface, &good[..cut]).unwrap();
+        let _ = read_polydata(&surface); // error, never a panic
+        let _ = verify_surface(&surface, None);
     }
     let legacy = dir.join("bad.vtk");
     let good = std::fs::read(fixture("legacy_binary.vtk")).unwrap();

@@ -9,37 +9,14 @@
 //! `cargo test --release -p diamonds-cli --test shared_volumes -- --ignored`.
 //! Without `../shared` every test passes after printing "skipped: ../shared/data/volumes not found".
 
+mod common;
+
+use common::{shared_volume, shared_volumes};
 use diamonds::validate::{check_mesh, check_tolerance};
 use diamonds::{with_volume, Hierarchy, Query};
 use diamonds_cli::read::read_image;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Instant;
-
-fn volumes_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/volumes")
-}
-
-/// The `.vti` files of the shared volumes, or `None` (with the skip message printed) when absent.
-fn shared_volumes() -> Option<Vec<PathBuf>> {
-    let dir = volumes_dir();
-    let Ok(entries) = std::fs::read_dir(&dir) else {
-        println!(
-            "skipped: ../shared/data/volumes not found (looked in {})",
-            dir.display()
-        );
-        return None;
-    };
-    let mut files: Vec<PathBuf> = entries
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|e| e == "vti"))
-        .collect();
-    files.sort();
-    if files.is_empty() {
-        println!("skipped: no .vti in {}", dir.display());
-        return None;
-    }
-    Some(files)
-}
 
 /// Builds the hierarchy of `path` and checks the meshes at `tolerances`; returns a one-line report.
 fn check_volume(path: &Path, tolerances: &[f64]) -> String {
@@ -100,16 +77,6 @@ fn check_volume(path: &Path, tolerances: &[f64]) -> String {
         ));
     }
     line
-}
-
-/// `name` in the shared volumes, or `None` (with the skip message printed) when absent.
-fn shared_volume(name: &str) -> Option<PathBuf> {
-    let files = shared_volumes()?;
-    let found = files.into_iter().find(|p| p.ends_with(name));
-    if found.is_none() {
-        println!("skipped: {name} not found in ../shared/data/volumes");
-    }
-    found
 }
 
 macro_rules! volume_tests {

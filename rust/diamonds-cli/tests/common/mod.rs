@@ -1,6 +1,8 @@
-//! Helpers of the integration tests: running the `diamonds` binary, temporary folders, fixtures.
+//! Helpers of the integration tests: running the `diamonds` binary, temporary folders, fixtures, the
+//! shared volumes, field data.
 #![allow(dead_code)]
 
+use diamonds_cli::Array;
 use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -87,4 +89,51 @@ pub fn fixture(name: &str) -> PathBuf {
 /// `p` as `&str` for argument lists.
 pub fn s(p: &Path) -> &str {
     p.to_str().expect("UTF-8 path")
+}
+
+/// The single value of the field-data array `name`.
+pub fn field_value(field_data: &[Array], name: &str) -> f64 {
+    let a = field_data
+        .iter()
+        .find(|a| a.name == name)
+        .unwrap_or_else(|| panic!("no field data {name}: {field_data:?}"));
+    assert_eq!(a.data.len(), 1, "{name}");
+    a.value(0)
+}
+
+/// `../shared/data/volumes` beside the checkout.
+pub fn volumes_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/volumes")
+}
+
+/// The `.vti` files of the shared volumes, or `None` (with the skip message printed) when absent.
+pub fn shared_volumes() -> Option<Vec<PathBuf>> {
+    let dir = volumes_dir();
+    let Ok(entries) = std::fs::read_dir(&dir) else {
+        println!(
+            "skipped: ../shared/data/volumes not found (looked in {})",
+            dir.display()
+        );
+        return None;
+    };
+    let mut files: Vec<PathBuf> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "vti"))
+        .collect();
+    files.sort();
+    if files.is_empty() {
+        println!("skipped: no .vti in {}", dir.display());
+        return None;
+    }
+    Some(files)
+}
+
+/// `name` in the shared volumes, or `None` (with the skip message printed) when absent.
+pub fn shared_volume(name: &str) -> Option<PathBuf> {
+    let files = shared_volumes()?;
+    let found = files.into_iter().find(|p| p.ends_with(name));
+    if found.is_none() {
+        println!("skipped: {name} not found in ../shared/data/volumes");
+    }
+    found
 }
