@@ -16,7 +16,7 @@ use crate::lattice::{Lattice, Placement, Tet};
 use crate::refine::{Query, Refiner};
 use crate::volume::{Grid, Sample, Volume};
 use crate::{with_volume, Error, Hierarchy, Result, ScalarSlice, TetMesh};
-use glam::{DMat3, DVec3, IVec3};
+use glam::{DMat3, DVec3, I64Vec3, IVec3};
 use rustc_hash::FxHashMap;
 use std::sync::atomic::{AtomicU16, Ordering};
 
@@ -385,21 +385,29 @@ pub fn marching_tetrahedra<T: Sample>(
             };
             let above: Vec<usize> = (0..4).filter(|&i| f[i] >= v).collect();
             let below: Vec<usize> = (0..4).filter(|&i| f[i] < v).collect();
-            let polygon: Vec<u32> = match (above.len(), below.len()) {
-                (1, 3) => below.iter().map(|&b| point(above[0], b)).collect(),
-                (3, 1) => above.iter().map(|&a| point(a, below[0])).collect(),
+            // The crossed edges in cyclic order around the polygon.
+            let mut edges: Vec<(usize, usize)> = match (above.len(), below.len()) {
+                (1, 3) => below.iter().map(|&b| (above[0], b)).collect(),
+                (3, 1) => above.iter().map(|&a| (a, below[0])).collect(),
                 _ => {
                     let ([a, b], [c, d]) = ([above[0], above[1]], [below[0], below[1]]);
-                    vec![point(a, c), point(a, d), point(b, d), point(b, c)]
+                    vec![(a, c), (a, d), (b, d), (b, c)]
                 }
             };
+            // Orientation from the lattice alone, so that it holds even when points coincide with
+            // samples (zero-area triangles): the polygon through the edges' midpoints, in doubled
+            // integer coordinates, must face from the vertices below to those above. (A positive
+            // diagonal scaling to world coordinates keeps the sign.)
+            let mid2 = |(a, b): (usize, usize)| (t[a] + t[b]).as_i64vec3();
+            let q: Vec<I64Vec3> = edges.iter().map(|&e| mid2(e)).collect();
+            let sum = |vs: &[usize]| vs.iter().map(|&i| t[i].as_i64vec3()).sum::<I64Vec3>();
+            let up = sum(&above) * below.len() as i64 - sum(&below) * above.len() as i64;
+            if (q[1] - q[0]).cross(q[2] - q[0]).dot(up) < 0 {
+                edges.reverse();
+            }
+            let polygon: Vec<u32> = edges.into_iter().map(|(a, b)| point(a, b)).collect();
             for tri in [[0, 1, 2], [0, 2, 3]].iter().take(polygon.len() - 2) {
-                let mut tri = tri.map(|i| polygon[i]);
-                let p = tri.map(|i| DVec3::from(surface.points[i as usize]));
-                if (p[1] - p[0]).cross(p[2] - p[0]).dot(gradient) < 0.0 {
-                    tri.swap(1, 2);
-                }
-                surface.triangles.push(tri);
+                surface.triangles.push(tri.map(|i| polygon[i]));
             }
         }
     }

@@ -38,6 +38,26 @@ fn assert_watertight(s: &IsoSurface, what: &str) {
     }
 }
 
+/// Every edge traversed once in each direction by the triangles through it.
+fn assert_consistently_oriented(s: &IsoSurface, what: &str) {
+    let mut directed: HashMap<(u32, u32), u32> = HashMap::new();
+    for t in &s.triangles {
+        for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
+            *directed.entry((a, b)).or_default() += 1;
+        }
+    }
+    for (&(a, b), &n) in &directed {
+        assert_eq!(
+            n, 1,
+            "{what}: edge {a}→{b} traversed {n} times the same way"
+        );
+        assert!(
+            directed.contains_key(&(b, a)),
+            "{what}: edge {a}→{b} never traversed back"
+        );
+    }
+}
+
 fn area(s: &IsoSurface) -> f64 {
     s.triangles
         .iter()
@@ -75,6 +95,7 @@ fn watertight_and_oriented_at_every_tolerance() {
                 .isosurface(ScalarSlice::F32(&v), &IsoQuery::new(0.0, tol))
                 .unwrap();
             assert_watertight(&s, &format!("{dims:?} tol {tol}"));
+            assert_consistently_oriented(&s, &format!("{dims:?} tol {tol}"));
             assert!(
                 s.triangles.len() <= last,
                 "{dims:?}: more triangles at a larger tolerance"
@@ -248,4 +269,34 @@ fn budget_region_and_carriers() {
     assert!(h
         .isosurface(ScalarSlice::F32(&v[1..]), &IsoQuery::new(0.0, 0.1))
         .is_err());
+}
+
+#[test]
+fn isovalues_equal_to_samples_keep_a_consistent_orientation() {
+    // u8 samples: the isovalue 128 is hit exactly at many points, making zero-area triangles.
+    let g = unit_grid([33, 33, 33]);
+    let v: Vec<u8> = sample(&g, |x, y, z| {
+        (128.0 + 200.0 * sphere_distance(0.6)(x, y, z))
+            .clamp(0.0, 255.0)
+            .round() as u8
+    });
+    let h = Hierarchy::build(g, ScalarSlice::U8(&v), &mut |_| true).unwrap();
+    for tol in [0.0, 0.02, 0.1] {
+        let s = h
+            .isosurface(ScalarSlice::U8(&v), &IsoQuery::new(128.0, tol))
+            .unwrap();
+        assert_watertight_or_degenerate(&s);
+        assert_consistently_oriented(&s, &format!("u8 sphere at a sample value, tol {tol}"));
+    }
+}
+
+/// Watertight by point ids (zero-area triangles allowed).
+fn assert_watertight_or_degenerate(s: &IsoSurface) {
+    let mut edges: HashMap<(u32, u32), u32> = HashMap::new();
+    for t in &s.triangles {
+        for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
+            *edges.entry((a.min(b), a.max(b))).or_default() += 1;
+        }
+    }
+    assert!(edges.values().all(|&n| n == 2));
 }
