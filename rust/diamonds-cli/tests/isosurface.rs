@@ -483,7 +483,6 @@ fn verify_surface_catches_holes_flips_degenerate_triangles_and_bad_normals() {
 }
 
 #[test]
-#[ignore = "core bug (reported to the lead): when the isovalue equals samples, the zero-area triangles through them are oriented arbitrarily (the orientation is decided from the interpolated points)"]
 fn isovalues_equal_to_samples_keep_a_consistent_orientation() {
     let dir = TempDir::new("iso");
     let input = generate(&dir, "sphere", "u8", [33, 33, 33]);

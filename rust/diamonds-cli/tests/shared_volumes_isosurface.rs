@@ -4,9 +4,9 @@
 //! except on the image's bounds, unit normals; the error bound within the tolerance, fewer triangles at
 //! 1 %.
 //!
-//! Known core bug: when the isovalue equals samples (headsq's middle value), zero-area triangles are
-//! oriented arbitrarily; the orientation check is then reported, not asserted (see
-//! `isovalues_equal_to_samples_keep_a_consistent_orientation` in tests/isosurface.rs).
+//! Isovalues equal to samples (headsq's middle value) make zero-area triangles; their orientation must
+//! still be consistent (see `isovalues_equal_to_samples_keep_a_consistent_orientation` in
+//! tests/isosurface.rs).
 //!
 //! One test per volume so that the harness spreads them over the cores; [`any_other_shared_volume`]
 //! covers files added later. Bonsai (256³) runs at 1 % in release builds only (about 5 s); its
@@ -41,7 +41,11 @@ fn check_volume(path: &Path, tolerances: &[(&str, &str)]) -> String {
     let on_samples = (0..array.data.len()).any(|k| array.value(k) == middle);
     let isovalue = middle.to_string();
     let dir = TempDir::new("shared-iso");
-    let mut line = format!("{name}: '{}' at {isovalue}", array.name);
+    let mut line = format!(
+        "{name}: '{}' at {isovalue}{}",
+        array.name,
+        if on_samples { " (a sample value)" } else { "" }
+    );
     let mut last = usize::MAX;
     for &(option, tol) in tolerances {
         let start = Instant::now();
@@ -64,11 +68,8 @@ fn check_volume(path: &Path, tolerances: &[(&str, &str)]) -> String {
                 "{name} {option} {tol}: {run:#?}"
             );
         }
-        let known_bug = on_samples && report.contains("orientation: FAILED");
-        if !known_bug {
-            assert_eq!(run.code, 0, "{name} {option} {tol}: {run:#?}");
-            assert!(report.contains("verify-surface: PASSED"), "{report}");
-        }
+        assert_eq!(run.code, 0, "{name} {option} {tol}: {run:#?}");
+        assert!(report.contains("verify-surface: PASSED"), "{report}");
         let surface = read_polydata(&out).unwrap();
         let n = surface.offsets.len();
         assert!(n > 0, "{name}: empty surface at the middle of the range");
@@ -93,9 +94,6 @@ fn check_volume(path: &Path, tolerances: &[(&str, &str)]) -> String {
             start.elapsed().as_secs_f64(),
             summary.find("build").map_or("", |i| summary[i..].trim())
         ));
-        if known_bug {
-            line.push_str(", orientation FAILED (isovalue on samples: known core bug)");
-        }
     }
     line
 }

@@ -276,14 +276,14 @@ fn isovalues_equal_to_samples_keep_a_consistent_orientation() {
     // u8 samples: the isovalue 128 is hit exactly at many points, making zero-area triangles.
     let g = unit_grid([33, 33, 33]);
     let v: Vec<u8> = sample(&g, |x, y, z| {
-        (128.0 + 200.0 * sphere_distance(0.6)(x, y, z))
+        ((sphere_distance(0.6)(x, y, z) + 1.0) / 2.0 * 255.0)
             .clamp(0.0, 255.0)
             .round() as u8
     });
     let h = Hierarchy::build(g, ScalarSlice::U8(&v), &mut |_| true).unwrap();
-    for tol in [0.0, 0.02, 0.1] {
+    for (iso, tol) in [(128.0, 0.0), (100.0, 0.0), (128.0, 0.05)] {
         let s = h
-            .isosurface(ScalarSlice::U8(&v), &IsoQuery::new(128.0, tol))
+            .isosurface(ScalarSlice::U8(&v), &IsoQuery::new(iso, tol))
             .unwrap();
         assert_watertight_or_degenerate(&s);
         assert_consistently_oriented(&s, &format!("u8 sphere at a sample value, tol {tol}"));
