@@ -175,10 +175,13 @@ pub enum IsoTolerance {
     Absolute(f64),
     /// Fraction of the diagonal of the image's bounds.
     Relative(f64),
+    /// About one voxel diagonal: the diagonal of the bounds over the cube root of the number of cells
+    /// (the default, as in the ParaView filter).
+    Voxel,
 }
 
-/// The default tolerance of `diamonds iso`: 0.5 % of the diagonal of the image's bounds.
-pub const DEFAULT_ISO_TOLERANCE: IsoTolerance = IsoTolerance::Relative(0.005);
+/// The default tolerance of `diamonds iso`: about one voxel diagonal, as the ParaView filter's.
+pub const DEFAULT_ISO_TOLERANCE: IsoTolerance = IsoTolerance::Voxel;
 
 /// Options of `diamonds iso`.
 #[derive(Clone, Debug, PartialEq)]
@@ -297,6 +300,10 @@ pub fn iso(opts: &IsoOptions) -> Result<IsoSummary> {
     let tolerance = match opts.tolerance {
         IsoTolerance::Absolute(t) => t,
         IsoTolerance::Relative(r) => r * diagonal,
+        IsoTolerance::Voxel => {
+            let cells: f64 = grid.dims.iter().map(|&d| (d - 1) as f64).product();
+            diagonal / cells.cbrt()
+        }
     };
     let (lo, hi) = (0..array.data.len())
         .into_par_iter()

@@ -84,7 +84,8 @@ enum Command {
         #[arg(long, value_name = "NAME")]
         array: Option<String>,
         /// Largest isosurface error in world units (0 = full resolution where the surface passes)
-        /// [default: 0.5 % of the diagonal of the image's bounds, see --relative-tolerance].
+        /// [default: about one voxel diagonal: the diagonal of the image's bounds over the cube root of
+        /// its number of cells, as the ParaView filter].
         #[arg(
             long,
             value_name = "T",
@@ -93,7 +94,7 @@ enum Command {
         )]
         tolerance: Option<f64>,
         /// The tolerance as a fraction of the diagonal of the image's bounds (0.01 = 1 %; exclusive with
-        /// --tolerance) [default: 0.005].
+        /// --tolerance).
         #[arg(long, value_name = "R", allow_negative_numbers = true)]
         relative_tolerance: Option<f64>,
         /// Largest number of triangles (0 = no limit): the smallest tolerance whose surface fits.

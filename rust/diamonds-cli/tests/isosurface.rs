@@ -198,7 +198,7 @@ fn sphere_and_torus_at_tolerances_0_small_large() {
 }
 
 #[test]
-fn relative_and_default_tolerances_are_fractions_of_the_diagonal() {
+fn relative_tolerances_are_fractions_of_the_diagonal_and_the_default_one_voxel() {
     let dir = TempDir::new("iso");
     let input = generate(&dir, "sphere", "f32", [33, 33, 33]);
     let out = dir.join("relative.vtp");
@@ -221,10 +221,11 @@ fn relative_and_default_tolerances_are_fractions_of_the_diagonal() {
 
     let out = dir.join("default.vtp");
     let summary = iso(&input, &out, &["--isovalue", "127.5"]);
-    assert!(summary.contains("= 0.500 % of the diagonal"), "{summary}");
+    // One voxel diagonal: the diagonal over the cube root of the 32³ cells.
+    assert!(summary.contains("= 3.125 % of the diagonal"), "{summary}");
     let (surface, _) = read_surface(&out);
     let tol = field_value(&surface.field_data, "Tolerance");
-    assert!((tol - 0.005 * DIAGONAL).abs() < 1e-12, "{tol}");
+    assert!((tol - DIAGONAL / 32.0).abs() < 1e-12, "{tol}");
     verify(&out, Some(&input));
 }
 
@@ -511,7 +512,7 @@ fn help_describes_iso_and_verify_surface() {
         "--no-normals",
         "--scalars",
         "--carrier",
-        "0.5 % of the diagonal",
+        "one voxel diagonal",
         "world units",
         "no limit",
         "ErrorBound",
