@@ -23,9 +23,12 @@ import time
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SHARED = os.path.join(os.path.dirname(ROOT), "shared", "data", "volumes")
 PLUGIN = os.path.join(ROOT, "build", "lib", "paraview-5.11", "plugins", "Diamonds")
+# Isovalues of the u8 volumes are shifted by half a grey level off the samples: at a sample value Flying
+# Edges emits triangles collapsed onto a sample, which VTK's point-to-cell distance cannot see (bonsai's
+# iso-40 surface measured 28.2 away from itself), and every method makes zero-area triangles there.
 DATASETS = [
-    ("bonsai 256³ u8, iso 40", "bonsai_256x256x256_uint8_lossy.vti", 40.0),
-    ("neghip 64³ u8, iso 100", "neghip_64x64x64_uint8.vti", 100.0),
+    ("bonsai 256³ u8, iso 40.5", "bonsai_256x256x256_uint8_lossy.vti", 40.5),
+    ("neghip 64³ u8, iso 100.5", "neghip_64x64x64_uint8.vti", 100.5),
     ("hydrogen orbital 64³ f32, iso 0.05", "hydrogen_orbital_64x64x64_float32.vti", 0.05),
 ]
 RELATIVE_TOLERANCES = [0.0025, 0.005, 0.01, 0.02]
