@@ -20,6 +20,8 @@ import sys
 import tempfile
 import time
 
+from bench import reset_peak, rss_kib  # scripts/bench.py, beside this file
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SHARED = os.path.join(os.path.dirname(ROOT), "shared", "data", "volumes")
 PLUGIN = os.path.join(ROOT, "build", "lib", "paraview-5.11", "plugins", "Diamonds")
@@ -32,14 +34,6 @@ DATASETS = [
     ("hydrogen orbital 64³ f32, iso 0.05", "hydrogen_orbital_64x64x64_float32.vti", 0.05),
 ]
 RELATIVE_TOLERANCES = [0.0025, 0.005, 0.01, 0.02]
-
-
-def rss_kib(field):
-    with open("/proc/self/status") as f:
-        for line in f:
-            if line.startswith(field + ":"):
-                return int(line.split()[1])
-    raise RuntimeError(field)
 
 
 def worker(spec):
@@ -59,8 +53,7 @@ def worker(spec):
         reader.Update()
         image = reader.GetOutput()
         image.GetPointData().SetActiveScalars(image.GetPointData().GetArrayName(0))
-    with open("/proc/self/clear_refs", "w") as f:
-        f.write("5")  # reset the peak RSS
+    reset_peak()
     base = rss_kib("VmRSS")
     result = {}
     if method == "adaptive":

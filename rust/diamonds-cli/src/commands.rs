@@ -1,7 +1,7 @@
 //! The subcommands as library functions: [`tetra`], [`iso`], [`generate`], [`verify`] and
 //! [`verify_surface`].
 
-use crate::read::{extension, read_image, read_polydata, read_unstructured};
+use crate::read::{read_image, read_polydata, read_unstructured};
 use crate::write::{
     checked_extension, write_image, write_tets, write_triangles, TetGrid, Triangles,
 };
@@ -108,24 +108,27 @@ pub struct TetGridData {
     pub field_data: Vec<Array>,
 }
 
+/// Reads the input image of `tetra` and `iso`, checks that it holds the array to mesh (refusing it with
+/// the file's name in the message) and prints the reader's warnings; returns the image and the seconds
+/// it took.
+fn read_input(path: &Path, array: Option<&str>) -> Result<(crate::read::Image, f64)> {
+    let start = Instant::now();
+    let image = read_image(path)?;
+    if let Err(e) = image.scalars(array) {
+        bail!("'{}': {e}", path.display());
+    }
+    for w in &image.warnings {
+        eprintln!("warning: '{}': {w}", path.display());
+    }
+    Ok((image, start.elapsed().as_secs_f64()))
+}
+
 /// `diamonds tetra`: reads the image, builds the hierarchy, queries and writes the `.vtu`.
 pub fn tetra(opts: &TetraOptions) -> Result<TetraSummary> {
     check_tolerance_value(opts.tolerance)?;
-    if extension(&opts.output) != "vtu" {
-        bail!(
-            "the output file '{}' must have the extension .vtu",
-            opts.output.display()
-        );
-    }
-    let start = Instant::now();
-    let image = read_image(&opts.input)?;
-    let array = image
-        .scalars(opts.array.as_deref())
-        .map_err(|e| crate::Error(format!("'{}': {e}", opts.input.display())))?;
-    let read_seconds = start.elapsed().as_secs_f64();
-    for w in &image.warnings {
-        eprintln!("warning: '{}': {w}", opts.input.display());
-    }
+    checked_extension(&opts.output, "vtu", "output")?;
+    let (image, read_seconds) = read_input(&opts.input, opts.array.as_deref())?;
+    let array = image.scalars(opts.array.as_deref())?;
     let grid = image.grid;
     let start = Instant::now();
     let hierarchy = Hierarchy::build(grid, array.scalar_slice()?, &mut |_| true)?;
@@ -286,15 +289,8 @@ pub fn iso(opts: &IsoOptions) -> Result<IsoSummary> {
     if let Some(carrier) = &opts.carrier {
         checked_extension(carrier, "vtu", "carrier")?;
     }
-    let start = Instant::now();
-    let image = read_image(&opts.input)?;
-    let array = image
-        .scalars(opts.array.as_deref())
-        .map_err(|e| crate::Error(format!("'{}': {e}", opts.input.display())))?;
-    let read_seconds = start.elapsed().as_secs_f64();
-    for w in &image.warnings {
-        eprintln!("warning: '{}': {w}", opts.input.display());
-    }
+    let (image, read_seconds) = read_input(&opts.input, opts.array.as_deref())?;
+    let array = image.scalars(opts.array.as_deref())?;
     let grid = image.grid;
     let diagonal = diagonal(&grid);
     let tolerance = match opts.tolerance {
