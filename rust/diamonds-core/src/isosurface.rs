@@ -94,38 +94,50 @@ impl Hierarchy {
         volume: &Volume<'_, T>,
         query: &IsoQuery,
     ) -> Result<IsoSurface> {
-        let mut surface = self.isosurface_at(volume, query, query.tolerance)?;
-        if query.max_triangles == 0 || surface.triangles.len() <= query.max_triangles {
-            return Ok(surface);
-        }
-        // Budget: the smallest tolerance whose surface fits, by bisection on the tolerance (the
-        // triangle count does not grow with it). At the data diagonal nothing non-empty is split.
-        let b = self.grid().bounds();
-        let diagonal = DVec3::new(b[1] - b[0], b[3] - b[2], b[5] - b[4]).length();
-        let (mut lo, mut hi) = (query.tolerance, diagonal.max(query.tolerance));
-        let mut best = self.isosurface_at(volume, query, hi)?;
-        for _ in 0..24 {
-            let mid = 0.5 * (lo + hi);
-            let s = self.isosurface_at(volume, query, mid)?;
-            if s.triangles.len() <= query.max_triangles {
-                (hi, best) = (mid, s);
-            } else {
-                lo = mid;
+        let mut carriers = self.carriers_at(volume, query, query.tolerance)?;
+        if query.max_triangles > 0
+            && count_triangles(volume, &carriers, &query.isovalues) > query.max_triangles
+        {
+            // Budget: the smallest tolerance whose surface fits, by bisection on the tolerance (the
+            // triangle count does not grow with it; it is counted without building the surface). At
+            // the data diagonal nothing non-empty is split.
+            let b = self.grid().bounds();
+            let diagonal = DVec3::new(b[1] - b[0], b[3] - b[2], b[5] - b[4]).length();
+            let (mut lo, mut hi) = (query.tolerance, diagonal.max(query.tolerance));
+            carriers = self.carriers_at(volume, query, hi)?;
+            for _ in 0..24 {
+                let mid = 0.5 * (lo + hi);
+                let c = self.carriers_at(volume, query, mid)?;
+                if count_triangles(volume, &c, &query.isovalues) <= query.max_triangles {
+                    (hi, carriers) = (mid, c);
+                } else {
+                    lo = mid;
+                }
+                if hi - lo <= 1e-3 * hi {
+                    break;
+                }
             }
-            if hi - lo <= 1e-3 * hi {
-                break;
-            }
         }
-        surface = best;
+        let mut surface =
+            marching_tetrahedra(volume, &carriers, &query.isovalues, query.compute_normals);
+        surface.error_bound = carriers
+            .iter()
+            .filter_map(Diamond::of_tet)
+            .map(|d| self.cached_isosurface_error(volume, d))
+            .fold(0.0, f64::max);
+        if query.carrier_tetrahedra {
+            surface.carrier = Some(carrier_mesh(self, &carriers));
+        }
         Ok(surface)
     }
 
-    fn isosurface_at<T: Sample>(
+    /// The leaves of the mesh refined for `query` at `tolerance` that carry the surface.
+    fn carriers_at<T: Sample>(
         &self,
         volume: &Volume<'_, T>,
         query: &IsoQuery,
         tolerance: f64,
-    ) -> Result<IsoSurface> {
+    ) -> Result<Vec<Tet>> {
         let lattice = *self.lattice();
         let isovalues = &query.isovalues;
         let criterion = |d: Diamond| {
@@ -152,21 +164,32 @@ impl Hierarchy {
             let (lo, hi) = self.tet_range(volume, t);
             !isovalues.iter().any(|&v| lo <= v && v <= hi)
         };
-        let carriers = crate::mesh::leaves_where(&lattice, &split, empty, |t| {
+        Ok(crate::mesh::leaves_where(&lattice, &split, empty, |t| {
             let f = t.map(|p| volume.at(p.x as usize, p.y as usize, p.z as usize));
             isovalues.iter().any(|&v| crosses(&f, v))
-        });
-        let mut surface = marching_tetrahedra(volume, &carriers, isovalues, query.compute_normals);
-        surface.error_bound = carriers
-            .iter()
-            .filter_map(Diamond::of_tet)
-            .map(|d| self.cached_isosurface_error(volume, d))
-            .fold(0.0, f64::max);
-        if query.carrier_tetrahedra {
-            surface.carrier = Some(carrier_mesh(self, &carriers));
-        }
-        Ok(surface)
+        }))
     }
+}
+
+/// Number of triangles marching tetrahedra makes from `tets`: one per tetrahedron and isovalue that
+/// cuts off one vertex, two where it separates two from two.
+fn count_triangles<T: Sample>(volume: &Volume<'_, T>, tets: &[Tet], isovalues: &[f64]) -> usize {
+    tets.iter()
+        .map(|t| {
+            let f = t.map(|p| volume.at(p.x as usize, p.y as usize, p.z as usize));
+            isovalues
+                .iter()
+                .filter(|&&v| crosses(&f, v))
+                .map(|&v| {
+                    if f.iter().filter(|&&x| x >= v).count() == 2 {
+                        2
+                    } else {
+                        1
+                    }
+                })
+                .sum::<usize>()
+        })
+        .sum()
 }
 
 /// What isosurface queries keep between isovalues: the isovalue-independent isosurface error of each
