@@ -272,7 +272,7 @@ bool CheckRegionOfInterest(vtkAlgorithm* filter, const double roi[6],
 }
 
 //------------------------------------------------------------------------------
-bool MeshToUnstructuredGrid(vtkAlgorithm* filter, const bridge::Mesh& mesh, vtkImageData* input,
+bool MeshToUnstructuredGrid(vtkAlgorithm* filter, bridge::Mesh& mesh, vtkImageData* input,
   vtkUnstructuredGrid* output, vtkIdType& numberOfTetrahedra, double& maximumError)
 {
   rust::Slice<const std::size_t> pointIds;
@@ -346,6 +346,16 @@ bool MeshToUnstructuredGrid(vtkAlgorithm* filter, const bridge::Mesh& mesh, vtkI
     connectivity->SetNumberOfValues(4 * numTets);
     std::copy(tets.begin(), tets.end(), connectivity->GetPointer(0));
     cells->SetData(4, connectivity);
+  }
+  // The connectivity is copied: free the core's copy before more arrays are allocated.
+  try
+  {
+    mesh.release_tets();
+  }
+  catch (const rust::Error& e)
+  {
+    vtkErrorWithObjectMacro(filter, << e.what());
+    return false;
   }
   output->SetCells(VTK_TETRA, cells);
 

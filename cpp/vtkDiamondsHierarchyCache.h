@@ -84,9 +84,10 @@ bool CheckRegionOfInterest(vtkAlgorithm* filter, const double roi[6],
   vtkInformationVector** inputVector, vtkImageData* input, bool& touchesPiece);
 
 // Fills `output` with the tetrahedra of `mesh` over `input`: points at the sample positions, every
-// input point array passed through, cell data "Level" and "ApproximationError". Reports an error
-// on `filter` and returns false if the mesh cannot be read.
-bool MeshToUnstructuredGrid(vtkAlgorithm* filter, const bridge::Mesh& mesh, vtkImageData* input,
+// input point array passed through, cell data "Level" and "ApproximationError". The mesh's
+// tetrahedra are released as soon as they are copied (lower peak memory). Reports an error on
+// `filter` and returns false if the mesh cannot be read.
+bool MeshToUnstructuredGrid(vtkAlgorithm* filter, bridge::Mesh& mesh, vtkImageData* input,
   vtkUnstructuredGrid* output, vtkIdType& numberOfTetrahedra, double& maximumError);
 
 // Quoted, comma-separated names of the arrays of `data`, for messages.

@@ -125,6 +125,9 @@ mod ffi {
         fn errors(self: &Mesh) -> Result<&[f32]>;
         /// Largest error bound of the mesh.
         fn max_error(self: &Mesh) -> Result<f64>;
+        /// Frees the tetrahedra once C++ has copied them, lowering the peak memory of large meshes;
+        /// `tets()` is empty afterwards.
+        fn release_tets(self: &mut Mesh) -> Result<()>;
 
         /// World coordinates, three per point.
         fn points(self: &Surface) -> Result<&[f64]>;
@@ -396,6 +399,13 @@ impl Mesh {
 
     fn errors(&self) -> Result<&[f32], String> {
         guard("reading the mesh", || Ok(&self.0.errors[..]))
+    }
+
+    fn release_tets(&mut self) -> Result<(), String> {
+        guard("releasing the mesh", || {
+            self.0.tets = Vec::new();
+            Ok(())
+        })
     }
 
     fn max_error(&self) -> Result<f64, String> {
