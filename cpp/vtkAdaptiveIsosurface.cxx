@@ -138,10 +138,7 @@ int vtkAdaptiveIsosurface::RequestUpdateExtent(
   {
     return 0;
   }
-  // Each piece is processed over its own extent: with a ghost layer, two pieces would both
-  // extract the surface inside it. (Pieces of an image share their boundary plane of points.)
-  vtkInformation* inInfo = inputVector[0]->GetInformationObject(0);
-  inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_GHOST_LEVELS(), 0);
+  vtkDiamonds::RequestNoGhostLevels(inputVector);
   return 1;
 }
 

@@ -75,11 +75,7 @@ int vtkAdaptiveTetrahedra::RequestUpdateExtent(
   {
     return 0;
   }
-  // Each piece is meshed over its own extent: a ghost layer would be meshed as ordinary samples
-  // and duplicate the neighbouring piece's tetrahedra. (Pieces of an image share their boundary
-  // plane of points, so nothing is lost.)
-  vtkInformation* inInfo = inputVector[0]->GetInformationObject(0);
-  inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_GHOST_LEVELS(), 0);
+  vtkDiamonds::RequestNoGhostLevels(inputVector);
   return 1;
 }
 

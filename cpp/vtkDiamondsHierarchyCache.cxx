@@ -30,6 +30,23 @@ namespace vtkDiamonds
 {
 namespace
 {
+// The geometry of an image (or image piece) as VTK reports it.
+struct ImageGeometry
+{
+  int Extent[6];
+  int Dims[3];
+  double Origin[3];
+  double Spacing[3];
+
+  explicit ImageGeometry(vtkImageData* input)
+  {
+    input->GetExtent(this->Extent);
+    input->GetDimensions(this->Dims);
+    input->GetOrigin(this->Origin);
+    input->GetSpacing(this->Spacing);
+  }
+};
+
 // The sample type the core reads for a VTK array type, if it reads it in place.
 std::optional<bridge::ScalarType> InPlaceType(vtkDataArray* array)
 {
@@ -272,6 +289,13 @@ bool CheckRegionOfInterest(vtkAlgorithm* filter, const double roi[6],
 }
 
 //------------------------------------------------------------------------------
+void RequestNoGhostLevels(vtkInformationVector** inputVector)
+{
+  vtkInformation* inInfo = inputVector[0]->GetInformationObject(0);
+  inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_GHOST_LEVELS(), 0);
+}
+
+//------------------------------------------------------------------------------
 bool MeshToUnstructuredGrid(vtkAlgorithm* filter, bridge::Mesh& mesh, vtkImageData* input,
   vtkUnstructuredGrid* output, vtkIdType& numberOfTetrahedra, double& maximumError)
 {
@@ -296,14 +320,11 @@ bool MeshToUnstructuredGrid(vtkAlgorithm* filter, bridge::Mesh& mesh, vtkImageDa
   const vtkIdType numTets = static_cast<vtkIdType>(tets.size() / 4);
   numberOfTetrahedra = numTets;
 
-  int extent[6];
-  int dims[3];
-  double origin[3];
-  double spacing[3];
-  input->GetExtent(extent);
-  input->GetDimensions(dims);
-  input->GetOrigin(origin);
-  input->GetSpacing(spacing);
+  const ImageGeometry image(input);
+  const int* extent = image.Extent;
+  const int* dims = image.Dims;
+  const double* origin = image.Origin;
+  const double* spacing = image.Spacing;
 
   // Points at the exact input sample positions (the formula vtkImageData uses for its bounds),
   // and the input ids to copy point data from.
@@ -419,14 +440,11 @@ void HierarchyCache::Release()
 HierarchyCache::Status HierarchyCache::Update(vtkAlgorithm* filter, const FilterText& text,
   vtkImageData* input, vtkDataArray* array, double from, double to)
 {
-  int extent[6];
-  int dims[3];
-  double origin[3];
-  double spacing[3];
-  input->GetExtent(extent);
-  input->GetDimensions(dims);
-  input->GetOrigin(origin);
-  input->GetSpacing(spacing);
+  const ImageGeometry image(input);
+  const int* extent = image.Extent;
+  const int* dims = image.Dims;
+  const double* origin = image.Origin;
+  const double* spacing = image.Spacing;
   const std::string name = array->GetName() ? array->GetName() : "";
 
   Key key;

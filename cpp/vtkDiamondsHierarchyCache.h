@@ -83,6 +83,11 @@ void WholeBounds(vtkInformationVector** inputVector, vtkImageData* input, double
 bool CheckRegionOfInterest(vtkAlgorithm* filter, const double roi[6],
   vtkInformationVector** inputVector, vtkImageData* input, bool& touchesPiece);
 
+// Asks the filter's input for no ghost levels: each piece is processed over its own extent (a ghost
+// layer would be processed twice, once by each neighbouring piece; pieces of an image share their
+// boundary plane of points, so nothing is lost).
+void RequestNoGhostLevels(vtkInformationVector** inputVector);
+
 // Fills `output` with the tetrahedra of `mesh` over `input`: points at the sample positions, every
 // input point array passed through, cell data "Level" and "ApproximationError". The mesh's
 // tetrahedra are released as soon as they are copied (lower peak memory). Reports an error on
