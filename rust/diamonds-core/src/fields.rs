@@ -43,3 +43,195 @@ pub fn torus_distance(big: f64, small: f64) -> impl Fn(f64, f64, f64) -> f64 {
         (q * q + z * z).sqrt() - small
     }
 }
+
+/// An analogue of Gregorski et al.'s impact data set (§5.5): a projectile entering a metal block, on a
+/// grid of `dims` points over `[0, 12] × [0, 12] × [−16, 4.8]`.
+pub struct ImpactCase {
+    pub grid: Grid,
+    /// Material names, in the order of `fractions`.
+    pub names: [&'static str; 3],
+    /// Point volume fractions of void, block and projectile (they sum to 1 at every point).
+    pub fractions: [Vec<f32>; 3],
+    /// Mixed density: `Σ fraction × material density`.
+    pub density: Vec<f32>,
+}
+
+/// The impact case on `dims` points (the paper's grid is `[32, 32, 52]`).
+///
+/// The grid spans `[0, 12] × [0, 12] × [−16, 4.8]` (origin `[0, 0, −16]`, spacing = extent / (dims − 1)).
+/// The impact axis is the z axis, `x = y = 0`: the domain corner, so the grid holds one quarter of an
+/// axially symmetric scene (`r = √(x² + y²)`). Three materials, in this order:
+/// - **Void** (0), density 0: everything else.
+/// - **Block** (1): a metal plate between its back face (about `z = −11`, bulging out under the impact,
+///   void behind it) and its top `z ≤ h(r)`. Its top `h` is
+///   the plane `z = 0` with a paraboloidal crater of depth 2.4 and radius 3 around the axis and a
+///   raised lip (Gaussian ridge of height 0.8 at `r = 3`, width 0.6):
+///   `h(r) = −2.4 (1 − (r/3)²)₊ + 0.8 exp(−((r − 3)/0.6)²)`. Density 7.85 (steel) plus a spherical shock
+///   shell `3 exp(−((R − 6)/1.2)²)`, `R` the distance from the impact point `(0, 0, −1)`.
+/// - **Projectile** (2): a cylinder of radius 1.6 around the z axis, from the top of the domain down to a
+///   hemispherical nose whose tip has penetrated to `z = −2.5`. It displaces the block where they
+///   overlap (around the tip, `r ≲ 1`); further out a void gap separates the nose from the crater wall,
+///   so all three pairs of materials touch and meet along a junction line. Density 17.6 (a tungsten
+///   alloy) compressed near the nose: `+ 2 exp(−(z + 2.5)²)`.
+///
+/// Point volume fractions are the fractions of the dual cell of each point (the box of one spacing
+/// centred on it, clipped to the domain) occupied by each material, by 5 × 5 × 5 supersampling: they are
+/// multiples of 1/125 and sum to 1. The density at a point is the average over the same sub-samples of
+/// the density of the material there (each material's density evaluated at the sub-sample).
+pub fn impact_case(dims: [usize; 3]) -> ImpactCase {
+    use rayon::prelude::*;
+    const LO: [f64; 3] = [0.0, 0.0, -16.0];
+    const HI: [f64; 3] = [12.0, 12.0, 4.8];
+    const SUB: usize = 5;
+    let grid = Grid {
+        dims,
+        origin: LO,
+        spacing: std::array::from_fn(|a| (HI[a] - LO[a]) / (dims[a].max(2) - 1) as f64),
+    };
+    let per_point: Vec<([u32; 3], f64)> = (0..grid.len())
+        .into_par_iter()
+        .with_min_len(256)
+        .map(|index| {
+            let centre = grid.point(grid.ijk(index));
+            let lo: [f64; 3] =
+                std::array::from_fn(|a| (centre[a] - 0.5 * grid.spacing[a]).max(LO[a]));
+            let hi: [f64; 3] =
+                std::array::from_fn(|a| (centre[a] + 0.5 * grid.spacing[a]).min(HI[a]));
+            let at = |a: usize, s: usize| lo[a] + (hi[a] - lo[a]) * (s as f64 + 0.5) / SUB as f64;
+            let mut counts = [0u32; 3];
+            let mut density = 0.0;
+            for k in 0..SUB {
+                for j in 0..SUB {
+                    for i in 0..SUB {
+                        let x = [at(0, i), at(1, j), at(2, k)];
+                        let m = impact_material(x);
+                        counts[m] += 1;
+                        density += impact_density(m, x);
+                    }
+                }
+            }
+            (counts, density / (SUB * SUB * SUB) as f64)
+        })
+        .collect();
+    let total = (SUB * SUB * SUB) as f32;
+    let fractions =
+        std::array::from_fn(|m| per_point.iter().map(|(c, _)| c[m] as f32 / total).collect());
+    ImpactCase {
+        grid,
+        names: ["Void", "Block", "Projectile"],
+        fractions,
+        density: per_point.iter().map(|&(_, d)| d as f32).collect(),
+    }
+}
+
+/// Radius of the projectile, height of its nose tip, and the centre height of its hemispherical nose.
+const PROJECTILE_RADIUS: f64 = 1.6;
+const NOSE_TIP: f64 = -2.5;
+const NOSE_CENTRE: f64 = NOSE_TIP + PROJECTILE_RADIUS;
+
+/// Height of the block's top surface at distance `r` from the impact axis: crater and lip.
+fn block_top(r: f64) -> f64 {
+    let (depth, crater, lip, lip_width) = (2.4, 3.0, 0.8, 0.6);
+    let bowl = -depth * (1.0 - (r / crater).powi(2)).max(0.0);
+    let u = (r - crater) / lip_width;
+    // Beyond 6 widths the ridge is below 1e-15.
+    bowl + if u.abs() < 6.0 {
+        lip * (-u * u).exp()
+    } else {
+        0.0
+    }
+}
+
+/// Height of the block's back face at distance `r` from the impact axis: a plate 11 units thick whose
+/// back bulges out under the impact.
+fn block_bottom(r: f64) -> f64 {
+    -11.0 - 1.0 * (-(r / 4.0).powi(2)).exp()
+}
+
+/// The material at `x`: 2 (projectile, which wins over the block), 1 (block) or 0 (void).
+fn impact_material(x: [f64; 3]) -> usize {
+    let r2 = x[0] * x[0] + x[1] * x[1];
+    let rp2 = PROJECTILE_RADIUS * PROJECTILE_RADIUS;
+    let dz = x[2] - NOSE_CENTRE;
+    if r2 <= rp2 && (dz >= 0.0 || r2 + dz * dz <= rp2) {
+        2
+    } else if x[2] <= block_top(r2.sqrt()) && x[2] >= block_bottom(r2.sqrt()) {
+        1
+    } else {
+        0
+    }
+}
+
+/// The density of material `m` at `x`.
+fn impact_density(m: usize, x: [f64; 3]) -> f64 {
+    match m {
+        1 => {
+            let r = (x[0] * x[0] + x[1] * x[1] + (x[2] + 1.0).powi(2)).sqrt();
+            let u = (r - 6.0) / 1.2;
+            // Beyond 6 widths the shell is below 1e-15.
+            7.85 + if u.abs() < 6.0 {
+                3.0 * (-u * u).exp()
+            } else {
+                0.0
+            }
+        }
+        2 => 17.6 + 2.0 * (-(x[2] - NOSE_TIP).powi(2)).exp(),
+        _ => 0.0,
+    }
+}
+
+#[cfg(test)]
+mod impact_tests {
+    use super::*;
+
+    #[test]
+    fn impact_case_has_three_touching_materials() {
+        let case = impact_case([32, 32, 52]);
+        let g = &case.grid;
+        assert_eq!(g.len(), 32 * 32 * 52);
+        assert_eq!(g.origin, [0.0, 0.0, -16.0]);
+        let b = g.bounds();
+        for (x, e) in b.iter().zip([0.0, 12.0, 0.0, 12.0, -16.0, 4.8]) {
+            assert!((x - e).abs() < 1e-12);
+        }
+        assert_eq!(case.names, ["Void", "Block", "Projectile"]);
+        let f = &case.fractions;
+        assert!(f.iter().all(|f| f.len() == g.len()) && case.density.len() == g.len());
+        for i in 0..g.len() {
+            let sum: f32 = f.iter().map(|f| f[i]).sum();
+            assert!((sum - 1.0).abs() < 1e-6, "fractions sum to {sum} at {i}");
+            assert!(f.iter().all(|f| (0.0..=1.0).contains(&f[i])));
+            if f[0][i] == 1.0 {
+                assert_eq!(case.density[i], 0.0);
+            }
+        }
+        // Every material is present pure somewhere, and every pair mixes somewhere.
+        for (f, name) in f.iter().zip(case.names) {
+            assert!(f.contains(&1.0), "no pure {name}");
+        }
+        for (a, b) in [(0, 1), (0, 2), (1, 2)] {
+            let mixed = (0..g.len())
+                .filter(|&i| f[a][i] > 0.0 && f[b][i] > 0.0)
+                .count();
+            assert!(
+                mixed > 0,
+                "no {}–{} interface",
+                case.names[a],
+                case.names[b]
+            );
+        }
+        // Densities: steel with a shock shell, the heavier projectile.
+        let pure = |m: usize| (0..g.len()).filter(move |&i| f[m][i] == 1.0);
+        assert!(pure(1).all(|i| (7.85..=10.86).contains(&case.density[i])));
+        assert!(pure(1).any(|i| case.density[i] > 10.0));
+        assert!(pure(2).all(|i| (17.6..=19.61).contains(&case.density[i])));
+        // Quarter symmetry about the corner axis: the x and y axes play the same role.
+        let [nx, ny, _] = g.dims;
+        assert_eq!(nx, ny);
+        for i in 0..g.len() {
+            let [x, y, z] = g.ijk(i);
+            let t = g.index(y, x, z);
+            assert!((f[2][i] - f[2][t]).abs() < 1e-6 && (f[1][i] - f[1][t]).abs() < 1e-6);
+        }
+    }
+}

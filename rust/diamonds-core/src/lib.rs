@@ -24,6 +24,7 @@ pub mod fields;
 pub mod hierarchy;
 pub mod isosurface;
 pub mod lattice;
+pub mod material;
 pub mod mesh;
 pub mod refine;
 pub mod scan;

@@ -146,14 +146,15 @@ pub(crate) struct Refiner<'h> {
 }
 
 impl<'h> Refiner<'h> {
-    fn new(
-        hierarchy: &'h Hierarchy,
+    /// A refiner of `lattice` starting from `split` (with `tets` tetrahedra inside the domain).
+    pub(crate) fn new(
+        lattice: Lattice,
         split: SplitSet,
         tets: usize,
         criterion: &'h dyn Fn(Diamond) -> f64,
     ) -> Self {
         Self {
-            lattice: *hierarchy.lattice(),
+            lattice,
             split,
             queue: SplitQueue::Unordered(Vec::new()),
             tets,
@@ -167,7 +168,7 @@ impl<'h> Refiner<'h> {
     /// Returns the split set and the number of tetrahedra inside the domain.
     pub(crate) fn base_mesh(hierarchy: &'h Hierarchy) -> (SplitSet, usize) {
         let lattice = *hierarchy.lattice();
-        let mut r = Self::new(hierarchy, SplitSet::new(&lattice), 0, &|_| 0.0);
+        let mut r = Self::new(lattice, SplitSet::new(&lattice), 0, &|_| 0.0);
         let mut stack = vec![Diamond::root(&lattice)];
         while let Some(d) = stack.pop() {
             if r.split.contains(d) || place_diamond(&lattice, d) != Placement::Straddling {
@@ -216,7 +217,7 @@ impl<'h> Refiner<'h> {
             )));
         }
         let mut r = Self::new(
-            hierarchy,
+            *hierarchy.lattice(),
             hierarchy.base().clone(),
             hierarchy.base_tetrahedra(),
             criterion,
@@ -229,7 +230,27 @@ impl<'h> Refiner<'h> {
         if let Some(roi) = query.region_of_interest {
             r.roi = Some(lattice_box(hierarchy, roi)?);
         }
-        for &d in hierarchy.base_candidates() {
+        r.refine(hierarchy.base_candidates(), budget);
+        Ok(r.split)
+    }
+
+    /// Splits, with closure, every diamond reachable from `candidates` whose criterion exceeds
+    /// `tolerance` (no budget). Returns the split set and the number of tetrahedra inside the domain.
+    pub(crate) fn refine_with(
+        mut self,
+        tolerance: f64,
+        candidates: &[Diamond],
+    ) -> (SplitSet, usize) {
+        self.tolerance = tolerance;
+        self.refine(candidates, 0);
+        (self.split, self.tets)
+    }
+
+    /// Queues `candidates` and splits until the queue is empty or, with `budget > 0`, until the next
+    /// split (largest error first) would exceed `budget` tetrahedra.
+    fn refine(&mut self, candidates: &[Diamond], budget: usize) {
+        let r = self;
+        for &d in candidates {
             r.consider(d);
         }
         let mut closure = Vec::new();
@@ -248,7 +269,6 @@ impl<'h> Refiner<'h> {
                 r.split(a);
             }
         }
-        Ok(r.split)
     }
 
     /// Splits `d` (its parents must be split) and queues its children.

@@ -36,6 +36,32 @@ impl Grid {
         Ok(())
     }
 
+    /// The grid of a rectilinear grid's coordinate arrays, refused unless every axis is uniformly spaced
+    /// (to 1e-4 of its mean spacing): the diamond mesh needs a regular grid.
+    pub fn from_coordinates(coords: [&[f64]; 3]) -> Result<Self> {
+        let mut grid = Self::new(coords.map(|c| c.len()));
+        for (a, c) in coords.iter().enumerate() {
+            if c.len() < 2 {
+                return Err(Error::Dimensions { dims: grid.dims });
+            }
+            let mean = (c[c.len() - 1] - c[0]) / (c.len() - 1) as f64;
+            let uneven = c
+                .windows(2)
+                .position(|w| ((w[1] - w[0]) - mean).abs() > 1e-4 * mean.abs());
+            if let Some(i) = uneven {
+                return Err(Error::Parameter(format!(
+                    "the {} coordinates are not uniformly spaced (step {} at index {i}, mean {mean}); resample the rectilinear grid to a uniform one first",
+                    ["x", "y", "z"][a],
+                    c[i + 1] - c[i]
+                )));
+            }
+            grid.origin[a] = c[0];
+            grid.spacing[a] = mean;
+        }
+        grid.validate()?;
+        Ok(grid)
+    }
+
     /// Number of points.
     pub fn len(&self) -> usize {
         self.dims[0] * self.dims[1] * self.dims[2]

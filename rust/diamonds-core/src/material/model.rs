@@ -1,0 +1,778 @@
+//! The prepared material model and its selective refinement (Gregorski et al. 2002, §5.2–5.4).
+
+use super::distance::InterfaceIndex;
+use super::reconstruct::{classify, reconstruct};
+use super::{InterfaceMesh, MaterialInput, MaterialMesh, MaterialQuery};
+use crate::diamond::{signed_volume6, Diamond};
+use crate::lattice::{Lattice, Tet};
+use crate::refine::{Refiner, SplitSet};
+use crate::{Error, Grid, Progress, Result};
+use glam::{DMat3, DVec3, IVec3};
+use rayon::prelude::*;
+use rustc_hash::FxHashMap;
+use std::cell::{Cell, RefCell};
+use std::rc::Rc;
+
+/// Largest number of materials (the per-tetrahedron material set is a 32-bit mask).
+pub const MAX_MATERIALS: usize = 32;
+
+/// Slack when deciding whether a point lies in a closed tetrahedron (barycentric units).
+const INSIDE_EPS: f64 = 1e-9;
+
+/// The prepared input, kept between queries: sample materials, interface meshes and their spatial index.
+pub struct MaterialModel {
+    grid: Grid,
+    materials: usize,
+    /// Material of each sample (largest fraction).
+    labels: Vec<u8>,
+    /// Copies of the fields (the model outlives the caller's arrays).
+    fields: Vec<Vec<f32>>,
+    interfaces: Vec<InterfaceMesh>,
+    index: InterfaceIndex,
+    /// Per material: the interface meshes bounding it.
+    boundary: Vec<Vec<usize>>,
+    /// Interface-mesh vertices bucketed by data cell (compressed rows): `(mesh, point)`.
+    bucket_start: Vec<u32>,
+    bucket_items: Vec<(u32, u32)>,
+    /// The diamond lattice stretched over the data box.
+    lattice: Lattice,
+    /// The signed distance given to a material without interfaces (twice the diagonal).
+    far: f64,
+}
+
+/// What a vertex of the adaptive mesh knows about the materials (computed when first needed).
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct VertexInfo {
+    /// The material the vertex lies in: smallest `phi`.
+    pub label: u8,
+    /// Signed distance to each material's boundary (negative inside).
+    pub phi: Vec<f32>,
+    /// Signed distance to each interface mesh (positive on `pair.1`'s side).
+    pub dist: Vec<f32>,
+    /// `values[f * materials + m]`: field `f` of material `m`, own or ghost value.
+    pub values: Vec<f32>,
+    /// Trilinearly resampled mixed fields.
+    pub mixed: Vec<f32>,
+}
+
+/// The errors of one tetrahedron.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(super) struct TetEval {
+    pub interface: f64,
+    pub field: f64,
+    pub materials: u32,
+}
+
+/// A tetrahedron in world space with its barycentric map.
+struct WorldTet {
+    x: [DVec3; 4],
+    inv: DMat3,
+}
+
+impl WorldTet {
+    fn new(x: [DVec3; 4]) -> Self {
+        let m = DMat3::from_cols(x[1] - x[0], x[2] - x[0], x[3] - x[0]);
+        Self {
+            x,
+            inv: m.inverse(),
+        }
+    }
+
+    /// Barycentric coordinates of `p`.
+    fn bary(&self, p: DVec3) -> [f64; 4] {
+        let l = self.inv * (p - self.x[0]);
+        [1.0 - l.x - l.y - l.z, l.x, l.y, l.z]
+    }
+
+    /// Gradient of the linear function with vertex values `v`.
+    fn gradient(&self, v: [f64; 4]) -> DVec3 {
+        // λ_k (k = 1..3) = row k of inv · (p − x0); λ_0 = 1 − Σ.
+        let rows = self.inv.transpose();
+        (v[1] - v[0]) * rows.x_axis + (v[2] - v[0]) * rows.y_axis + (v[3] - v[0]) * rows.z_axis
+    }
+
+    fn bounds(&self) -> (DVec3, DVec3) {
+        let lo = self.x.iter().fold(DVec3::INFINITY, |a, &b| a.min(b));
+        let hi = self.x.iter().fold(DVec3::NEG_INFINITY, |a, &b| a.max(b));
+        (lo, hi)
+    }
+}
+
+fn inside(l: &[f64; 4]) -> bool {
+    l.iter().all(|&v| v >= -INSIDE_EPS)
+}
+
+fn dot4(l: &[f64; 4], v: [f64; 4]) -> f64 {
+    l[0] * v[0] + l[1] * v[1] + l[2] * v[2] + l[3] * v[3]
+}
+
+/// `error / tolerance`, with 0 tolerance meaning "any error is too much".
+fn ratio(error: f64, tolerance: f64) -> f64 {
+    if error <= tolerance {
+        if tolerance > 0.0 {
+            error / tolerance
+        } else {
+            0.0
+        }
+    } else if tolerance > 0.0 {
+        error / tolerance
+    } else {
+        f64::INFINITY
+    }
+}
+
+impl MaterialModel {
+    /// Validates the input, classifies the samples, reconstructs (or adopts) the interface meshes and
+    /// indexes them.
+    pub fn new(input: &MaterialInput<'_>) -> Result<Self> {
+        let grid = input.grid;
+        grid.validate()?;
+        let n = grid.len();
+        let k = input.fractions.len();
+        if !(2..=MAX_MATERIALS).contains(&k) {
+            return Err(Error::Parameter(format!(
+                "{k} volume-fraction arrays given; material interfaces need between 2 and {MAX_MATERIALS} materials"
+            )));
+        }
+        for (m, f) in input.fractions.iter().enumerate() {
+            check_length("volume-fraction", m, f.len(), n, &grid)?;
+        }
+        for (i, f) in input.fields.iter().enumerate() {
+            check_length("field", i, f.len(), n, &grid)?;
+            if let Some(p) = f.iter().position(|v| !v.is_finite()) {
+                return Err(Error::NonFinite {
+                    index: p,
+                    ijk: grid.ijk(p),
+                    value: f[p] as f64,
+                });
+            }
+        }
+        check_fractions(&input.fractions, &grid)?;
+        let labels = classify(&input.fractions);
+        let interfaces = match &input.interfaces {
+            Some(given) => check_interfaces(given, k)?,
+            None => reconstruct(&grid, &labels, &input.fractions),
+        };
+        let index = InterfaceIndex::new(&interfaces);
+        let mut boundary = vec![Vec::new(); k];
+        for (i, mesh) in interfaces.iter().enumerate() {
+            boundary[mesh.pair.0 as usize].push(i);
+            boundary[mesh.pair.1 as usize].push(i);
+        }
+        let cells = grid.dims.map(|d| d - 1);
+        let largest = *cells.iter().max().unwrap_or(&1);
+        // One level below the data: the finest tetrahedra are half a cell wide, so interfaces crossing a
+        // cell (and junctions of three materials) can still be approximated to a fraction of a cell.
+        let levels = largest.next_power_of_two().trailing_zeros().max(1) + 1;
+        let lattice = Lattice::new([(1usize << levels) + 1; 3])?;
+        let b = grid.bounds();
+        let far =
+            2.0 * ((b[1] - b[0]).powi(2) + (b[3] - b[2]).powi(2) + (b[5] - b[4]).powi(2)).sqrt();
+        let mut model = Self {
+            grid,
+            materials: k,
+            labels,
+            fields: input.fields.iter().map(|f| f.to_vec()).collect(),
+            interfaces,
+            index,
+            boundary,
+            bucket_start: Vec::new(),
+            bucket_items: Vec::new(),
+            lattice,
+            far,
+        };
+        model.bucket_interface_vertices();
+        Ok(model)
+    }
+
+    /// The interface meshes (reconstructed or given).
+    pub fn interfaces(&self) -> &[InterfaceMesh] {
+        &self.interfaces
+    }
+
+    /// Material of each input sample.
+    pub fn labels(&self) -> &[u8] {
+        &self.labels
+    }
+
+    /// The grid of the input samples.
+    pub fn grid(&self) -> &Grid {
+        &self.grid
+    }
+
+    fn bucket_interface_vertices(&mut self) {
+        let cells = self.cell_count();
+        let mut count = vec![0u32; cells + 1];
+        let mut items = Vec::new();
+        for (i, mesh) in self.interfaces.iter().enumerate() {
+            for (p, x) in mesh.points.iter().enumerate() {
+                let c = self.cell_of(DVec3::from_array(*x));
+                count[c + 1] += 1;
+                items.push((c, i as u32, p as u32));
+            }
+        }
+        for c in 0..cells {
+            count[c + 1] += count[c];
+        }
+        let mut fill = count.clone();
+        let mut out = vec![(0, 0); items.len()];
+        for (c, i, p) in items {
+            out[fill[c] as usize] = (i, p);
+            fill[c] += 1;
+        }
+        self.bucket_start = count;
+        self.bucket_items = out;
+    }
+
+    fn cell_count(&self) -> usize {
+        self.grid.dims.iter().map(|d| d - 1).product()
+    }
+
+    /// Continuous sample coordinates of a world point.
+    fn to_grid(&self, x: DVec3) -> DVec3 {
+        let o = DVec3::from_array(self.grid.origin);
+        let s = DVec3::from_array(self.grid.spacing);
+        (x - o) / s
+    }
+
+    /// The data cell (lower corner, clamped) holding `x`.
+    fn cell_corner(&self, x: DVec3) -> [usize; 3] {
+        let u = self.to_grid(x);
+        std::array::from_fn(|a| (u[a].floor().max(0.0) as usize).min(self.grid.dims[a] - 2))
+    }
+
+    fn cell_of(&self, x: DVec3) -> usize {
+        let [i, j, k] = self.cell_corner(x);
+        let d = self.grid.dims;
+        i + (d[0] - 1) * (j + (d[1] - 1) * k)
+    }
+
+    /// The 8 corner samples of `x`'s cell with their trilinear weights.
+    fn corners(&self, x: DVec3) -> [(usize, f64); 8] {
+        let c = self.cell_corner(x);
+        let u = self.to_grid(x);
+        let t: [f64; 3] = std::array::from_fn(|a| (u[a] - c[a] as f64).clamp(0.0, 1.0));
+        std::array::from_fn(|n| {
+            let o = [n & 1, (n >> 1) & 1, (n >> 2) & 1];
+            let w = (0..3)
+                .map(|a| if o[a] == 1 { t[a] } else { 1.0 - t[a] })
+                .product();
+            (self.grid.index(c[0] + o[0], c[1] + o[1], c[2] + o[2]), w)
+        })
+    }
+
+    /// World position of a lattice point (the lattice spans the data box).
+    pub(super) fn world(&self, p: IVec3) -> DVec3 {
+        let b = self.grid.bounds();
+        let n = self.lattice.size() as f64;
+        DVec3::new(
+            b[0] + (b[1] - b[0]) * p.x as f64 / n,
+            b[2] + (b[3] - b[2]) * p.y as f64 / n,
+            b[4] + (b[5] - b[4]) * p.z as f64 / n,
+        )
+    }
+
+    /// The material common to all corners of `x`'s cell, if there is one.
+    fn uniform_label(&self, x: DVec3) -> Option<u8> {
+        let c = self.corners(x);
+        let l = self.labels[c[0].0];
+        c.iter().all(|&(i, _)| self.labels[i] == l).then_some(l)
+    }
+
+    /// Field `f` of material `m` at `x` from the corners of its cell that lie in `m` (trilinear weights
+    /// renormalised over them), or `None` when no corner does.
+    fn material_value(&self, x: DVec3, m: u8, f: usize) -> Option<f64> {
+        let (mut sum, mut weight, mut plain, mut count) = (0.0, 0.0, 0.0, 0);
+        for (i, w) in self.corners(x) {
+            if self.labels[i] == m {
+                let v = self.fields[f][i] as f64;
+                sum += w * v;
+                weight += w;
+                plain += v;
+                count += 1;
+            }
+        }
+        match count {
+            0 => None,
+            _ if weight > 1e-12 => Some(sum / weight),
+            _ => Some(plain / count as f64),
+        }
+    }
+
+    fn mixed_value(&self, x: DVec3, f: usize) -> f64 {
+        self.corners(x)
+            .iter()
+            .map(|&(i, w)| w * self.fields[f][i] as f64)
+            .sum()
+    }
+
+    /// The value of field `f` of material `m` at the sample of `m` nearest to `x` within a few cells.
+    fn nearest_sample_value(&self, x: DVec3, m: u8, f: usize) -> Option<f64> {
+        let u = self.to_grid(x);
+        let d = self.grid.dims;
+        for r in 1..=4i64 {
+            let mut best: Option<(f64, usize)> = None;
+            let lo: [i64; 3] = std::array::from_fn(|a| (u[a].floor() as i64 - r + 1).max(0));
+            let hi: [i64; 3] =
+                std::array::from_fn(|a| (u[a].floor() as i64 + r).min(d[a] as i64 - 1));
+            for k in lo[2]..=hi[2] {
+                for j in lo[1]..=hi[1] {
+                    for i in lo[0]..=hi[0] {
+                        let s = self.grid.index(i as usize, j as usize, k as usize);
+                        if self.labels[s] != m {
+                            continue;
+                        }
+                        let q = DVec3::new(i as f64, j as f64, k as f64);
+                        let dist = ((q - u) * DVec3::from_array(self.grid.spacing)).length();
+                        if best.is_none_or(|(b, _)| dist < b) {
+                            best = Some((dist, s));
+                        }
+                    }
+                }
+            }
+            if let Some((_, s)) = best {
+                return Some(self.fields[f][s] as f64);
+            }
+        }
+        None
+    }
+
+    /// Everything a vertex at lattice point `p` needs (§5.2.1 signed distances, §5.2.3 ghost values).
+    pub(super) fn vertex_info(&self, p: IVec3) -> VertexInfo {
+        let x = self.world(p);
+        let uniform = self.uniform_label(x);
+        let k = self.materials;
+        let closest: Vec<_> = (0..self.interfaces.len())
+            .map(|i| self.index.closest(i, x.to_array()))
+            .collect();
+        // Interface distances: sign from the sample materials where the cell is uniform, else from the
+        // side of the closest point (the mesh normal).
+        let dist = closest
+            .iter()
+            .zip(&self.interfaces)
+            .map(|(c, mesh)| match c {
+                None => 0.0,
+                Some(c) => {
+                    let side = match uniform {
+                        Some(l) if l == mesh.pair.0 => -1.0,
+                        Some(l) if l == mesh.pair.1 => 1.0,
+                        _ => c.side,
+                    };
+                    (side * c.distance) as f32
+                }
+            })
+            .collect();
+        // Material distances: the nearest of the material's interfaces.
+        let mut phi = vec![0f32; k];
+        let mut foot = vec![None; k];
+        for m in 0..k {
+            let nearest = self.boundary[m]
+                .iter()
+                .filter_map(|&i| closest[i].map(|c| (i, c)))
+                .min_by(|a, b| a.1.distance.total_cmp(&b.1.distance));
+            phi[m] = match nearest {
+                None => {
+                    (match uniform {
+                        Some(l) if l as usize == m => -self.far,
+                        _ => self.far,
+                    }) as f32
+                }
+                Some((i, c)) => {
+                    foot[m] = Some(DVec3::from_array(c.point));
+                    let outside = match uniform {
+                        Some(l) => {
+                            if l as usize == m {
+                                -1.0
+                            } else {
+                                1.0
+                            }
+                        }
+                        // The normal points from pair.0 into pair.1: pair.1's side is outside pair.0.
+                        None if self.interfaces[i].pair.0 as usize == m => c.side,
+                        None => -c.side,
+                    };
+                    (outside * c.distance) as f32
+                }
+            };
+        }
+        let label = uniform.unwrap_or_else(|| {
+            (0..k)
+                .min_by(|&a, &b| phi[a].total_cmp(&phi[b]).then(a.cmp(&b)))
+                .unwrap_or(0) as u8
+        });
+        let nf = self.fields.len();
+        let mixed: Vec<f32> = (0..nf).map(|f| self.mixed_value(x, f) as f32).collect();
+        let mut values = vec![0f32; nf * k];
+        for f in 0..nf {
+            for m in 0..k {
+                let own = self.material_value(x, m as u8, f);
+                let v = own
+                    .or_else(|| {
+                        let y = foot[m]?;
+                        self.material_value(y, m as u8, f)
+                            .or_else(|| self.nearest_sample_value(y, m as u8, f))
+                    })
+                    .unwrap_or(mixed[f] as f64);
+                values[f * k + m] = v as f32;
+            }
+        }
+        VertexInfo {
+            label,
+            phi,
+            dist,
+            values,
+            mixed,
+        }
+    }
+
+    /// Interface and field errors of tetrahedron `t` (§5.4), exact at the data samples inside it.
+    /// `info` gives the vertex records; `cheap` vertices (uniform cells) are resolved without it.
+    fn evaluate(
+        &self,
+        t: &Tet,
+        ghost_values: bool,
+        info: &mut dyn FnMut(IVec3) -> Rc<VertexInfo>,
+        samples: &mut Vec<(usize, [f64; 4])>,
+    ) -> TetEval {
+        let wt = WorldTet::new(t.map(|p| self.world(p)));
+        let (lo, hi) = wt.bounds();
+        // The data samples inside t.
+        samples.clear();
+        let (ulo, uhi) = (self.to_grid(lo), self.to_grid(hi));
+        let d = self.grid.dims;
+        let range = |a: usize| {
+            let a0 = (ulo[a] - 1e-9).ceil().max(0.0) as usize;
+            let a1 = ((uhi[a] + 1e-9).floor().max(0.0) as usize).min(d[a] - 1);
+            a0..=a1
+        };
+        let mut mask = 0u32;
+        for k in range(2) {
+            for j in range(1) {
+                for i in range(0) {
+                    let x = DVec3::from_array(self.grid.point([i, j, k]));
+                    let l = wt.bary(x);
+                    if inside(&l) {
+                        let s = self.grid.index(i, j, k);
+                        mask |= 1 << self.labels[s];
+                        samples.push((s, l));
+                    }
+                }
+            }
+        }
+        let nf = self.fields.len();
+        let field_error = |values: &dyn Fn(usize, u8) -> [f64; 4], only: Option<u8>| {
+            let mut e = 0.0f64;
+            for &(s, l) in samples.iter() {
+                let m = self.labels[s];
+                if only.is_some_and(|o| o != m) {
+                    continue;
+                }
+                for f in 0..nf {
+                    e = e.max((self.fields[f][s] as f64 - dot4(&l, values(f, m))).abs());
+                }
+            }
+            e
+        };
+        if !ghost_values {
+            let x = wt.x;
+            let vals: Vec<[f64; 4]> = (0..nf)
+                .map(|f| std::array::from_fn(|v| self.mixed_value(x[v], f)))
+                .collect();
+            return TetEval {
+                interface: 0.0,
+                field: field_error(&|f, _| vals[f], None),
+                materials: mask,
+            };
+        }
+        // Interface-mesh vertices inside t.
+        let mut iface: Vec<(usize, [f64; 4])> = Vec::new();
+        let (c0, c1) = (self.cell_corner(lo), self.cell_corner(hi));
+        for k in c0[2]..=c1[2] {
+            for j in c0[1]..=c1[1] {
+                for i in c0[0]..=c1[0] {
+                    let c = i + (d[0] - 1) * (j + (d[1] - 1) * k);
+                    let items = &self.bucket_items
+                        [self.bucket_start[c] as usize..self.bucket_start[c + 1] as usize];
+                    for &(m, p) in items {
+                        let x = DVec3::from_array(self.interfaces[m as usize].points[p as usize]);
+                        let l = wt.bary(x);
+                        if inside(&l) {
+                            iface.push((m as usize, l));
+                        }
+                    }
+                }
+            }
+        }
+        // The cheap case: one material everywhere, no interface inside.
+        let uniform: Vec<Option<u8>> = wt.x.iter().map(|&x| self.uniform_label(x)).collect();
+        if iface.is_empty() {
+            if let Some(l) = uniform[0] {
+                if uniform.iter().all(|&u| u == Some(l)) && mask & !(1 << l) == 0 {
+                    let x = wt.x;
+                    let vals: Vec<[f64; 4]> = (0..nf)
+                        .map(|f| std::array::from_fn(|v| self.mixed_value(x[v], f)))
+                        .collect();
+                    return TetEval {
+                        interface: 0.0,
+                        field: field_error(&|f, _| vals[f], None),
+                        materials: 1 << l,
+                    };
+                }
+            }
+        }
+        let v: [Rc<VertexInfo>; 4] = std::array::from_fn(|i| info(t[i]));
+        let k = self.materials;
+        let mut interface = 0.0f64;
+        for &(mesh, l) in &iface {
+            let (a, b) = self.interfaces[mesh].pair;
+            let g: [f64; 4] =
+                std::array::from_fn(|i| v[i].phi[a as usize] as f64 - v[i].phi[b as usize] as f64);
+            let grad = wt.gradient(g).length();
+            let value = dot4(&l, g).abs();
+            let e = if grad > 1e-12 {
+                value / grad
+            } else if value < 1e-12 {
+                0.0
+            } else {
+                f64::INFINITY
+            };
+            interface = interface.max(e);
+        }
+        for vi in &v {
+            mask |= 1 << vi.label;
+        }
+        let field = field_error(
+            &|f, m| std::array::from_fn(|i| v[i].values[f * k + m as usize] as f64),
+            None,
+        );
+        TetEval {
+            interface,
+            field,
+            materials: mask,
+        }
+    }
+
+    /// Refines to `query` (§5.3): interfaces first, then fields. `progress` gets fractions in `[0, 1]`
+    /// and returns `false` to abort.
+    pub fn refine(&self, query: &MaterialQuery, progress: Progress<'_>) -> Result<MaterialMesh> {
+        for (name, t) in [
+            ("interface tolerance", query.interface_tolerance),
+            ("field tolerance", query.field_tolerance),
+        ] {
+            if !t.is_finite() || t < 0.0 {
+                return Err(Error::Parameter(format!(
+                    "the {name} must be a finite number ≥ 0 (got {t})"
+                )));
+            }
+        }
+        let lattice = self.lattice;
+        let cache: RefCell<FxHashMap<usize, Rc<VertexInfo>>> = RefCell::default();
+        let evals: RefCell<FxHashMap<Diamond, (f64, f64)>> = RefCell::default();
+        let samples = RefCell::new(Vec::new());
+        let progress = RefCell::new(progress);
+        let aborted = Cell::new(false);
+        let done = Cell::new(0usize);
+        let diamond_error = |d: Diamond| -> (f64, f64) {
+            if let Some(&e) = evals.borrow().get(&d) {
+                return e;
+            }
+            if aborted.get() {
+                return (0.0, 0.0);
+            }
+            let n = done.get() + 1;
+            done.set(n);
+            if n.is_multiple_of(1024) {
+                let f = 0.8 * (1.0 - 1.0 / (1.0 + n as f64 / 20_000.0));
+                if !(progress.borrow_mut())(f) {
+                    aborted.set(true);
+                }
+            }
+            let mut info = |p: IVec3| {
+                let i = lattice.index(p);
+                if let Some(v) = cache.borrow().get(&i) {
+                    return v.clone();
+                }
+                let v = Rc::new(self.vertex_info(p));
+                cache.borrow_mut().insert(i, v.clone());
+                v
+            };
+            let mut e = (0.0f64, 0.0f64);
+            for t in d.tets(&lattice) {
+                let r = self.evaluate(&t, query.ghost_values, &mut info, &mut samples.borrow_mut());
+                e = (e.0.max(r.interface), e.1.max(r.field));
+            }
+            evals.borrow_mut().insert(d, e);
+            e
+        };
+        let root = [Diamond::root(&lattice)];
+        let split = SplitSet::new(&lattice);
+        // Pass 1 (§5.3 step 2): the interfaces.
+        let interface_only = |d: Diamond| diamond_error(d).0;
+        let (split, interface_tets) = if query.ghost_values {
+            Refiner::new(lattice, split, 6, &interface_only)
+                .refine_with(query.interface_tolerance, &root)
+        } else {
+            (split, 6)
+        };
+        // Pass 2 (step 3): the fields, keeping the interfaces within their tolerance.
+        let both = |d: Diamond| {
+            let (ie, fe) = diamond_error(d);
+            let i = if query.ghost_values {
+                ratio(ie, query.interface_tolerance)
+            } else {
+                0.0
+            };
+            i.max(ratio(fe, query.field_tolerance))
+        };
+        let candidates = Refiner::candidates(&lattice, &split);
+        let (split, _) =
+            Refiner::new(lattice, split, interface_tets, &both).refine_with(1.0, &candidates);
+        if aborted.get() {
+            return Err(Error::Aborted);
+        }
+        let mut mesh = self.extract(&split, query.ghost_values);
+        mesh.interface_tetrahedra = interface_tets;
+        if !(progress.borrow_mut())(1.0) {
+            return Err(Error::Aborted);
+        }
+        Ok(mesh)
+    }
+
+    /// The leaves of `split` with their vertex records and errors.
+    fn extract(&self, split: &SplitSet, ghost_values: bool) -> MaterialMesh {
+        let lattice = &self.lattice;
+        let mut leaves = crate::mesh::leaves_where(lattice, split, |_| false, |_| true);
+        for t in &mut leaves {
+            if signed_volume6(t) < 0 {
+                t.swap(2, 3);
+            }
+        }
+        let mut ids: Vec<usize> = leaves
+            .iter()
+            .flat_map(|t| t.map(|p| lattice.index(p)))
+            .collect();
+        ids.par_sort_unstable();
+        ids.dedup();
+        let n = lattice.size() as usize + 1;
+        let lattice_point =
+            |i: usize| IVec3::new((i % n) as i32, ((i / n) % n) as i32, (i / (n * n)) as i32);
+        let infos: Vec<Rc<VertexInfo>> = ids
+            .par_iter()
+            .map(|&i| self.vertex_info(lattice_point(i)))
+            .collect::<Vec<_>>()
+            .into_iter()
+            .map(Rc::new)
+            .collect();
+        let id = |p: IVec3| ids.binary_search(&lattice.index(p)).expect("leaf vertex") as u32;
+        let mut samples = Vec::new();
+        let evals: Vec<TetEval> = leaves
+            .iter()
+            .map(|t| {
+                self.evaluate(
+                    t,
+                    ghost_values,
+                    &mut |p| infos[id(p) as usize].clone(),
+                    &mut samples,
+                )
+            })
+            .collect();
+        let k = self.materials;
+        let nf = self.fields.len();
+        let column = |f: &dyn Fn(&VertexInfo) -> f32| infos.iter().map(|v| f(v)).collect();
+        MaterialMesh {
+            materials: k,
+            fields: nf,
+            points: ids
+                .iter()
+                .map(|&i| self.world(lattice_point(i)).to_array())
+                .collect(),
+            tets: leaves.iter().map(|t| t.map(id)).collect(),
+            levels: leaves
+                .iter()
+                .map(|t| Diamond::of_tet(t).map_or(3 * lattice.levels, |d| d.depth(lattice)) as u8)
+                .collect(),
+            point_material: infos.iter().map(|v| v.label).collect(),
+            pairs: self.interfaces.iter().map(|m| m.pair).collect(),
+            interface_distance: (0..self.interfaces.len())
+                .map(|i| column(&|v| v.dist[i]))
+                .collect(),
+            material_distance: (0..k).map(|m| column(&|v| v.phi[m])).collect(),
+            mixed: (0..nf).map(|f| column(&|v| v.mixed[f])).collect(),
+            material_field: if ghost_values {
+                (0..nf * k).map(|c| column(&|v| v.values[c])).collect()
+            } else {
+                Vec::new()
+            },
+            interface_error: evals.iter().map(|e| e.interface as f32).collect(),
+            field_error: evals.iter().map(|e| e.field as f32).collect(),
+            tet_materials: evals.iter().map(|e| e.materials).collect(),
+            max_interface_error: evals.iter().fold(0.0, |a, e| a.max(e.interface)),
+            max_field_error: evals.iter().fold(0.0, |a, e| a.max(e.field)),
+            interface_tetrahedra: 0,
+            ghost_values,
+        }
+    }
+}
+
+fn check_length(what: &str, i: usize, len: usize, n: usize, grid: &Grid) -> Result<()> {
+    if len == n {
+        return Ok(());
+    }
+    Err(Error::Parameter(format!(
+        "{what} array {i} has {len} values but the grid has {n} points ({:?})",
+        grid.dims
+    )))
+}
+
+/// Fractions must be finite, in `[0, 1]` and sum to 1 (to 1 %) at every point.
+fn check_fractions(fractions: &[&[f32]], grid: &Grid) -> Result<()> {
+    let bad = (0..grid.len()).into_par_iter().find_first(|&p| {
+        let mut sum = 0.0f64;
+        for f in fractions {
+            let v = f[p] as f64;
+            if !v.is_finite() || !(-0.01..=1.01).contains(&v) {
+                return true;
+            }
+            sum += v;
+        }
+        (sum - 1.0).abs() > 0.01
+    });
+    match bad {
+        None => Ok(()),
+        Some(p) => {
+            let values: Vec<f32> = fractions.iter().map(|f| f[p]).collect();
+            Err(Error::Parameter(format!(
+                "the volume fractions at point {p} (i, j, k = {:?}) are {values:?}: every fraction must lie in [0, 1] and they must sum to 1 at every point (pick all the materials' fraction arrays)",
+                grid.ijk(p)
+            )))
+        }
+    }
+}
+
+/// User-given interface meshes: pairs in range and ordered, indices valid, coordinates finite.
+fn check_interfaces(given: &[InterfaceMesh], k: usize) -> Result<Vec<InterfaceMesh>> {
+    for (i, m) in given.iter().enumerate() {
+        let (a, b) = m.pair;
+        if a >= b || b as usize >= k {
+            return Err(Error::Parameter(format!(
+                "interface mesh {i} names materials {a} and {b}; they must differ and be below {k}"
+            )));
+        }
+        let n = m.points.len() as u32;
+        if m.triangles.iter().flatten().any(|&v| v >= n) {
+            return Err(Error::Parameter(format!(
+                "interface mesh {i} has triangles indexing beyond its {n} points"
+            )));
+        }
+        if m.points.iter().flatten().any(|v| !v.is_finite()) {
+            return Err(Error::Parameter(format!(
+                "interface mesh {i} has a non-finite coordinate"
+            )));
+        }
+    }
+    Ok(given
+        .iter()
+        .filter(|m| !m.triangles.is_empty())
+        .cloned()
+        .collect())
+}
