@@ -11,7 +11,7 @@ use glam::{DMat3, DVec3, IVec3};
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 use std::cell::{Cell, RefCell};
-use std::rc::Rc;
+use std::sync::Arc;
 
 /// Largest number of materials (the per-tetrahedron material set is a 32-bit mask).
 pub const MAX_MATERIALS: usize = 32;
@@ -431,7 +431,7 @@ impl MaterialModel {
         &self,
         t: &Tet,
         ghost_values: bool,
-        info: &mut dyn FnMut(IVec3) -> Rc<VertexInfo>,
+        info: &mut dyn FnMut(IVec3) -> Arc<VertexInfo>,
         samples: &mut Vec<(usize, [f64; 4])>,
     ) -> TetEval {
         let wt = WorldTet::new(t.map(|p| self.world(p)));
@@ -520,7 +520,7 @@ impl MaterialModel {
                 }
             }
         }
-        let v: [Rc<VertexInfo>; 4] = std::array::from_fn(|i| info(t[i]));
+        let v: [Arc<VertexInfo>; 4] = std::array::from_fn(|i| info(t[i]));
         let k = self.materials;
         let mut interface = 0.0f64;
         for &(mesh, l) in &iface {
@@ -566,7 +566,7 @@ impl MaterialModel {
             }
         }
         let lattice = self.lattice;
-        let cache: RefCell<FxHashMap<usize, Rc<VertexInfo>>> = RefCell::default();
+        let cache: RefCell<FxHashMap<usize, Arc<VertexInfo>>> = RefCell::default();
         let evals: RefCell<FxHashMap<Diamond, (f64, f64)>> = RefCell::default();
         let samples = RefCell::new(Vec::new());
         let progress = RefCell::new(progress);
@@ -592,7 +592,7 @@ impl MaterialModel {
                 if let Some(v) = cache.borrow().get(&i) {
                     return v.clone();
                 }
-                let v = Rc::new(self.vertex_info(p));
+                let v = Arc::new(self.vertex_info(p));
                 cache.borrow_mut().insert(i, v.clone());
                 v
             };
@@ -656,23 +656,19 @@ impl MaterialModel {
         let n = lattice.size() as usize + 1;
         let lattice_point =
             |i: usize| IVec3::new((i % n) as i32, ((i / n) % n) as i32, (i / (n * n)) as i32);
-        let infos: Vec<Rc<VertexInfo>> = ids
+        let infos: Vec<Arc<VertexInfo>> = ids
             .par_iter()
-            .map(|&i| self.vertex_info(lattice_point(i)))
-            .collect::<Vec<_>>()
-            .into_iter()
-            .map(Rc::new)
+            .map(|&i| Arc::new(self.vertex_info(lattice_point(i))))
             .collect();
         let id = |p: IVec3| ids.binary_search(&lattice.index(p)).expect("leaf vertex") as u32;
-        let mut samples = Vec::new();
         let evals: Vec<TetEval> = leaves
-            .iter()
-            .map(|t| {
+            .par_iter()
+            .map_init(Vec::new, |samples, t| {
                 self.evaluate(
                     t,
                     ghost_values,
                     &mut |p| infos[id(p) as usize].clone(),
-                    &mut samples,
+                    samples,
                 )
             })
             .collect();
