@@ -7,7 +7,9 @@
 #    (find_package(Diamonds) in build/install) and runs vtkRTAnalyticSource -> vtkAdaptiveTetrahedra
 #    and -> vtkAdaptiveIsosurface.
 # 2. tests/pvpython/test_*.py: the plugin auto-loaded through PV_PLUGIN_PATH, independent numpy
-#    checks of the meshes and isosurfaces, properties, bad inputs.
+#    checks of the meshes, isosurfaces and material interfaces, properties, bad inputs
+#    (test_material.py writes its impact case with target/release/diamonds, brought up to date
+#    with cargo).
 # 3. tests/pvpython/mpi_pieces.py and mpi_isosurface.py under `mpiexec -n 2 pvbatch`.
 # 4. scripts/demo.py under `xvfb-run -a pvbatch` (the only step that renders), into build/test-demo.
 # Ends with the line "N passed, M failed"; exits non-zero if any step failed.

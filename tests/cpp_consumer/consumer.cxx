@@ -1,7 +1,9 @@
 // Uses vtkAdaptiveTetrahedra and vtkAdaptiveIsosurface from the installed Diamonds package in plain
-// VTK pipelines (vtkRTAnalyticSource -> filter) and checks their outputs. Exits non-zero on failure.
+// VTK pipelines (vtkRTAnalyticSource -> filter), and vtkMaterialInterfaceApproximation on a
+// two-material image, and checks their outputs. Exits non-zero on failure.
 #include "vtkAdaptiveIsosurface.h"
 #include "vtkAdaptiveTetrahedra.h"
+#include "vtkMaterialInterfaceApproximation.h"
 
 #include <vtkCallbackCommand.h>
 #include <vtkCellData.h>
@@ -234,6 +236,74 @@ int main()
   iso->SetNumberOfContours(0);
   iso->Update();
   Check(iso->GetOutput(0)->GetNumberOfCells() == 0, "isosurface: no isovalue, empty output");
+
+  // ---- vtkMaterialInterfaceApproximation: a ball of steel in void, 33^3 points (2^5 + 1: the finest
+  // level of the diamond lattice is the grid itself, so both tolerances can always be met), density.
+  vtkNew<vtkImageData> materials;
+  materials->SetDimensions(33, 33, 33);
+  materials->SetSpacing(0.1875, 0.1875, 0.1875);
+  vtkNew<vtkFloatArray> steel;
+  steel->SetName("Volume Fraction for Steel");
+  vtkNew<vtkFloatArray> voidFraction;
+  voidFraction->SetName("Void Volume Fraction");
+  vtkNew<vtkFloatArray> density;
+  density->SetName("Density");
+  for (vtkIdType p = 0; p < materials->GetNumberOfPoints(); ++p)
+  {
+    double x[3];
+    materials->GetPoint(p, x);
+    const double r = std::sqrt(
+      (x[0] - 2.9) * (x[0] - 2.9) + (x[1] - 3.1) * (x[1] - 3.1) + (x[2] - 2.8) * (x[2] - 2.8));
+    const double f = std::min(1.0, std::max(0.0, (1.6 - r) / 0.25 + 0.5)); // one cell of mixing
+    steel->InsertNextValue(static_cast<float>(f));
+    voidFraction->InsertNextValue(static_cast<float>(1.0 - f));
+    density->InsertNextValue(static_cast<float>(7.8 * f + 0.1 * x[2]));
+  }
+  materials->GetPointData()->AddArray(steel);
+  materials->GetPointData()->AddArray(voidFraction);
+  materials->GetPointData()->AddArray(density);
+  vtkNew<vtkMaterialInterfaceApproximation> approx;
+  approx->SetInputData(materials);
+  approx->AddVolumeFractionArray("Volume Fraction for Steel");
+  approx->AddVolumeFractionArray("Void Volume Fraction");
+  approx->AddFieldArray("Density");
+  approx->SetInterfaceTolerance(0.05);
+  approx->SetFieldTolerance(0.5);
+  approx->SetSliceOrigin(2.9, 3.1, 2.8);
+  approx->SetSliceNormal(0.0, 0.0, 1.0);
+  approx->Update();
+  vtkUnstructuredGrid* materialTets = approx->GetOutput();
+  vtkPolyData* interfaces = vtkPolyData::SafeDownCast(approx->GetOutputDataObject(1));
+  vtkPolyData* slice = vtkPolyData::SafeDownCast(approx->GetOutputDataObject(2));
+  std::printf("Material Interface Approximation: %lld tetrahedra, %lld interface polygons, %lld "
+              "slice polygons\n",
+    static_cast<long long>(materialTets->GetNumberOfCells()),
+    static_cast<long long>(interfaces ? interfaces->GetNumberOfCells() : -1),
+    static_cast<long long>(slice ? slice->GetNumberOfCells() : -1));
+  Check(materialTets->GetNumberOfCells() > 0 && OnlyTetra(materialTets), "material: tetrahedra");
+  Check(interfaces && interfaces->GetNumberOfCells() > 0, "material: interface polygons on port 1");
+  Check(slice && slice->GetNumberOfCells() > 0, "material: slice polygons on port 2");
+  vtkDataArray* interfaceError = materialTets->GetCellData()->GetArray("InterfaceError");
+  vtkDataArray* fieldError = materialTets->GetCellData()->GetArray("FieldError");
+  Check(interfaceError && interfaceError->GetRange()[1] <= 0.05 * (1 + 1e-6),
+    "material: InterfaceError <= InterfaceTolerance");
+  vtkDataArray* maxFieldError = materialTets->GetFieldData()->GetArray("MaximumFieldError");
+  std::printf("material: FieldError max %g, MaximumFieldError %g\n",
+    fieldError ? fieldError->GetRange()[1] : -1.0, maxFieldError ? maxFieldError->GetTuple1(0) : -1.0);
+  Check(fieldError && fieldError->GetRange()[1] <= 0.5 * (1 + 1e-6),
+    "material: FieldError <= FieldTolerance");
+  Check(materialTets->GetPointData()->GetArray("Density (Steel)") != nullptr &&
+      materialTets->GetPointData()->GetArray("SignedDistance Steel|Void") != nullptr,
+    "material: per-material field and interface distance arrays named after the materials");
+  approx->SetFieldTolerance(0.25);
+  approx->Update();
+  Check(approx->GetNumberOfModelBuilds() == 1 && approx->GetNumberOfRefinements() == 2,
+    "material: a tolerance change refines again without rebuilding the model");
+  std::printf("(an error about the volume fractions is expected next)\n");
+  approx->ClearVolumeFractionArrays();
+  approx->AddVolumeFractionArray("Volume Fraction for Steel");
+  approx->Update();
+  Check(approx->GetOutput()->GetNumberOfCells() == 0, "material: one fraction array, empty output");
 
   std::printf("%s: %d failure(s)\n", failures ? "FAILED" : "PASSED", failures);
   return failures ? EXIT_FAILURE : EXIT_SUCCESS;

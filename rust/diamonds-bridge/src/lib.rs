@@ -12,7 +12,11 @@
 //!   ([`ffi::QuerySpec`] for a mesh; the isovalues as a slice plus [`ffi::IsoSpec`] for an
 //!   isosurface, which also reads the samples again);
 //! - out: an opaque [`Hierarchy`] the filters keep between executions (`rust::Box<Hierarchy>`), an
-//!   opaque [`Mesh`] and an opaque [`Surface`] whose arrays C++ reads as slices.
+//!   opaque [`Mesh`] and an opaque [`Surface`] whose arrays C++ reads as slices;
+//! - material interfaces ([`material`], for `vtkMaterialInterfaceApproximation`): volume fractions
+//!   and fields as `f32` slices added to a [`MaterialBuilder`], optional interface meshes as a
+//!   triangle soup, out an opaque [`MaterialModel`] (kept between executions), [`MaterialMesh`] and
+//!   [`PolygonMesh`].
 //!
 //! **No panic crosses.** An unwinding panic that reaches a C++ frame aborts the process, i.e. the
 //! user's whole ParaView session. Every bridge function therefore runs its body inside
@@ -75,6 +79,23 @@ mod ffi {
         compute_normals: bool,
         /// Also return the tetrahedra that carry the surface.
         carrier_tetrahedra: bool,
+    }
+
+    /// One material refinement query (see `diamonds::material::MaterialQuery`).
+    struct MaterialQuerySpec {
+        /// Largest distance (world units) from an interface-mesh vertex to its approximating plane.
+        interface_tolerance: f64,
+        /// Largest deviation (data units) of a field at a sample of a material from that material's
+        /// linear approximation.
+        field_tolerance: f64,
+        /// `false`: plain linear interpolation of the mixed fields (no per-material fields).
+        ghost_values: bool,
+    }
+
+    /// A plane: a point on it and its normal (any length > 0).
+    struct PlaneSpec {
+        origin: [f64; 3],
+        normal: [f64; 3],
     }
 
     unsafe extern "C++" {
@@ -146,9 +167,111 @@ mod ffi {
         /// asked for, or when already taken.
         fn take_carrier(self: &mut Surface) -> Result<Box<Mesh>>;
     }
+
+    // ---- Material interfaces (Gregorski §5), see `material.rs`.
+    extern "Rust" {
+        /// Collects the input of a material model (copies of the arrays).
+        type MaterialBuilder;
+        /// The prepared input (materials, interface meshes, spatial index), kept between queries.
+        type MaterialModel;
+        /// The adaptive mesh of one material query with its per-vertex and per-tetrahedron arrays.
+        type MaterialMesh;
+        /// Labelled polygons: the approximated interfaces or a plane cut.
+        type PolygonMesh;
+
+        /// A builder on `grid` (refused when an axis has fewer than 2 points).
+        fn new_material_builder(grid: &GridSpec) -> Result<Box<MaterialBuilder>>;
+        /// The uniform grid of a rectilinear grid's coordinates; an error when an axis is not
+        /// uniformly spaced.
+        fn grid_from_coordinates(x: &[f64], y: &[f64], z: &[f64]) -> Result<GridSpec>;
+        /// Adds the point volume fraction of the next material (copied).
+        fn add_fraction(self: &mut MaterialBuilder, values: &[f32]) -> Result<()>;
+        /// Adds the next point field to approximate (copied).
+        fn add_field(self: &mut MaterialBuilder, values: &[f32]) -> Result<()>;
+        /// Sets the user's interface meshes from a triangle soup: points (3 each), triangles (3
+        /// point indices each), 2 materials per triangle (the normal points from the first into the
+        /// second) and normals (none, 3 per triangle, or 3 per point with `point_normals`).
+        fn set_interfaces(
+            self: &mut MaterialBuilder,
+            points: &[f64],
+            triangles: &[u32],
+            pairs: &[i64],
+            normals: &[f64],
+            point_normals: bool,
+        ) -> Result<()>;
+        /// Validates the input and prepares the model.
+        fn build(self: &MaterialBuilder) -> Result<Box<MaterialModel>>;
+
+        fn number_of_materials(self: &MaterialModel) -> Result<usize>;
+        fn number_of_fields(self: &MaterialModel) -> Result<usize>;
+        /// Number of interface meshes (reconstructed or given).
+        fn number_of_interfaces(self: &MaterialModel) -> Result<usize>;
+        /// Refines to `query`: interfaces first, then fields.
+        fn refine(
+            self: &MaterialModel,
+            query: &MaterialQuerySpec,
+            progress: Pin<&mut ProgressObserver>,
+        ) -> Result<Box<MaterialMesh>>;
+
+        fn number_of_materials(self: &MaterialMesh) -> Result<usize>;
+        fn number_of_fields(self: &MaterialMesh) -> Result<usize>;
+        /// Number of interface pairs present (the order of `interface_distance`).
+        fn number_of_pairs(self: &MaterialMesh) -> Result<usize>;
+        /// World coordinates, three per vertex.
+        fn points(self: &MaterialMesh) -> Result<&[f64]>;
+        /// Four vertex indices per tetrahedron, positively oriented (VTK_TETRA order).
+        fn tets(self: &MaterialMesh) -> Result<&[u32]>;
+        /// Bisection depth of each tetrahedron.
+        fn levels(self: &MaterialMesh) -> Result<&[u8]>;
+        /// Material of each vertex.
+        fn point_material(self: &MaterialMesh) -> Result<&[u8]>;
+        /// The interface pairs, two materials each (`a < b`).
+        fn pairs(self: &MaterialMesh) -> Result<&[u8]>;
+        /// Signed distance of each vertex to interface `pair`, positive on its second material's side.
+        fn interface_distance(self: &MaterialMesh, pair: usize) -> Result<&[f32]>;
+        /// Signed distance of each vertex to the boundary of `material`, negative inside it.
+        fn material_distance(self: &MaterialMesh, material: usize) -> Result<&[f32]>;
+        /// Field `field` resampled at each vertex.
+        fn mixed_field(self: &MaterialMesh, field: usize) -> Result<&[f32]>;
+        /// Whether the per-material fields (with ghost values) are there.
+        fn has_material_fields(self: &MaterialMesh) -> Result<bool>;
+        /// Field `field` of `material` at each vertex: its own value in it, a ghost value elsewhere.
+        fn material_field(self: &MaterialMesh, field: usize, material: usize) -> Result<&[f32]>;
+        /// Per tetrahedron: interface error (world units), field error (data units), bit mask of
+        /// the materials present.
+        fn interface_error(self: &MaterialMesh) -> Result<&[f32]>;
+        fn field_error(self: &MaterialMesh) -> Result<&[f32]>;
+        fn tet_materials(self: &MaterialMesh) -> Result<&[u32]>;
+        fn max_interface_error(self: &MaterialMesh) -> Result<f64>;
+        fn max_field_error(self: &MaterialMesh) -> Result<f64>;
+        /// Tetrahedra after the interface pass alone.
+        fn interface_tetrahedra(self: &MaterialMesh) -> Result<usize>;
+        /// The approximated interfaces (label: pair index), crack-free across tetrahedra.
+        fn interface_polygons(self: &MaterialMesh) -> Result<Box<PolygonMesh>>;
+        /// The cut by `plane` (label: material), with each field of the polygon's material.
+        fn slice(self: &MaterialMesh, plane: &PlaneSpec) -> Result<Box<PolygonMesh>>;
+
+        fn number_of_polygons(self: &PolygonMesh) -> Result<usize>;
+        /// World coordinates, three per point.
+        fn points(self: &PolygonMesh) -> Result<&[f64]>;
+        /// `number_of_polygons() + 1` offsets into `connectivity()` (may be empty without polygons).
+        fn offsets(self: &PolygonMesh) -> Result<&[u32]>;
+        fn connectivity(self: &PolygonMesh) -> Result<&[u32]>;
+        /// Per polygon: pair index (interfaces) or material (cuts).
+        fn labels(self: &PolygonMesh) -> Result<&[u8]>;
+        /// Number of per-point value arrays (cuts: one per field).
+        fn number_of_value_arrays(self: &PolygonMesh) -> Result<usize>;
+        fn values(self: &PolygonMesh, field: usize) -> Result<&[f32]>;
+    }
 }
 
-pub use ffi::{GridSpec, IsoSpec, QuerySpec, ScalarType};
+pub use ffi::{GridSpec, IsoSpec, MaterialQuerySpec, PlaneSpec, QuerySpec, ScalarType};
+
+pub mod material;
+pub use material::{
+    grid_from_coordinates, new_material_builder, MaterialBuilder, MaterialMesh, MaterialModel,
+    PolygonMesh,
+};
 
 /// Opaque handle on a [`diamonds::Hierarchy`] for C++.
 pub struct Hierarchy(diamonds::Hierarchy);

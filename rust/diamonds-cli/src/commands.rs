@@ -413,6 +413,10 @@ pub enum Field {
     Sphere,
     /// Distance to a torus of radii 0.6 and 0.25.
     Torus,
+    /// The analogue of Gregorski's impact data set (a projectile entering a block; default 32x32x52
+    /// points over [0,12]x[0,12]x[-16,4.8]): volume fractions of Void, Block and Projectile and the
+    /// mixed Density, Float32 point data (for `diamonds material`).
+    Impact,
 }
 
 /// Sample types of `diamonds generate`.
@@ -435,26 +439,38 @@ impl Field {
             Field::MarschnerLobb => "marschner_lobb",
             Field::Sphere => "sphere_distance",
             Field::Torus => "torus_distance",
+            Field::Impact => "Density",
         }
     }
 
-    /// The field at a point of `[-1, 1]^3`, normalised to `[0, 1]` (distances: `(d + 1) / 2`, clamped).
-    pub fn normalised(self, x: f64, y: f64, z: f64) -> f64 {
-        match self {
-            Field::MarschnerLobb => fields::marschner_lobb(x, y, z),
-            Field::Sphere => (fields::sphere_distance(0.6)(x, y, z) + 1.0) / 2.0,
-            Field::Torus => (fields::torus_distance(0.6, 0.25)(x, y, z) + 1.0) / 2.0,
-        }
-        .clamp(0.0, 1.0)
+    /// The field at a point of `[-1, 1]^3`, normalised to `[0, 1]` (distances: `(d + 1) / 2`, clamped);
+    /// `None` for the impact case, which is not one field on `[-1, 1]^3`.
+    pub fn normalised(self, x: f64, y: f64, z: f64) -> Option<f64> {
+        Some(
+            match self {
+                Field::MarschnerLobb => fields::marschner_lobb(x, y, z),
+                Field::Sphere => (fields::sphere_distance(0.6)(x, y, z) + 1.0) / 2.0,
+                Field::Torus => (fields::torus_distance(0.6, 0.25)(x, y, z) + 1.0) / 2.0,
+                Field::Impact => return None,
+            }
+            .clamp(0.0, 1.0),
+        )
     }
 }
 
 /// Samples `field` on `grid` as `ty`: the normalised value scaled to 0..255 (`i8`: -128..127), rounded
-/// for integer types.
-pub fn generate_array(field: Field, grid: &Grid, ty: SampleType) -> Array {
-    let v = fields::sample(grid, |x, y, z| 255.0 * field.normalised(x, y, z));
+/// for integer types. The impact case is not one field: see [`crate::material::generate_impact`].
+pub fn generate_array(field: Field, grid: &Grid, ty: SampleType) -> Result<Array> {
+    if field == Field::Impact {
+        bail!(
+            "the impact case has several arrays: write it with `diamonds generate --field impact`"
+        );
+    }
+    let v = fields::sample(grid, |x, y, z| {
+        255.0 * field.normalised(x, y, z).unwrap_or(0.0)
+    });
     let name = field.array_name();
-    match ty {
+    Ok(match ty {
         SampleType::U8 => {
             Array::scalars(name, v.iter().map(|f| f.round() as u8).collect::<Vec<_>>())
         }
@@ -478,7 +494,7 @@ pub fn generate_array(field: Field, grid: &Grid, ty: SampleType) -> Array {
         }
         SampleType::F32 => Array::scalars(name, v.iter().map(|&f| f as f32).collect::<Vec<_>>()),
         SampleType::F64 => Array::scalars(name, v),
-    }
+    })
 }
 
 /// `diamonds generate`: writes `field` sampled on a `dims` grid spanning `[-1, 1]^3`.
@@ -497,7 +513,7 @@ pub fn generate(
         .filter(|&n| n <= 1 << 31)
         .ok_or_else(|| crate::Error(format!("{dims:?} points are too many to generate")))?;
     let grid = fields::unit_grid(dims);
-    let array = generate_array(field, &grid, ty);
+    let array = generate_array(field, &grid, ty)?;
     write_image(output, &grid, &[array])?;
     Ok(format!(
         "wrote '{}': {} {}x{}x{} {:?} ({points} points)",

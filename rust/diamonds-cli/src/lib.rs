@@ -3,13 +3,17 @@
 //! The `diamonds` command line program: adaptive tetrahedral meshes of VTK image data (the core crate
 //! [`diamonds`] does the work; this crate reads and writes VTK files and reports).
 //!
-//! - [`read`]: VTK image data (`.vti` XML, `.vtk` legacy `STRUCTURED_POINTS`), unstructured grids
+//! - [`read`]: VTK image data (`.vti` XML, `.vtk` legacy `STRUCTURED_POINTS`), rectilinear grids
+//!   (`.vtr`), unstructured grids
 //!   (`.vtu`) and polygonal data (`.vtp`), every encoding VTK writes.
 //! - [`write`]: `.vti`, `.vtu` and `.vtp` output (appended, zlib-compressed, with field data).
 //! - [`commands`]: the `tetra`, `iso`, `generate`, `verify` and `verify-surface` subcommands as library
 //!   functions.
+//! - [`material`]: the `material` subcommand (material interfaces with ghost values) and the impact
+//!   case of `generate --field impact`.
 
 pub mod commands;
+pub mod material;
 pub mod read;
 pub mod write;
 

@@ -4,6 +4,7 @@ use clap::{Parser, Subcommand};
 use diamonds_cli::commands::{
     self, Field, IsoOptions, IsoTolerance, SampleType, TetraOptions, DEFAULT_ISO_TOLERANCE,
 };
+use diamonds_cli::material::{self, MaterialOptions, IMPACT_DIMS};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -123,19 +124,68 @@ enum Command {
     /// Write a generated volume (.vti) for demos and tests.
     ///
     /// The field on [-1, 1]^3 is normalised to [0, 1] (distances d as (d + 1) / 2) and scaled to 0..255
-    /// (i8: -128..127), rounded for integer types.
+    /// (i8: -128..127), rounded for integer types. `--field impact` writes the multi-material impact
+    /// case instead (Float32 point data "Volume Fraction for Void", "Volume Fraction for Block",
+    /// "Volume Fraction for Projectile" and "Density", by default on the paper's 32x32x52 points).
     Generate {
         /// Output image (.vti).
         output: PathBuf,
         /// Field to sample.
         #[arg(long, value_enum, default_value_t = Field::MarschnerLobb)]
         field: Field,
-        /// Points along x, y and z.
-        #[arg(long, num_args = 3, value_names = ["NX", "NY", "NZ"], default_values_t = [65, 65, 65])]
-        dims: Vec<usize>,
-        /// Sample type.
-        #[arg(long = "type", value_enum, default_value_t = SampleType::U8)]
-        ty: SampleType,
+        /// Points along x, y and z [default: 65 65 65; impact: 32 32 52].
+        #[arg(long, num_args = 3, value_names = ["NX", "NY", "NZ"])]
+        dims: Option<Vec<usize>>,
+        /// Sample type [default: u8] (not with impact, which is Float32).
+        #[arg(long = "type", value_enum)]
+        ty: Option<SampleType>,
+    },
+    /// Approximate multi-material data: adaptive tetrahedra with linear interfaces and ghost values.
+    ///
+    /// Gregorski et al. 2002, section 5, as the ParaView filter "Material Interface Approximation":
+    /// interfaces reconstructed from the volume fractions, refined until every interface-mesh vertex
+    /// lies within the interface tolerance of its tetrahedron's plane, then until every sample of each
+    /// material lies within the field tolerance of that material's linear field (with ghost values)
+    /// or of the mixed field's linear interpolation (--no-ghost-values). Input: .vti or uniformly
+    /// spaced .vtr, point or cell data (cell data averaged onto the points). Writes OUT.vtu (the
+    /// tetrahedra), OUT-interfaces.vtp (the approximated interfaces) and OUT-slice.vtp (a plane cut).
+    Material {
+        /// Input: VTK XML ImageData (.vti) or RectilinearGrid (.vtr).
+        input: PathBuf,
+        /// Output base name: writes OUT.vtu, OUT-interfaces.vtp and OUT-slice.vtp.
+        #[arg(short, long, value_name = "OUT")]
+        output: PathBuf,
+        /// Volume-fraction arrays, one per material, comma-separated (a comma followed by a space
+        /// belongs to the name, as in CTH's "Volume Fraction for Body, Nose"; the option may also be
+        /// repeated) [default: every array whose name contains "fraction"].
+        #[arg(long, value_name = "A,B,...")]
+        fractions: Vec<String>,
+        /// Fields to approximate, comma-separated like --fractions.
+        #[arg(long, value_name = "F,...")]
+        fields: Vec<String>,
+        /// Interface tolerance in world units [default: about one cell diagonal: the diagonal of the
+        /// bounds over the cube root of the number of cells, as the ParaView filter].
+        #[arg(long, value_name = "T", allow_negative_numbers = true)]
+        interface_tolerance: Option<f64>,
+        /// Field tolerance in data units (required with --fields).
+        #[arg(long, value_name = "T", allow_negative_numbers = true)]
+        field_tolerance: Option<f64>,
+        /// Plain linear interpolation of the mixed fields instead of one field per material.
+        #[arg(long)]
+        no_ghost_values: bool,
+        /// The slice plane: origin and normal [default: through the centre, normal along x].
+        #[arg(
+            long,
+            value_delimiter = ',',
+            num_args = 1,
+            allow_negative_numbers = true,
+            value_name = "OX,OY,OZ,NX,NY,NZ"
+        )]
+        slice: Option<Vec<f64>>,
+        /// Resample a non-uniformly spaced .vtr onto the uniform grid with the same points per axis
+        /// (trilinear) instead of refusing it.
+        #[arg(long)]
+        resample: bool,
     },
     /// Check a mesh written by `tetra` against its volume, independently of the hierarchy.
     ///
@@ -239,8 +289,61 @@ fn run(cli: Cli) -> diamonds_cli::Result<ExitCode> {
             dims,
             ty,
         } => {
-            let dims = <[usize; 3]>::try_from(dims).expect("clap gives 3 values");
-            println!("{}", commands::generate(&output, field, dims, ty)?);
+            let dims = dims.map(|d| <[usize; 3]>::try_from(d).expect("clap gives 3 values"));
+            if field == Field::Impact {
+                if ty.is_some_and(|t| t != SampleType::F32) {
+                    return Err(diamonds_cli::Error(
+                        "the impact case is Float32: leave out --type".into(),
+                    ));
+                }
+                println!(
+                    "{}",
+                    material::generate_impact(&output, dims.unwrap_or(IMPACT_DIMS))?
+                );
+            } else {
+                println!(
+                    "{}",
+                    commands::generate(
+                        &output,
+                        field,
+                        dims.unwrap_or([65, 65, 65]),
+                        ty.unwrap_or(SampleType::U8)
+                    )?
+                );
+            }
+        }
+        Command::Material {
+            input,
+            output,
+            fractions,
+            fields,
+            interface_tolerance,
+            field_tolerance,
+            no_ghost_values,
+            slice,
+            resample,
+        } => {
+            let slice = match slice {
+                None => None,
+                Some(s) => Some(<[f64; 6]>::try_from(s).map_err(|s| {
+                    diamonds_cli::Error(format!(
+                        "--slice needs 6 comma-separated numbers ox,oy,oz,nx,ny,nz (got {})",
+                        s.len()
+                    ))
+                })?),
+            };
+            let summary = material::material(&MaterialOptions {
+                input,
+                output,
+                fractions: material::split_names(&fractions),
+                fields: material::split_names(&fields),
+                interface_tolerance,
+                field_tolerance,
+                ghost_values: !no_ghost_values,
+                slice,
+                resample,
+            })?;
+            println!("{summary}");
         }
         Command::Verify {
             input,

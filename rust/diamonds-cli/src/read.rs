@@ -1,4 +1,5 @@
-//! Reading VTK files: image data (`.vti` XML, `.vtk` legacy `STRUCTURED_POINTS`), unstructured grids
+//! Reading VTK files: image data (`.vti` XML, `.vtk` legacy `STRUCTURED_POINTS`), rectilinear grids
+//! (`.vtr` XML, with image data through [`read_structured`], point and cell data), unstructured grids
 //! (`.vtu` XML) and polygonal data (`.vtp` XML, its `<Polys>`).
 //!
 //! Legacy files are parsed by `vtkio`. VTK XML files are parsed here, because `vtkio` (0.6.3 and
@@ -62,6 +63,53 @@ pub struct PolyData {
     pub point_data: Vec<Array>,
     pub cell_data: Vec<Array>,
     pub field_data: Vec<Array>,
+}
+
+/// The geometry of a structured data set: a uniform grid, or the coordinates of a rectilinear grid.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Geometry {
+    /// Image data (`.vti`): origin (extent start included) and spacing.
+    Uniform(Grid),
+    /// Rectilinear grid (`.vtr`): the x, y and z coordinates.
+    Rectilinear([Vec<f64>; 3]),
+}
+
+/// Image data or a rectilinear grid with its point and cell data (every numeric array decoded).
+#[derive(Clone, Debug)]
+pub struct Structured {
+    pub geometry: Geometry,
+    /// Points per axis.
+    pub dims: [usize; 3],
+    pub point_data: Vec<Array>,
+    /// One tuple per cell, x fastest (`(dims[0] - 1) × (dims[1] - 1) × (dims[2] - 1)` of them).
+    pub cell_data: Vec<Array>,
+    /// Arrays left out while reading (non-numeric types), for the user.
+    pub warnings: Vec<String>,
+}
+
+impl Structured {
+    /// The uniform grid: the image's, or the rectilinear grid's when every axis is uniformly spaced
+    /// (refused with the core's message otherwise).
+    pub fn grid(&self) -> Result<Grid> {
+        match &self.geometry {
+            Geometry::Uniform(grid) => Ok(*grid),
+            Geometry::Rectilinear([x, y, z]) => Ok(Grid::from_coordinates([x, y, z])?),
+        }
+    }
+}
+
+/// Reads a `.vti` (VTK XML ImageData) or `.vtr` (VTK XML RectilinearGrid) file with its point and cell
+/// data.
+pub fn read_structured(path: &Path) -> Result<Structured> {
+    let ext = extension(path);
+    if ext != "vti" && ext != "vtr" {
+        bail!(
+            "unsupported input file '{}': expected a .vti (VTK XML image data) or .vtr (VTK XML rectilinear grid) file",
+            path.display()
+        );
+    }
+    let bytes = read_bytes(path)?;
+    in_file(path, xml_structured(&bytes))
 }
 
 impl Image {
@@ -960,6 +1008,74 @@ fn xml_image(bytes: &[u8]) -> Result<Image> {
             })
             .unwrap_or_default(),
         active_scalars: point_section.and_then(|s| s.attrs.get("Scalars").map(str::to_string)),
+        warnings,
+    })
+}
+
+fn xml_structured(bytes: &[u8]) -> Result<Structured> {
+    let doc = XmlDoc::parse(bytes)?;
+    if doc.kind != "ImageData" && doc.kind != "RectilinearGrid" {
+        bail!(
+            "holds VTK {} data, not ImageData or RectilinearGrid",
+            doc.kind
+        );
+    }
+    let piece = doc.piece()?;
+    let ext = match extent(&piece.attrs, "Extent")? {
+        Some(e) => e,
+        None => extent(&doc.dataset, "WholeExtent")?
+            .ok_or_else(|| Error(format!("the {} has no WholeExtent", doc.kind)))?,
+    };
+    let dims = extent_dims(ext)?;
+    let geometry = if doc.kind == "ImageData" {
+        if let Some(d) = doc.dataset.numbers::<f64, 9>("Direction")? {
+            if d != [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0] {
+                bail!("the image has a non-identity Direction matrix {d:?}; only axis-aligned images are supported");
+            }
+        }
+        let mut origin = doc.dataset.numbers::<f64, 3>("Origin")?.unwrap_or([0.0; 3]);
+        let spacing = doc
+            .dataset
+            .numbers::<f64, 3>("Spacing")?
+            .unwrap_or([1.0; 3]);
+        for a in 0..3 {
+            origin[a] += spacing[a] * ext[2 * a] as f64;
+        }
+        Geometry::Uniform(Grid {
+            dims,
+            origin,
+            spacing,
+        })
+    } else {
+        let section = piece
+            .section("Coordinates")
+            .ok_or_else(|| Error("the RectilinearGrid has no <Coordinates>".into()))?;
+        if section.arrays.len() != 3 {
+            bail!(
+                "the RectilinearGrid has {} coordinate arrays, 3 expected",
+                section.arrays.len()
+            );
+        }
+        let mut coords: [Vec<f64>; 3] = Default::default();
+        for (a, c) in coords.iter_mut().enumerate() {
+            let array = doc.decode(&section.arrays[a], dims[a])?;
+            if array.components != 1 {
+                bail!("coordinate array {a} has {} components", array.components);
+            }
+            *c = (0..dims[a]).map(|i| array.value(i)).collect();
+        }
+        Geometry::Rectilinear(coords)
+    };
+    let n = point_count(dims)?;
+    let cells = point_count(dims.map(|d| d.saturating_sub(1)))?;
+    let mut warnings = Vec::new();
+    let point_data = doc.decode_section(piece.section("PointData"), n, &mut warnings)?;
+    let cell_data = doc.decode_section(piece.section("CellData"), cells, &mut warnings)?;
+    Ok(Structured {
+        geometry,
+        dims,
+        point_data,
+        cell_data,
         warnings,
     })
 }
