@@ -2,13 +2,21 @@
 //!
 //! `cargo run --release -p diamonds-core --example probe -- file.u8 nx ny nz tetra TOL...`
 //! `cargo run --release -p diamonds-core --example probe -- file.u8 nx ny nz iso ISO1,ISO2,... TOL...`
+//! `cargo run --release -p diamonds-core --example probe -- file.u8 nx ny nz isoseq ISO1,ISO2,... TOL...`
+//!
+//! `isoseq` times each isovalue change of the sequence from the root and from the current mesh
+//! (minimum over `REPEAT` runs, default 5; the isosurface-error cache is warmed first). A tolerance
+//! ending in `%` is a percentage of the data diagonal.
+use diamonds::iso_state::{IsoStart, IsoState};
 use diamonds::{Grid, Hierarchy, IsoQuery, Query, ScalarSlice};
 use std::time::Instant;
 
 fn main() {
     let a: Vec<String> = std::env::args().collect();
     if a.len() < 6 {
-        eprintln!("usage: probe file.u8 nx ny nz (tetra TOL... | iso ISO1,ISO2,... TOL...)");
+        eprintln!(
+            "usage: probe file.u8 nx ny nz (tetra TOL... | iso ISO1,ISO2,... TOL... | isoseq ISO1,ISO2,... TOL[%]...)"
+        );
         std::process::exit(2);
     }
     let data = std::fs::read(&a[1]).expect("readable file");
@@ -34,6 +42,95 @@ fn main() {
                     m.max_error,
                     t.elapsed().as_secs_f64()
                 );
+            }
+        }
+        "isoseq" => {
+            let isovalues: Vec<f64> = a[6]
+                .split(',')
+                .map(|v| v.parse().expect("isovalue"))
+                .collect();
+            let b = h.grid().bounds();
+            let diagonal =
+                ((b[1] - b[0]).powi(2) + (b[3] - b[2]).powi(2) + (b[5] - b[4]).powi(2)).sqrt();
+            let repeat: usize = std::env::var("REPEAT")
+                .ok()
+                .and_then(|r| r.parse().ok())
+                .unwrap_or(5);
+            for tol in &a[7..] {
+                let tol = match tol.strip_suffix('%') {
+                    Some(p) => parse(&p.to_string()) / 100.0 * diagonal,
+                    None => parse(tol),
+                };
+                let scalars = ScalarSlice::U8(&data);
+                // Warm the isosurface-error cache for every isovalue of the sequence.
+                for &iso in &isovalues {
+                    h.isosurface(scalars, &IsoQuery::new(iso, tol))
+                        .expect("isosurface");
+                }
+                // Per change, per start: (total, refine) seconds, minimum over the runs.
+                let n = isovalues.len();
+                let mut best = vec![[(f64::INFINITY, f64::INFINITY); 2]; n];
+                let mut info = vec![(0usize, 0usize); n];
+                for _ in 0..repeat {
+                    for (k, start) in [IsoStart::Root, IsoStart::Current].into_iter().enumerate() {
+                        let mut state = IsoState::with_start(start);
+                        for (i, &iso) in isovalues.iter().enumerate() {
+                            let t = Instant::now();
+                            let s = h
+                                .isosurface_from(&mut state, scalars, &IsoQuery::new(iso, tol))
+                                .expect("isosurface");
+                            let total = t.elapsed().as_secs_f64();
+                            let st = state.last().expect("stats");
+                            assert_eq!(st.from_current, k == 1 && i > 0);
+                            let b = &mut best[i][k];
+                            *b = (b.0.min(total), b.1.min(st.refine_seconds));
+                            info[i] = (s.triangles.len(), st.split_diamonds);
+                        }
+                    }
+                }
+                // The same query again with only the normals toggled: the mesh is reused.
+                let (mut again, mut root_again) = (f64::INFINITY, f64::INFINITY);
+                let last = IsoQuery::new(isovalues[n - 1], tol);
+                let toggled = IsoQuery {
+                    compute_normals: false,
+                    ..last.clone()
+                };
+                for _ in 0..repeat {
+                    let mut state = IsoState::new();
+                    h.isosurface_from(&mut state, scalars, &last)
+                        .expect("isosurface");
+                    let t = Instant::now();
+                    h.isosurface_from(&mut state, scalars, &toggled)
+                        .expect("isosurface");
+                    again = again.min(t.elapsed().as_secs_f64());
+                    assert!(state.last().expect("stats").reused);
+                    let t = Instant::now();
+                    h.isosurface(scalars, &toggled).expect("isosurface");
+                    root_again = root_again.min(t.elapsed().as_secs_f64());
+                }
+                println!(
+                    "tol {tol:.3}: normals toggled at {}: {root_again:.4}s from the root, {again:.4}s reusing the mesh",
+                    isovalues[n - 1]
+                );
+                println!(
+                    "tol {tol:.3} ({:.2}% of diagonal), min of {repeat} runs, seconds total (refine)",
+                    100.0 * tol / diagonal
+                );
+                println!(
+                    "  change           triangles  split      from-root           from-current"
+                );
+                for i in 0..n {
+                    let from = if i == 0 {
+                        "-".to_string()
+                    } else {
+                        isovalues[i - 1].to_string()
+                    };
+                    let [(rt, rr), (ct, cr)] = best[i];
+                    println!(
+                        "  {from:>6} -> {:<6} {:>9} {:>7}  {rt:.4} ({rr:.4})    {ct:.4} ({cr:.4})",
+                        isovalues[i], info[i].0, info[i].1
+                    );
+                }
             }
         }
         _ => {

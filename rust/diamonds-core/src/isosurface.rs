@@ -13,7 +13,7 @@
 use crate::diamond::{signed_volume6, Diamond};
 use crate::hierarchy::{decode_error, encode_error};
 use crate::lattice::{Lattice, Placement, Tet};
-use crate::refine::{Query, Refiner};
+use crate::refine::{Query, Refiner, SplitSet};
 use crate::volume::{Grid, Sample, Volume};
 use crate::{with_volume, Error, Hierarchy, Result, ScalarSlice, TetMesh};
 use glam::{DMat3, DVec3, I64Vec3, IVec3};
@@ -71,8 +71,15 @@ pub struct IsoSurface {
 
 impl Hierarchy {
     /// Extracts the isosurface(s) of `query` from the adaptive mesh; `scalars` must be the samples the
-    /// hierarchy was built from.
+    /// hierarchy was built from. Each call refines from the root; [`Hierarchy::isosurface_from`] keeps
+    /// the mesh between isovalues.
     pub fn isosurface(&self, scalars: ScalarSlice<'_>, query: &IsoQuery) -> Result<IsoSurface> {
+        self.check_iso(scalars, query)?;
+        with_volume!(*self.grid(), scalars, |v| self.isosurface_of(&v, query))
+    }
+
+    /// Refuses empty or non-finite isovalues and samples that do not match the grid.
+    pub(crate) fn check_iso(&self, scalars: ScalarSlice<'_>, query: &IsoQuery) -> Result<()> {
         if query.isovalues.is_empty() || query.isovalues.iter().any(|v| !v.is_finite()) {
             return Err(Error::Parameter(format!(
                 "isovalues must be one or more finite numbers (got {:?})",
@@ -86,10 +93,10 @@ impl Hierarchy {
                 dims: self.grid().dims,
             });
         }
-        with_volume!(*self.grid(), scalars, |v| self.isosurface_of(&v, query))
+        Ok(())
     }
 
-    fn isosurface_of<T: Sample>(
+    pub(crate) fn isosurface_of<T: Sample>(
         &self,
         volume: &Volume<'_, T>,
         query: &IsoQuery,
@@ -118,17 +125,27 @@ impl Hierarchy {
                 }
             }
         }
+        Ok(self.surface_of(volume, query, &carriers))
+    }
+
+    /// Marching tetrahedra on `carriers`, with the error bound and, when asked for, the carrier mesh.
+    pub(crate) fn surface_of<T: Sample>(
+        &self,
+        volume: &Volume<'_, T>,
+        query: &IsoQuery,
+        carriers: &[Tet],
+    ) -> IsoSurface {
         let mut surface =
-            marching_tetrahedra(volume, &carriers, &query.isovalues, query.compute_normals);
+            marching_tetrahedra(volume, carriers, &query.isovalues, query.compute_normals);
         surface.error_bound = carriers
             .iter()
             .filter_map(Diamond::of_tet)
             .map(|d| self.cached_isosurface_error(volume, d))
             .fold(0.0, f64::max);
         if query.carrier_tetrahedra {
-            surface.carrier = Some(carrier_mesh(self, &carriers));
+            surface.carrier = Some(carrier_mesh(self, carriers));
         }
-        Ok(surface)
+        surface
     }
 
     /// The leaves of the mesh refined for `query` at `tolerance` that carry the surface.
@@ -138,9 +155,20 @@ impl Hierarchy {
         query: &IsoQuery,
         tolerance: f64,
     ) -> Result<Vec<Tet>> {
+        let criterion = self.iso_criterion(volume, &query.isovalues, tolerance);
+        let split = Refiner::run(self, &refine_query(query, tolerance), &criterion)?;
+        Ok(self.carriers_of(volume, &query.isovalues, &split))
+    }
+
+    /// The diamond error of isosurface queries for `isovalues` at `tolerance`.
+    pub(crate) fn iso_criterion<'a, T: Sample>(
+        &'a self,
+        volume: &'a Volume<'_, T>,
+        isovalues: &'a [f64],
+        tolerance: f64,
+    ) -> impl Fn(Diamond) -> f64 + 'a {
         let lattice = *self.lattice();
-        let isovalues = &query.isovalues;
-        let criterion = |d: Diamond| {
+        move |d: Diamond| {
             if !lattice.in_domain(d.center) {
                 return 0.0; // split in the base mesh, or outside the domain
             }
@@ -152,22 +180,34 @@ impl Hierarchy {
             } else {
                 self.cached_isosurface_error(volume, d)
             }
-        };
-        let refine = Query {
-            tolerance,
-            max_tetrahedra: 0,
-            region_of_interest: query.region_of_interest,
-        };
-        let split = Refiner::run(self, &refine, &criterion)?;
+        }
+    }
+
+    /// The leaves of the mesh of `split` that carry the surface of `isovalues`.
+    pub(crate) fn carriers_of<T: Sample>(
+        &self,
+        volume: &Volume<'_, T>,
+        isovalues: &[f64],
+        split: &SplitSet,
+    ) -> Vec<Tet> {
         // Walk only below tetrahedra whose sample range holds an isovalue.
         let empty = |t: &Tet| {
             let (lo, hi) = self.tet_range(volume, t);
             !isovalues.iter().any(|&v| lo <= v && v <= hi)
         };
-        Ok(crate::mesh::leaves_where(&lattice, &split, empty, |t| {
+        crate::mesh::leaves_where(self.lattice(), split, empty, |t| {
             let f = t.map(|p| volume.at(p.x as usize, p.y as usize, p.z as usize));
             isovalues.iter().any(|&v| crosses(&f, v))
-        }))
+        })
+    }
+}
+
+/// The refinement query of an isosurface query at `tolerance`.
+pub(crate) fn refine_query(query: &IsoQuery, tolerance: f64) -> Query {
+    Query {
+        tolerance,
+        max_tetrahedra: 0,
+        region_of_interest: query.region_of_interest,
     }
 }
 

@@ -16,12 +16,16 @@
 //! - [`hierarchy`]: the precomputed per-diamond records (error, min, max) in 4 bytes per voxel.
 //! - [`refine`]: the split set, the [`refine::SplitQueue`] and selective refinement with closure.
 //! - [`mesh`]: extraction of the current mesh as deduplicated points and tetrahedra.
+//! - [`isosurface`], [`iso_state`]: multiresolution isosurfaces (Gregorski §6) and the split set kept
+//!   between isosurface queries (reuse; isovalue changes "from the current mesh", measured, §6.1).
+//! - [`material`]: material interfaces with ghost values (Gregorski §5).
 //! - [`fields`]: generated volumes (Marschner–Lobb, distance fields) for the demo and the tests.
 //! - [`validate`]: independent checks (conformity, volume, tolerance at every sample) used by tests and the CLI.
 
 pub mod diamond;
 pub mod fields;
 pub mod hierarchy;
+pub mod iso_state;
 pub mod isosurface;
 pub mod lattice;
 pub mod material;
@@ -41,7 +45,7 @@ pub use volume::{Grid, ScalarSlice, ScalarType, Volume};
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum Error {
     /// The grid has fewer than 2 points along an axis (2-D images and lines are refused).
-    #[error("the image has {dims:?} points; every axis needs at least 2 points (2-D images are not supported: Adaptive Tetrahedra makes a 3-D mesh)")]
+    #[error("the image has {dims:?} points; every axis needs at least 2 points (2-D images are not supported: Diamonds builds 3-D meshes)")]
     Dimensions { dims: [usize; 3] },
     /// The sample array does not match the grid.
     #[error("the scalar array has {len} values but the grid has {expected} points ({dims:?})")]

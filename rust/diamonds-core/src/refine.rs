@@ -43,7 +43,7 @@ impl Query {
 
 /// The set of split diamonds: a bitset over the domain's points plus a hash set for the few central
 /// vertices outside the domain (diamonds along the far faces).
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct SplitSet {
     bits: Vec<u64>,
     outside: FxHashSet<IVec3>,
@@ -82,6 +82,36 @@ impl SplitSet {
         } else {
             self.outside.insert(d.center);
         }
+    }
+
+    /// Marks `d` unsplit (merged).
+    #[cfg(test)]
+    pub(crate) fn remove(&mut self, d: Diamond) {
+        if self.lattice.in_domain(d.center) {
+            let i = self.lattice.index(d.center);
+            self.bits[i / 64] &= !(1 << (i % 64));
+        } else {
+            self.outside.remove(&d.center);
+        }
+    }
+
+    /// Number of split diamonds.
+    pub fn len(&self) -> usize {
+        self.bits
+            .iter()
+            .map(|w| w.count_ones() as usize)
+            .sum::<usize>()
+            + self.outside.len()
+    }
+
+    /// True when no diamond is split.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The lattice the set lives on.
+    pub fn lattice(&self) -> &Lattice {
+        &self.lattice
     }
 }
 
@@ -210,6 +240,17 @@ impl<'h> Refiner<'h> {
         query: &Query,
         criterion: &'h dyn Fn(Diamond) -> f64,
     ) -> Result<SplitSet> {
+        let mut r = Self::start(hierarchy, query, criterion)?;
+        r.refine(hierarchy.base_candidates(), query.max_tetrahedra);
+        Ok(r.split)
+    }
+
+    /// A refiner of `hierarchy` at the base mesh, set up for `query` (queue, tolerance, region).
+    fn start(
+        hierarchy: &'h Hierarchy,
+        query: &Query,
+        criterion: &'h dyn Fn(Diamond) -> f64,
+    ) -> Result<Self> {
         if !query.tolerance.is_finite() || query.tolerance < 0.0 {
             return Err(Error::Parameter(format!(
                 "tolerance must be a finite number ≥ 0 (got {})",
@@ -223,14 +264,81 @@ impl<'h> Refiner<'h> {
             criterion,
         );
         r.tolerance = query.tolerance;
-        let budget = query.max_tetrahedra;
-        if budget > 0 {
+        if query.max_tetrahedra > 0 {
             r.queue = SplitQueue::Ordered(BinaryHeap::new());
         }
         if let Some(roi) = query.region_of_interest {
             r.roi = Some(lattice_box(hierarchy, roi)?);
         }
-        r.refine(hierarchy.base_candidates(), budget);
+        Ok(r)
+    }
+
+    /// Runs `query` (no budget) "from the current mesh" `current` (Gregorski §6.1), the split set of an
+    /// earlier query on the same hierarchy, and returns the same split set as [`Refiner::run`].
+    ///
+    /// Merge pass: of the diamonds split in `current`, only those the new criterion still requires are
+    /// kept — the least set that holds the base mesh, is closed under parents and holds every diamond
+    /// of `current` above the tolerance with a kept parent. It is found top-down from the base mesh,
+    /// through split diamonds of `current` only; every other diamond of `current` is merged. (Gregorski's
+    /// bottom-up merge queue — merge a split diamond with no split child once it meets the tolerance —
+    /// alone is not enough for the from-root result: it keeps a diamond above the tolerance whose
+    /// parents are split only for its own closure, a pair from-root never reaches.) Unsplit diamonds
+    /// above the tolerance met on the way are the split queue of the split pass, which then continues
+    /// as usual with closure. Every diamond either pass splits is split by from-root too, and the
+    /// result is closed with every reachable diamond meeting the tolerance: the least such set, i.e.
+    /// from-root's.
+    pub(crate) fn rerun(
+        hierarchy: &'h Hierarchy,
+        query: &Query,
+        criterion: &'h dyn Fn(Diamond) -> f64,
+        current: &SplitSet,
+    ) -> Result<SplitSet> {
+        if query.max_tetrahedra > 0 {
+            return Err(Error::Parameter(
+                "refinement from the current mesh takes no tetrahedron budget".into(),
+            ));
+        }
+        if current.lattice != *hierarchy.lattice() {
+            return Err(Error::Parameter(
+                "the current mesh belongs to another hierarchy".into(),
+            ));
+        }
+        let mut r = Self::start(hierarchy, query, criterion)?;
+        // Merge pass: keep what is still required among the split diamonds of `current`.
+        let mut split_queue = Vec::new();
+        let within = |r: &mut Self, d: Diamond, split_queue: &mut Vec<Diamond>| {
+            if r.split.contains(d) {
+                return;
+            }
+            if r.error(d) > r.tolerance {
+                if current.contains(d) {
+                    r.queue.push(d, 0.0);
+                } else {
+                    split_queue.push(d);
+                }
+            }
+        };
+        for &d in hierarchy.base_candidates() {
+            within(&mut r, d, &mut split_queue);
+        }
+        let mut closure = Vec::new();
+        while let Some(d) = r.queue.pop() {
+            if r.split.contains(d) {
+                continue;
+            }
+            // `current` is closed, so the closure stays inside it.
+            r.closure(d, &mut closure);
+            for &a in &closure {
+                debug_assert!(current.contains(a));
+                r.split.insert(a);
+                r.tets += r.inside_tets(a);
+                for c in a.children(&r.lattice) {
+                    within(&mut r, c, &mut split_queue);
+                }
+            }
+        }
+        // Split pass from the leaves of the kept mesh.
+        r.refine(&split_queue, 0);
         Ok(r.split)
     }
 
