@@ -224,6 +224,7 @@ class vtkMaterialInterfaceApproximation::vtkInternals
 public:
   std::vector<std::string> FractionArrays;
   std::vector<std::string> FieldArrays;
+  std::vector<std::string> MaterialFieldArrays;
 
   // What the kept model was built from. Array pointers are identities only (never dereferenced).
   struct ModelKey
@@ -385,6 +386,31 @@ void vtkMaterialInterfaceApproximation::AddFieldArray(const char* name)
 void vtkMaterialInterfaceApproximation::ClearFieldArrays()
 {
   Resize(this, this->Internals->FieldArrays, 0);
+}
+
+void vtkMaterialInterfaceApproximation::SetNumberOfMaterialFieldArrays(int n)
+{
+  Resize(this, this->Internals->MaterialFieldArrays, n);
+}
+int vtkMaterialInterfaceApproximation::GetNumberOfMaterialFieldArrays()
+{
+  return static_cast<int>(this->Internals->MaterialFieldArrays.size());
+}
+void vtkMaterialInterfaceApproximation::SetMaterialFieldArray(int i, const char* name)
+{
+  SetAt(this, this->Internals->MaterialFieldArrays, i, name);
+}
+const char* vtkMaterialInterfaceApproximation::GetMaterialFieldArray(int i)
+{
+  return GetAt(this->Internals->MaterialFieldArrays, i);
+}
+void vtkMaterialInterfaceApproximation::AddMaterialFieldArray(const char* name)
+{
+  SetAt(this, this->Internals->MaterialFieldArrays, this->GetNumberOfMaterialFieldArrays(), name);
+}
+void vtkMaterialInterfaceApproximation::ClearMaterialFieldArrays()
+{
+  Resize(this, this->Internals->MaterialFieldArrays, 0);
 }
 
 //------------------------------------------------------------------------------
@@ -600,23 +626,68 @@ int vtkMaterialInterfaceApproximation::RequestData(
   std::vector<std::string> fieldNames = internals.FieldArrays;
   fieldNames.erase(
     std::remove(fieldNames.begin(), fieldNames.end(), std::string()), fieldNames.end());
+  std::vector<std::string> materialFieldNames = internals.MaterialFieldArrays;
+  materialFieldNames.erase(
+    std::remove(materialFieldNames.begin(), materialFieldNames.end(), std::string()),
+    materialFieldNames.end());
   {
     std::vector<std::string> all = fractionNames;
     all.insert(all.end(), fieldNames.begin(), fieldNames.end());
+    all.insert(all.end(), materialFieldNames.begin(), materialFieldNames.end());
     for (std::size_t i = 0; i < all.size(); ++i)
     {
       if (std::find(all.begin() + static_cast<std::ptrdiff_t>(i) + 1, all.end(), all[i]) !=
         all.end())
       {
         vtkErrorMacro(<< FilterName << ": array \"" << all[i]
-                      << "\" is selected twice (VolumeFractionArrays and FieldArrays must name "
-                         "different arrays).");
+                      << "\" is selected twice (VolumeFractionArrays, FieldArrays and "
+                         "MaterialFieldArrays must name different arrays).");
         return 0;
       }
     }
   }
+  const std::vector<std::string> materialNames = MaterialNames(fractionNames);
+  // The (field, material) of each per-material array, matched by name in the bridge.
+  std::vector<std::array<std::size_t, 2>> materialFieldPairs;
+  if (!materialFieldNames.empty())
+  {
+    auto strings = [](const std::vector<std::string>& list) {
+      std::vector<rust::String> out;
+      for (const std::string& s : list)
+      {
+        out.emplace_back(s);
+      }
+      return out;
+    };
+    const std::vector<rust::String> f = strings(fieldNames);
+    const std::vector<rust::String> m = strings(materialNames);
+    const std::vector<rust::String> a = strings(materialFieldNames);
+    try
+    {
+      rust::Vec<std::size_t> pairs =
+        bridge::match_material_fields(rust::Slice<const rust::String>(f.data(), f.size()),
+          rust::Slice<const rust::String>(m.data(), m.size()),
+          rust::Slice<const rust::String>(a.data(), a.size()));
+      for (std::size_t i = 0; i + 1 < pairs.size(); i += 2)
+      {
+        materialFieldPairs.push_back({ pairs[i], pairs[i + 1] });
+      }
+    }
+    catch (const rust::Error& e)
+    {
+      vtkErrorMacro(<< FilterName << " (MaterialFieldArrays): " << e.what());
+      return 0;
+    }
+    if (materialFieldPairs.size() != materialFieldNames.size())
+    {
+      vtkErrorMacro(<< "internal error: " << materialFieldPairs.size() << " matches for "
+                    << materialFieldNames.size() << " per-material arrays.");
+      return 0;
+    }
+  }
   std::vector<FoundArray> fractions;
-  std::vector<FoundArray> fields;
+  std::vector<FoundArray> fields; // Array == nullptr: a field given only per material
+  std::vector<FoundArray> materialFields;
   for (const std::string& name : fractionNames)
   {
     auto found = FindArray(this, input, name, "VolumeFractionArrays");
@@ -626,8 +697,18 @@ int vtkMaterialInterfaceApproximation::RequestData(
     }
     fractions.push_back(*found);
   }
-  for (const std::string& name : fieldNames)
+  for (std::size_t f = 0; f < fieldNames.size(); ++f)
   {
+    const std::string& name = fieldNames[f];
+    const bool inInput = input->GetPointData()->GetArray(name.c_str()) ||
+      input->GetCellData()->GetArray(name.c_str());
+    const bool perMaterial = std::any_of(materialFieldPairs.begin(), materialFieldPairs.end(),
+      [f](const std::array<std::size_t, 2>& p) { return p[0] == f; });
+    if (!inInput && perMaterial)
+    {
+      fields.emplace_back(); // computed from the per-material arrays
+      continue;
+    }
     auto found = FindArray(this, input, name, "FieldArrays");
     if (!found)
     {
@@ -635,20 +716,31 @@ int vtkMaterialInterfaceApproximation::RequestData(
     }
     fields.push_back(*found);
   }
+  for (const std::string& name : materialFieldNames)
+  {
+    auto found = FindArray(this, input, name, "MaterialFieldArrays");
+    if (!found)
+    {
+      return 0;
+    }
+    materialFields.push_back(*found);
+  }
 
   // ---- The model: kept while its input is the same.
   vtkInternals::ModelKey key;
-  for (const auto* list : { &fractions, &fields })
+  for (const auto* list : { &fractions, &fields, &materialFields })
   {
     for (const FoundArray& f : *list)
     {
       key.Arrays.push_back(f.Array);
-      key.ArrayMTimes.push_back(f.Array->GetMTime());
+      key.ArrayMTimes.push_back(f.Array ? f.Array->GetMTime() : 0);
     }
   }
   key.Names = fractionNames;
   key.Names.emplace_back("|");
   key.Names.insert(key.Names.end(), fieldNames.begin(), fieldNames.end());
+  key.Names.emplace_back("|");
+  key.Names.insert(key.Names.end(), materialFieldNames.begin(), materialFieldNames.end());
   std::copy(grid.dims.begin(), grid.dims.end(), key.Dims.begin());
   std::copy(grid.origin.begin(), grid.origin.end(), key.Origin.begin());
   std::copy(grid.spacing.begin(), grid.spacing.end(), key.Spacing.begin());
@@ -665,7 +757,7 @@ int vtkMaterialInterfaceApproximation::RequestData(
     // selected cell arrays only.
     vtkSmartPointer<vtkDataSet> converted;
     bool anyCellData = false;
-    for (const auto* list : { &fractions, &fields })
+    for (const auto* list : { &fractions, &fields, &materialFields })
     {
       for (const FoundArray& f : *list)
       {
@@ -681,11 +773,11 @@ int vtkMaterialInterfaceApproximation::RequestData(
       c2p->SetInputData(shallow);
       c2p->SetProcessAllArrays(false);
       c2p->PassCellDataOff();
-      for (const auto* list : { &fractions, &fields })
+      for (const auto* list : { &fractions, &fields, &materialFields })
       {
         for (const FoundArray& f : *list)
         {
-          if (f.CellData)
+          if (f.Array && f.CellData)
           {
             c2p->AddCellDataArray(f.Array->GetName());
           }
@@ -720,6 +812,11 @@ int vtkMaterialInterfaceApproximation::RequestData(
       }
       for (std::size_t i = 0; i < fields.size(); ++i)
       {
+        if (!fields[i].Array)
+        {
+          (*builder)->add_field_from_materials();
+          continue;
+        }
         auto values = pointValues(fields[i]);
         if (!values)
         {
@@ -728,6 +825,18 @@ int vtkMaterialInterfaceApproximation::RequestData(
           return 0;
         }
         (*builder)->add_field(SliceOf(values));
+      }
+      for (std::size_t i = 0; i < materialFields.size(); ++i)
+      {
+        auto values = pointValues(materialFields[i]);
+        if (!values)
+        {
+          vtkErrorMacro(<< FilterName << ": cannot convert cell array \""
+                        << materialFieldNames[i] << "\" to point data.");
+          return 0;
+        }
+        (*builder)->add_material_field(
+          materialFieldPairs[i][0], materialFieldPairs[i][1], SliceOf(values));
       }
     }
     catch (const rust::Error& e)
@@ -858,6 +967,17 @@ int vtkMaterialInterfaceApproximation::RequestData(
     try
     {
       internals.Mesh.emplace((**internals.Model).refine(query, progress));
+      const bridge::MaterialMesh& refined = **internals.Mesh;
+      if (refined.max_interface_error() > meshKey.InterfaceTolerance ||
+        refined.max_field_error() > meshKey.FieldTolerance)
+      {
+        vtkWarningMacro(<< FilterName << ": the finest tetrahedra (half a cell wide) cannot meet the "
+                        << "tolerances everywhere; reached interface error "
+                        << refined.max_interface_error() << " and field error "
+                        << refined.max_field_error()
+                        << " (see MaximumInterfaceError, MaximumFieldError and the cell arrays). Samples "
+                        << "are mesh vertices only with 2^k + 1 points per axis.");
+      }
     }
     catch (const rust::Error& e)
     {
@@ -880,7 +1000,6 @@ int vtkMaterialInterfaceApproximation::RequestData(
   const bridge::MaterialMesh& mesh = **internals.Mesh;
 
   // ---- Names.
-  const std::vector<std::string> materialNames = MaterialNames(fractionNames);
   std::vector<std::string> interfaceNames;
 
   // ---- Output 0: the tetrahedra.
@@ -1102,6 +1221,11 @@ void vtkMaterialInterfaceApproximation::PrintSelf(ostream& os, vtkIndent indent)
   }
   os << "\n" << indent << "FieldArrays:";
   for (const std::string& n : this->Internals->FieldArrays)
+  {
+    os << " \"" << n << "\"";
+  }
+  os << "\n" << indent << "MaterialFieldArrays:";
+  for (const std::string& n : this->Internals->MaterialFieldArrays)
   {
     os << " \"" << n << "\"";
   }

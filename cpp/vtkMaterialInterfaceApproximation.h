@@ -29,8 +29,11 @@
  * spaced along each axis (a non-uniform one is refused: apply Resample To Image first), at least 2
  * points along every axis, with one single-component volume-fraction array per material (point or
  * cell data; cell data are converted to point data with vtkCellDataToPointData, the average of the
- * cells around each point) and optionally fields to approximate (point or cell data, likewise).
- * Fractions must lie in [0, 1] and sum to 1 at every point (to 1 %).
+ * cells around each point) and optionally fields to approximate (point or cell data, likewise):
+ * mixed-cell fields (FieldArrays) and per-material fields (MaterialFieldArrays, "<field> for
+ * <material>" or "<field> (<material>)": the field's value inside that material, used as that
+ * material's own value; a field given only per material gets the mixed values sum of fraction x
+ * per-material value). Fractions must lie in [0, 1] and sum to 1 at every point (to 1 %).
  *
  * Input port 1 (optional): vtkPolyData of triangles, the interface meshes to use instead of the
  * reconstruction: a 2-component integer cell array (InterfaceMaterialsArray, default
@@ -70,7 +73,8 @@
  * GetNumberOfRefinements() counts the refinements.
  *
  * Errors (vtkErrorMacro, all outputs empty, no crash): a missing array (the message lists the point
- * and cell arrays), fewer than 2 fraction arrays, a multi-component array, an array listed twice,
+ * and cell arrays), a per-material array whose name matches no field and material (the message
+ * lists the accepted names), fewer than 2 fraction arrays, a multi-component array, an array listed twice,
  * fractions out of [0, 1] or not summing to 1, NaN or infinite values, negative or non-finite
  * tolerances, a zero or non-finite slice normal, 2-D images, oriented images, non-uniform
  * rectilinear grids, bad interface meshes. An empty input gives empty outputs without an error.
@@ -126,6 +130,28 @@ public:
   const char* GetFieldArray(int i);
   void AddFieldArray(const char* name);
   void ClearFieldArrays();
+  ///@}
+
+  ///@{
+  /**
+   * Optional per-material values of the fields, point or cell data of input 0 (converted like the
+   * fields): the value of a field inside one material (say the density of steel, where the mixed
+   * field has the density of the steel and void mixture). Each array is matched by name: "<field> for
+   * <material>" or "<field> (<material>)", <field> one of FieldArrays, <material> a material name
+   * (see MaterialNames below); an array that matches nothing is an error listing the accepted names.
+   * With ghost values, a material's own value at its samples (its vertex values, ghost values and
+   * field error) is then its per-material value instead of the mixed one; plain interpolation
+   * ignores them. A name of FieldArrays that is not an array of the input but has per-material
+   * arrays is a field given only per material: its mixed values are the sum over the materials of
+   * fraction x per-material value (the materials without an array count 0). CTH example: FieldArrays
+   * "Mass", MaterialFieldArrays "Mass for Armor Plate", "Mass for Body, Nose" (void: none, 0).
+   */
+  void SetNumberOfMaterialFieldArrays(int n);
+  int GetNumberOfMaterialFieldArrays();
+  void SetMaterialFieldArray(int i, const char* name);
+  const char* GetMaterialFieldArray(int i);
+  void AddMaterialFieldArray(const char* name);
+  void ClearMaterialFieldArrays();
   ///@}
 
   ///@{

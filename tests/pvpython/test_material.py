@@ -9,12 +9,16 @@
   equal to the resampled field where all the samples around a vertex are of that material; no more
   tetrahedra than the paper's 11,990, and at least 3x fewer than plain interpolation at the same
   field tolerance;
+- per-material densities (MaterialFieldArrays "Density for Void", ...): FieldError <= FieldTolerance,
+  void's own density 0 at every vertex, no more tetrahedra than with the mixed density; a field
+  given only per material (its mixed values: the fraction-weighted sum); an unmatched name -> error;
 - defaults, the automatic choice of fraction arrays, cell-data input, uniform rectilinear input,
   user interface meshes on input 1;
 - the kept model: tolerance, ghost-value and slice changes do not rebuild it; a slice change does
   not refine again;
 - bad inputs: an error message, empty outputs, no crash; AbortExecute;
-- the CTH armor impact data of ../shared when present (skipped with a message otherwise).
+- the CTH armor impact data of ../shared when present, with FieldArrays "Mass" given only per
+  material ("Mass for Armor Plate", "Mass for Body, Nose"); skipped with a message otherwise.
 
   PV_PLUGIN_PATH=$PWD/build/lib/paraview-5.11/plugins/Diamonds pvpython tests/pvpython/test_material.py
 """
@@ -45,6 +49,7 @@ FRACTIONS = ["Volume Fraction for Void", "Volume Fraction for Block", "Volume Fr
 NAMES = ["Void", "Block", "Projectile"]
 BOX = [0.0, 12.0, 0.0, 12.0, -16.0, 4.8]
 VTK_TETRA = 10
+CTH_MASS_TOLERANCE = 0.001  # "Mass for ..." of the CTH data reach about 0.0094
 
 
 def diamonds_binary():
@@ -259,6 +264,46 @@ dc.check(get_array(p0, "FieldError", True).max() <= 3.0 * (1 + 1e-6), "UseGhostV
 dc.check(p0.GetPointData().GetArray("Density (Block)") is None and p0.GetPointData().GetArray("Density") is not None, "UseGhostValues off: mixed field only")
 check_tets(p0, BOX, "plain interpolation")
 
+# ---- Per-material densities: each material's own density instead of the mixed one.
+MATERIAL_DENSITIES = [f"Density for {n}" for n in NAMES]
+dc.check(ball(image.GetPointData().GetArray(n) is not None for n in MATERIAL_DENSITIES), f"the generator writes {MATERIAL_DENSITIES}")
+own = simple.MaterialInterfaceApproximation(Input=reader, VolumeFractionArrays=FRACTIONS, FieldArrays=["Density"], MaterialFieldArrays=MATERIAL_DENSITIES, InterfaceTolerance=0.15, FieldTolerance=3.0)
+with dc.ErrorCapture(own) as errors:
+    o0, o1, o2 = fetch_all(own)
+print(f"impact case at interface 0.15, density 3: {n_tets} tetrahedra with the mixed density, {o0.GetNumberOfCells()} with per-material densities")
+dc.check(not errors.messages and o0.GetNumberOfCells() > 0 and o1.GetNumberOfCells() > 0 and o2.GetNumberOfCells() > 0, f"per-material densities: three non-empty outputs {errors.text()[:200]}")
+dc.check(get_array(o0, "FieldError", True).max() <= 3.0 * (1 + 1e-6), f"per-material densities: FieldError <= 3 (max {get_array(o0, 'FieldError', True).max():.4g})")
+dc.check(o0.GetNumberOfCells() <= n_tets, f"per-material densities: {o0.GetNumberOfCells()} <= {n_tets} tetrahedra (mixed density)")
+own_material = get_array(o0, "Material").astype(int)
+void_density = get_array(o0, "Density (Void)")
+dc.check(void_density is not None and (void_density[own_material == 0] == 0).all() and (own_material == 0).sum() > 100, f"per-material densities: 'Density (Void)' is 0 at the {(own_material == 0).sum()} void vertices")
+mixed_void = get_array(tets_out, "Density (Void)")
+dc.check(mixed_void[material == 0].max() > 1.0, f"mixed density only: void's own value is the mixed density of its samples (max {mixed_void[material == 0].max():.3g})")
+block_density = get_array(o0, "Density (Block)")
+dc.check(np.median(block_density[own_material == 1]) > 7.0, "per-material densities: the block's own density at its vertices")
+# A field given only per material: no input array "Density", its mixed values the fraction-weighted sum
+# of the per-material arrays (void has none and counts 0).
+only_own = simple.PassArrays(Input=reader, PointDataArrays=FRACTIONS + MATERIAL_DENSITIES[1:], CellDataArrays=[], FieldDataArrays=[])
+derived = simple.MaterialInterfaceApproximation(Input=only_own, VolumeFractionArrays=FRACTIONS, FieldArrays=["Density"], MaterialFieldArrays=MATERIAL_DENSITIES[1:], InterfaceTolerance=0.15, FieldTolerance=3.0)
+with dc.ErrorCapture(derived) as errors:
+    e0 = fetch_all(derived)[0]
+dc.check(not errors.messages and e0.GetNumberOfCells() > 0, f"Density only per material: {e0.GetNumberOfCells()} tetrahedra {errors.text()[:200]}")
+if e0.GetNumberOfCells():
+    points = vtk_to_numpy(e0.GetPoints().GetData()).astype(np.float64)
+    dims, origin, spacing = np.array(image.GetDimensions()), np.array(image.GetOrigin()), np.array(image.GetSpacing())
+    u = (points - origin) / spacing
+    base = np.clip(np.floor(u).astype(int), 0, dims - 2)
+    t = u - base
+    density = vtk_to_numpy(image.GetPointData().GetArray("Density")).astype(np.float64)
+    want = np.zeros(len(points))
+    for c in range(8):
+        o = np.array([c & 1, (c >> 1) & 1, c >> 2])
+        idx = base + o
+        want += np.prod(np.where(o == 1, t, 1.0 - t), axis=1) * density[idx[:, 0] + dims[0] * (idx[:, 1] + dims[1] * idx[:, 2])]
+    err = np.abs(get_array(e0, "Density") - want).max()
+    dc.check(err < 1e-3, f"Density only per material: the mixed field is the sum of fraction x per-material density (max diff {err:.3g} from the generated Density)")
+    dc.check(get_array(e0, "FieldError", True).max() <= 3.0 * (1 + 1e-6), "Density only per material: FieldError <= 3")
+
 # ---- The kept model.
 builds, refs = model_builds(filt), refinements(filt)
 dc.check(builds == 1 and refs == 1, f"one model build, one refinement so far ({builds}, {refs})")
@@ -305,7 +350,12 @@ rect_grid.UpdatePipeline()
 on_rect = simple.MaterialInterfaceApproximation(Input=rect_grid, FieldArrays=["Pressure"], InterfaceTolerance=0.05, FieldTolerance=0.2)
 with dc.ErrorCapture(on_rect) as errors:
     r0, r1, r2 = fetch_all(on_rect)
-dc.check(not errors.messages and r0.GetNumberOfCells() > 0 and r1.GetNumberOfCells() > 0, f"uniform vtkRectilinearGrid: {r0.GetNumberOfCells()} tetrahedra {errors.text()[:200]}")
+# 16x14x12 points: the samples are not all mesh vertices, so the finest tetrahedra may not reach the field
+# tolerance; then (and only then) a warning tells the error reached.
+reached = r0.GetFieldData().GetArray("MaximumFieldError").GetValue(0)
+unmet = [m for m in errors.messages if "cannot meet the tolerances" in m]
+dc.check(len(unmet) == (1 if reached > 0.2 else 0) and len(errors.messages) == len(unmet), f"uniform vtkRectilinearGrid: a warning exactly when the tolerance is not reached ({reached:.3g}): {errors.text()[:300]}")
+dc.check(r0.GetNumberOfCells() > 0 and r1.GetNumberOfCells() > 0, f"uniform vtkRectilinearGrid: {r0.GetNumberOfCells()} tetrahedra")
 dc.check(strings(r0, "MaterialNames") == ["Ball", "Void"], f"names from 'Volume Fraction for Ball' and 'Void Volume Fraction': {strings(r0, 'MaterialNames')}")
 check_tets(r0, [-3, 3, -2.6, 2.6, -2.2, 2.2], "rectilinear grid")
 check_crack_free(r1, [-3, 3, -2.6, 2.6, -2.2, 2.2], "rectilinear grid interfaces")
@@ -351,6 +401,10 @@ expect_error(M(Input=reader, VolumeFractionArrays=FRACTIONS, FieldArrays=["Nope"
 expect_error(M(Input=reader, VolumeFractionArrays=[FRACTIONS[0]]), "at least 2", "one fraction array only")
 expect_error(M(Input=reader, VolumeFractionArrays=FRACTIONS[:2]), "sum to 1", "fractions not summing to 1 (a material left out)")
 expect_error(M(Input=reader, VolumeFractionArrays=FRACTIONS, FieldArrays=[FRACTIONS[0]]), "twice", "an array selected twice")
+steel = simple.Calculator(Input=reader, ResultArrayName="Density for Steel", Function="Density")
+expect_error(M(Input=steel, VolumeFractionArrays=FRACTIONS, FieldArrays=["Density"], MaterialFieldArrays=["Density for Steel"]), ("matches no field", "Density (Projectile)"), "a per-material array matching no field and material")
+expect_error(M(Input=reader, VolumeFractionArrays=FRACTIONS, FieldArrays=["Mass"], MaterialFieldArrays=["Density for Block"]), "matches no field", "a per-material array of a field not selected")
+expect_error(M(Input=reader, VolumeFractionArrays=FRACTIONS, FieldArrays=["Mass"]), "Mass", "a field neither in the input nor per material")
 expect_error(M(Input=reader, VolumeFractionArrays=FRACTIONS, InterfaceTolerance=-0.1), "InterfaceTolerance must be", "negative InterfaceTolerance")
 expect_error(M(Input=reader, VolumeFractionArrays=FRACTIONS, FieldArrays=["Density"], FieldTolerance=-1.0), "FieldTolerance must be", "negative FieldTolerance")
 zero_normal = M(Input=reader, VolumeFractionArrays=FRACTIONS)
@@ -409,7 +463,7 @@ dc.check(prototype.GetXMLLabel() == "Material Interface Approximation", "label '
 doc = prototype.GetDocumentation()
 dc.check(len(doc.GetDescription() or "") > 2000 and "section 5" in (doc.GetDescription() or ""), f"a long <Documentation> citing section 5 ({len(doc.GetDescription() or '')} chars)")
 dc.check([prototype.GetOutputPortName(i) for i in range(3)] == ["Tetrahedra", "Interfaces", "Slice"], "output ports Tetrahedra, Interfaces, Slice")
-undocumented = [n for n in ("VolumeFractionArrays", "FieldArrays", "InterfaceTolerance", "FieldTolerance", "UseGhostValues", "SliceOrigin", "SliceNormal") if not (prototype.GetProperty(n).GetDocumentation() and prototype.GetProperty(n).GetDocumentation().GetDescription())]
+undocumented = [n for n in ("VolumeFractionArrays", "FieldArrays", "MaterialFieldArrays", "InterfaceTolerance", "FieldTolerance", "UseGhostValues", "SliceOrigin", "SliceNormal") if not (prototype.GetProperty(n).GetDocumentation() and prototype.GetProperty(n).GetDocumentation().GetDescription())]
 dc.check(not undocumented, f"every property documented ({undocumented})")
 
 # ---- The CTH armor impact data of ../shared (non-uniform along x and z: resampled first).
@@ -421,13 +475,16 @@ else:
     cth_fractions = ["Void Volume Fraction", "Volume Fraction for Armor Plate", "Volume Fraction for Body, Nose"]
     expect_error(M(Input=cth, VolumeFractionArrays=cth_fractions), "not uniformly spaced", "CTH as is (non-uniform)")
     resampled = simple.ResampleToImage(Input=cth, SamplingDimensions=[129, 65, 65])
-    cth_filter = M(Input=resampled, VolumeFractionArrays=cth_fractions, InterfaceTolerance=0.1)
+    # "Mass" is no array of the data: given only per material (void has none and counts 0).
+    cth_filter = M(Input=resampled, VolumeFractionArrays=cth_fractions, FieldArrays=["Mass"], MaterialFieldArrays=["Mass for Armor Plate", "Mass for Body, Nose"], InterfaceTolerance=0.1, FieldTolerance=CTH_MASS_TOLERANCE)
     with dc.ErrorCapture(cth_filter) as errors:
         k0, k1, k2 = fetch_all(cth_filter)
     print(f"CTH resampled 129x65x65: {k0.GetNumberOfCells()} tetrahedra, {k1.GetNumberOfCells()} interface polygons {errors.text()[:300]}")
     dc.check(k0.GetNumberOfCells() > 0 and k1.GetNumberOfCells() > 0 and k2.GetNumberOfCells() > 0, "CTH resampled: three non-empty outputs")
     dc.check(strings(k0, "MaterialNames") == ["Void", "Armor Plate", "Body, Nose"], f"CTH material names {strings(k0, 'MaterialNames')}")
+    dc.check(strings(k0, "FieldNames") == ["Mass"] and k0.GetPointData().GetArray("Mass (Armor Plate)") is not None, "CTH: field Mass with its per-material values")
     if k0.GetNumberOfCells():
+        dc.check(get_array(k0, "FieldError", True).max() <= CTH_MASS_TOLERANCE * (1 + 1e-6), f"CTH: FieldError <= {CTH_MASS_TOLERANCE}")
         dc.check(get_array(k0, "InterfaceError", True).max() <= 0.1 * (1 + 1e-6), "CTH: InterfaceError <= 0.1")
         check_crack_free(k1, resampled_bounds := servermanager.Fetch(resampled).GetBounds(), "CTH interfaces")
 

@@ -188,6 +188,26 @@ mod ffi {
         fn add_fraction(self: &mut MaterialBuilder, values: &[f32]) -> Result<()>;
         /// Adds the next point field to approximate (copied).
         fn add_field(self: &mut MaterialBuilder, values: &[f32]) -> Result<()>;
+        /// Adds the next field as one given only per material: its mixed values are the
+        /// fraction-weighted sum of its per-material arrays (materials without one count 0).
+        fn add_field_from_materials(self: &mut MaterialBuilder) -> Result<()>;
+        /// Adds the point values (copied) of field `field` (the order of `add_field` and
+        /// `add_field_from_materials`) inside material `material` (the order of `add_fraction`),
+        /// read at the samples of that material only.
+        fn add_material_field(
+            self: &mut MaterialBuilder,
+            field: usize,
+            material: usize,
+            values: &[f32],
+        ) -> Result<()>;
+        /// The (field, material) of each per-material field array, flattened: an array is named
+        /// "<field> for <material>" or "<field> (<material>)"; an error names the one that matches
+        /// nothing and lists the accepted names.
+        fn match_material_fields(
+            fields: &[String],
+            materials: &[String],
+            arrays: &[String],
+        ) -> Result<Vec<usize>>;
         /// Sets the user's interface meshes from a triangle soup: points (3 each), triangles (3
         /// point indices each), 2 materials per triangle (the normal points from the first into the
         /// second) and normals (none, 3 per triangle, or 3 per point with `point_normals`).
@@ -269,8 +289,8 @@ pub use ffi::{GridSpec, IsoSpec, MaterialQuerySpec, PlaneSpec, QuerySpec, Scalar
 
 pub mod material;
 pub use material::{
-    grid_from_coordinates, new_material_builder, MaterialBuilder, MaterialMesh, MaterialModel,
-    PolygonMesh,
+    grid_from_coordinates, match_material_fields, new_material_builder, MaterialBuilder,
+    MaterialMesh, MaterialModel, PolygonMesh,
 };
 
 /// Opaque handle on a [`diamonds::Hierarchy`] for C++.

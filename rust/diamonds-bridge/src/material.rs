@@ -3,10 +3,12 @@
 //!
 //! What crosses, and nothing else:
 //! - in: the grid ([`GridSpec`], or the coordinate arrays of a rectilinear grid through
-//!   [`grid_from_coordinates`]), the point volume fractions and fields as `f32` slices added one by
-//!   one to a [`MaterialBuilder`] (cxx cannot pass a vector of slices; the builder copies them, since
-//!   the kept model outlives the VTK arrays), optional interface triangle meshes as flat arrays, the
-//!   query ([`MaterialQuerySpec`]) and the slice plane ([`PlaneSpec`]);
+//!   [`grid_from_coordinates`]), the point volume fractions, fields and per-material fields as `f32`
+//!   slices added one by one to a [`MaterialBuilder`] (cxx cannot pass a vector of slices; the builder
+//!   copies them, since the kept model outlives the VTK arrays), optional interface triangle meshes as
+//!   flat arrays, the query ([`MaterialQuerySpec`]) and the slice plane ([`PlaneSpec`]);
+//! - names: the per-material field arrays' names are matched to (field, material) here
+//!   ([`match_material_fields`], the core's rule), so that C++ only passes arrays along;
 //! - out: an opaque [`MaterialModel`] that the filter keeps between executions, an opaque
 //!   [`MaterialMesh`] and [`PolygonMesh`]es whose arrays C++ reads as slices.
 //!
@@ -25,18 +27,22 @@
 use std::collections::BTreeMap;
 use std::pin::Pin;
 
-use diamonds::material::{self, InterfaceMesh, MaterialInput, MaterialQuery};
+use diamonds::material::{self, InterfaceMesh, MaterialField, MaterialInput, MaterialQuery};
 use diamonds::Grid;
 
 use crate::ffi::{self, GridSpec, MaterialQuerySpec, PlaneSpec};
 use crate::guard;
 
-/// Collects the input of a [`MaterialModel`]: the grid, the fractions and fields (copied) and the
-/// optional interface meshes.
+/// Collects the input of a [`MaterialModel`]: the grid, the fractions, fields and per-material fields
+/// (copied) and the optional interface meshes.
 pub struct MaterialBuilder {
     grid: Grid,
     fractions: Vec<Vec<f32>>,
-    fields: Vec<Vec<f32>>,
+    /// The mixed fields; `None` for a field given only per material (its mixed values are computed
+    /// by [`MaterialBuilder::build`]).
+    fields: Vec<Option<Vec<f32>>>,
+    /// (field, material, values).
+    material_fields: Vec<(usize, u8, Vec<f32>)>,
     interfaces: Option<Vec<InterfaceMesh>>,
 }
 
@@ -76,6 +82,7 @@ pub fn new_material_builder(grid: &GridSpec) -> Result<Box<MaterialBuilder>, Str
             grid,
             fractions: Vec::new(),
             fields: Vec::new(),
+            material_fields: Vec::new(),
             interfaces: None,
         }))
     })
@@ -122,7 +129,38 @@ impl MaterialBuilder {
         guard("copying a field array", || {
             let what = format!("field {}", self.fields.len());
             self.check_length(&what, values)?;
-            self.fields.push(values.to_vec());
+            self.fields.push(Some(values.to_vec()));
+            Ok(())
+        })
+    }
+
+    /// Adds the next field as one given only per material: its mixed values are `Σ fraction ×
+    /// per-material value` over the materials with an array ([`MaterialBuilder::add_material_field`];
+    /// the others count 0), computed by [`MaterialBuilder::build`].
+    pub fn add_field_from_materials(&mut self) -> Result<(), String> {
+        guard("adding a per-material field", || {
+            self.fields.push(None);
+            Ok(())
+        })
+    }
+
+    /// Adds the values of field `field` (the index of an [`add_field`](Self::add_field) or
+    /// [`add_field_from_materials`](Self::add_field_from_materials) call, in order; possibly a later
+    /// one) inside material `material` (index of its fraction array), one value per grid point.
+    pub fn add_material_field(
+        &mut self,
+        field: usize,
+        material: usize,
+        values: &[f32],
+    ) -> Result<(), String> {
+        guard("copying a per-material field array", || {
+            let what = format!("per-material field {field} of material {material}");
+            self.check_length(&what, values)?;
+            let material = u8::try_from(material).map_err(|_| {
+                format!("per-material field {field}: material {material} is not a material index")
+            })?;
+            self.material_fields
+                .push((field, material, values.to_vec()));
             Ok(())
         })
     }
@@ -179,10 +217,63 @@ impl MaterialBuilder {
                 ));
             }
         }
+        let fields = self.fields.len();
+        if let Some(&(f, m, _)) = self
+            .material_fields
+            .iter()
+            .find(|(f, m, _)| *f >= fields || *m as usize >= materials)
+        {
+            return Err(format!(
+                "a per-material field array is given for field {f} of material {m}, but there are {fields} fields and {materials} materials"
+            ));
+        }
+        let fractions: Vec<&[f32]> = self.fractions.iter().map(Vec::as_slice).collect();
+        // The mixed values of the fields given only per material.
+        let derived: Vec<Option<Vec<f32>>> = self
+            .fields
+            .iter()
+            .enumerate()
+            .map(|(f, values)| match values {
+                Some(_) => Ok(None),
+                None => {
+                    let own: Vec<(usize, &[f32])> = self
+                        .material_fields
+                        .iter()
+                        .filter(|(g, ..)| *g == f)
+                        .map(|(_, m, v)| (*m as usize, v.as_slice()))
+                        .collect();
+                    if own.is_empty() {
+                        return Err(format!(
+                            "field {f} is to be computed from per-material arrays, but none was given for it"
+                        ));
+                    }
+                    Ok(Some(material::mixed_from_materials(&fractions, &own)))
+                }
+            })
+            .collect::<Result<_, String>>()?;
         let input = MaterialInput {
             grid: self.grid,
-            fractions: self.fractions.iter().map(Vec::as_slice).collect(),
-            fields: self.fields.iter().map(Vec::as_slice).collect(),
+            fractions,
+            fields: self
+                .fields
+                .iter()
+                .zip(&derived)
+                .map(|(given, computed)| {
+                    given
+                        .as_deref()
+                        .or(computed.as_deref())
+                        .expect("a field is given or computed")
+                })
+                .collect(),
+            material_fields: self
+                .material_fields
+                .iter()
+                .map(|(field, material, values)| MaterialField {
+                    field: *field,
+                    material: *material,
+                    values,
+                })
+                .collect(),
             interfaces: self.interfaces.clone(),
         };
         let model = material::MaterialModel::new(&input).map_err(|e| e.to_string())?;
@@ -192,6 +283,23 @@ impl MaterialBuilder {
             fields: self.fields.len(),
         })
     }
+}
+
+/// The (field, material) of each per-material field array, flattened (`f0, m0, f1, m1, …`): `arrays[i]`
+/// is named `"<fields[f]> for <materials[m]>"` or `"<fields[f]> (<materials[m]>)"`; an error names
+/// the array that matches nothing and lists the accepted names (see
+/// [`diamonds::material::match_material_fields`]).
+pub fn match_material_fields(
+    fields: &[String],
+    materials: &[String],
+    arrays: &[String],
+) -> Result<Vec<usize>, String> {
+    guard("matching the per-material field arrays", || {
+        Ok(material::match_material_fields(fields, materials, arrays)?
+            .into_iter()
+            .flat_map(|(f, m)| [f, m])
+            .collect())
+    })
 }
 
 /// Splits a triangle soup into one [`InterfaceMesh`] per pair (see [`MaterialBuilder::set_interfaces`]).
@@ -1054,6 +1162,83 @@ mod tests {
             ..query
         };
         assert!(model.refine_with(&negative, &mut |_| true).is_err());
+    }
+
+    /// Per-material densities through the bridge, and a field given only per material (its mixed
+    /// values: the fraction-weighted sum).
+    #[test]
+    fn per_material_fields_through_the_bridge() {
+        let case = impact_case([16, 16, 26]);
+        let names: Vec<String> = case.names.iter().map(|s| s.to_string()).collect();
+        let arrays: Vec<String> = names.iter().map(|m| format!("Density for {m}")).collect();
+        let fields = vec!["Density".to_string()];
+        let pairs = match_material_fields(&fields, &names, &arrays).unwrap();
+        assert_eq!(pairs, [0, 0, 0, 1, 0, 2]);
+        let e =
+            match_material_fields(&fields, &names, &["Density for Steel".to_string()]).unwrap_err();
+        assert!(e.contains("Density for Steel") && e.contains("\"Density (Projectile)\""));
+        let query = MaterialQuerySpec {
+            interface_tolerance: 0.3,
+            field_tolerance: 3.0,
+            ghost_values: true,
+        };
+        let builder = |mixed: bool, materials: &[usize]| {
+            let mut b = new_material_builder(&spec(&case.grid)).unwrap();
+            for f in &case.fractions {
+                b.add_fraction(f).unwrap();
+            }
+            if mixed {
+                b.add_field(&case.density).unwrap();
+            } else {
+                b.add_field_from_materials().unwrap();
+            }
+            for &m in materials {
+                b.add_material_field(0, m, &case.material_density[m])
+                    .unwrap();
+            }
+            b
+        };
+        let given = builder(true, &[0, 1, 2]).build().unwrap();
+        let mesh = given.refine_with(&query, &mut |_| true).unwrap();
+        assert!(mesh.max_field_error().unwrap() <= 3.0);
+        let void = mesh.material_field(0, 0).unwrap();
+        assert!(void.iter().all(|&d| d == 0.0));
+        // Only per material, void left out (it counts 0): the mixed field is the generated density
+        // (compared through plain interpolation, which uses the mixed field only).
+        let derived = builder(false, &[1, 2]).build().unwrap();
+        let plain = MaterialQuerySpec {
+            ghost_values: false,
+            ..query
+        };
+        let d = derived.refine_with(&plain, &mut |_| true).unwrap();
+        let m = given.refine_with(&plain, &mut |_| true).unwrap();
+        assert_eq!(d.tets().unwrap(), m.tets().unwrap());
+        for (a, b) in d
+            .mixed_field(0)
+            .unwrap()
+            .iter()
+            .zip(m.mixed_field(0).unwrap())
+        {
+            assert!((a - b).abs() < 1e-4, "{a} vs {b}");
+        }
+        // Errors: no array for a per-material-only field, a field or material out of range, a
+        // wrong length.
+        assert!(builder(false, &[])
+            .build()
+            .err()
+            .unwrap()
+            .contains("none was given"));
+        let mut b = builder(true, &[]);
+        b.add_material_field(1, 0, &case.density).unwrap();
+        assert!(b.build().err().unwrap().contains("1 fields"));
+        let mut b = builder(true, &[]);
+        b.add_material_field(0, 3, &case.density).unwrap();
+        assert!(b.build().err().unwrap().contains("3 materials"));
+        assert!(b.add_material_field(0, 300, &case.density).is_err());
+        assert!(b
+            .add_material_field(0, 0, &[1.0; 4])
+            .unwrap_err()
+            .contains("4 values"));
     }
 
     #[test]

@@ -126,7 +126,9 @@ enum Command {
     /// The field on [-1, 1]^3 is normalised to [0, 1] (distances d as (d + 1) / 2) and scaled to 0..255
     /// (i8: -128..127), rounded for integer types. `--field impact` writes the multi-material impact
     /// case instead (Float32 point data "Volume Fraction for Void", "Volume Fraction for Block",
-    /// "Volume Fraction for Projectile" and "Density", by default on the paper's 32x32x52 points).
+    /// "Volume Fraction for Projectile", "Density" and each material's own density "Density for
+    /// Void", "Density for Block", "Density for Projectile", by default on the paper's 32x32x52
+    /// points).
     Generate {
         /// Output image (.vti).
         output: PathBuf,
@@ -160,9 +162,17 @@ enum Command {
         /// repeated) [default: every array whose name contains "fraction"].
         #[arg(long, value_name = "A,B,...")]
         fractions: Vec<String>,
-        /// Fields to approximate, comma-separated like --fractions.
+        /// Fields to approximate, comma-separated like --fractions: mixed-cell arrays, or fields given
+        /// only per material (a name that is no input array but has --material-fields arrays: its
+        /// mixed values are the sum of fraction x per-material value, materials without one count 0).
         #[arg(long, value_name = "F,...")]
         fields: Vec<String>,
+        /// Per-material values of the fields, comma-separated like --fractions: arrays named
+        /// "<field> for <material>" or "<field> (<material>)" (a material's name from its fraction
+        /// array: "Volume Fraction for Armor Plate" gives "Armor Plate"). With ghost values, a
+        /// material's own value at its samples is then this value instead of the mixed one.
+        #[arg(long, value_name = "A,...")]
+        material_fields: Vec<String>,
         /// Interface tolerance in world units [default: about one cell diagonal: the diagonal of the
         /// bounds over the cube root of the number of cells, as the ParaView filter].
         #[arg(long, value_name = "T", allow_negative_numbers = true)]
@@ -317,6 +327,7 @@ fn run(cli: Cli) -> diamonds_cli::Result<ExitCode> {
             output,
             fractions,
             fields,
+            material_fields,
             interface_tolerance,
             field_tolerance,
             no_ghost_values,
@@ -337,6 +348,7 @@ fn run(cli: Cli) -> diamonds_cli::Result<ExitCode> {
                 output,
                 fractions: material::split_names(&fractions),
                 fields: material::split_names(&fields),
+                material_fields: material::split_names(&material_fields),
                 interface_tolerance,
                 field_tolerance,
                 ghost_values: !no_ghost_values,

@@ -4,7 +4,9 @@
 //!
 //! Input: a `.vti`, or a `.vtr` whose coordinates are uniformly spaced along each axis (a non-uniform
 //! one is refused with the core's message, or resampled with `--resample`), with one volume-fraction
-//! array per material and optionally fields, as point or cell data. Cell data are converted to point
+//! array per material and optionally fields (mixed, and per material: "<field> for <material>" or
+//! "<field> (<material>)", matched by the core's [`diamonds::material::match_material_fields`], as
+//! the filter's MaterialFieldArrays), as point or cell data. Cell data are converted to point
 //! data the way `vtkCellDataToPointData` does: the value at a point is the average of the cells around
 //! it (8 inside, fewer on the boundary).
 //!
@@ -15,7 +17,12 @@ use crate::read::{read_structured, Geometry, Structured};
 use crate::write::{write_image, write_polygons, write_tets, Polygons, TetGrid};
 use crate::{bail, Array, Result};
 use diamonds::fields::impact_case;
-use diamonds::material::{MaterialInput, MaterialModel, MaterialQuery, PolygonMesh};
+use diamonds::material::{
+    match_material_fields, mixed_from_materials, MaterialField, MaterialInput, MaterialModel,
+    MaterialQuery, PolygonMesh,
+};
+/// The material names of the ParaView filter, from the fraction array names (shared with the core).
+pub use diamonds::material::{material_name, material_names};
 use diamonds::Grid;
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -26,8 +33,9 @@ use vtkio::model::IOBuffer;
 pub const IMPACT_DIMS: [usize; 3] = [32, 32, 52];
 
 /// `diamonds generate --field impact`: writes the impact case on `dims` points as a `.vti` with point
-/// data "Volume Fraction for Void", "Volume Fraction for Block", "Volume Fraction for Projectile" and
-/// "Density".
+/// data "Density" (mixed), "Volume Fraction for Void", "Volume Fraction for Block", "Volume Fraction
+/// for Projectile", and each material's own density "Density for Void", "Density for Block",
+/// "Density for Projectile" (void's is 0; `Density = Σ fraction × own density`).
 pub fn generate_impact(output: &Path, dims: [usize; 3]) -> Result<String> {
     if let Some(d) = dims.iter().find(|&&d| d < 2) {
         bail!("every dimension needs at least 2 points (got {d} in {dims:?})");
@@ -47,57 +55,21 @@ pub fn generate_impact(output: &Path, dims: [usize; 3]) -> Result<String> {
     arrays.push(Array::scalars("Density", case.density.clone()));
     // Density first: the active scalars.
     arrays.rotate_right(1);
+    arrays.extend(
+        case.names
+            .iter()
+            .zip(&case.material_density)
+            .map(|(name, d)| Array::scalars(format!("Density for {name}"), d.clone())),
+    );
     write_image(output, &case.grid, &arrays)?;
     Ok(format!(
-        "wrote '{}': impact case (materials {}; Density) {}x{}x{} Float32 ({points} points)",
+        "wrote '{}': impact case (materials {}; Density, mixed and per material) {}x{}x{} Float32 ({points} points)",
         output.display(),
         case.names.join(", "),
         dims[0],
         dims[1],
         dims[2]
     ))
-}
-
-/// A material's name from its volume-fraction array's name: "Volume Fraction for Armor Plate" →
-/// "Armor Plate", "Void Volume Fraction" → "Void" (as the ParaView filter names them).
-pub fn material_name(array: &str) -> String {
-    let lower = array.to_ascii_lowercase();
-    for prefix in [
-        "volume fraction for ",
-        "volume fraction of ",
-        "volumefraction_",
-        "volume fraction ",
-    ] {
-        if lower.starts_with(prefix) && lower.len() > prefix.len() {
-            return array[prefix.len()..].to_string();
-        }
-    }
-    for suffix in [
-        " volume fraction",
-        "_volume_fraction",
-        "_volumefraction",
-        " fraction",
-        "_fraction",
-    ] {
-        if lower.ends_with(suffix) && lower.len() > suffix.len() && lower != "volume fraction" {
-            return array[..array.len() - suffix.len()].to_string();
-        }
-    }
-    array.to_string()
-}
-
-/// Distinct, non-empty material names (the array names when they clash).
-pub fn material_names(arrays: &[String]) -> Vec<String> {
-    let names: Vec<String> = arrays.iter().map(|a| material_name(a)).collect();
-    let clash = names
-        .iter()
-        .enumerate()
-        .any(|(i, n)| n.is_empty() || names[i + 1..].contains(n));
-    if clash {
-        arrays.to_vec()
-    } else {
-        names
-    }
 }
 
 /// Array names from comma-separated lists: a comma followed by a space belongs to the name (CTH writes
@@ -129,8 +101,12 @@ pub struct MaterialOptions {
     pub output: PathBuf,
     /// Volume-fraction arrays, one per material; empty: every array whose name contains "fraction".
     pub fractions: Vec<String>,
-    /// Fields to approximate.
+    /// Fields to approximate: input arrays, or fields given only per material (computed as
+    /// `Σ fraction × per-material value`).
     pub fields: Vec<String>,
+    /// Per-material values of the fields: arrays named "<field> for <material>" or
+    /// "<field> (<material>)".
+    pub material_fields: Vec<String>,
     /// World units; `None`: about one cell diagonal (as the ParaView filter's panel).
     pub interface_tolerance: Option<f64>,
     /// Data units; required with fields.
@@ -392,15 +368,21 @@ pub fn material(opts: &MaterialOptions) -> Result<MaterialSummary> {
     } else {
         opts.fractions.clone()
     };
-    let all: Vec<&String> = fractions.iter().chain(&opts.fields).collect();
-    if let Some((i, a)) = all
+    let all: Vec<&String> = fractions
+        .iter()
+        .chain(&opts.fields)
+        .chain(&opts.material_fields)
+        .collect();
+    if let Some((_, a)) = all
         .iter()
         .enumerate()
         .find(|(i, a)| all[i + 1..].contains(a))
     {
-        let _ = i;
-        bail!("array '{a}' is given twice (--fractions and --fields must name different arrays)");
+        bail!("array '{a}' is given twice (--fractions, --fields and --material-fields must name different arrays)");
     }
+    let names = material_names(&fractions);
+    let pairs = match_material_fields(&opts.fields, &names, &opts.material_fields)
+        .map_err(|e| in_file(crate::Error(format!("--material-fields: {e}"))))?;
     let rectilinear = match &data.geometry {
         Geometry::Rectilinear(c) if opts.resample && data.grid().is_err() => Some(c),
         _ => None,
@@ -416,17 +398,52 @@ pub fn material(opts: &MaterialOptions) -> Result<MaterialSummary> {
         .iter()
         .map(|n| load(n, "--fractions"))
         .collect::<Result<_>>()?;
+    let material_values: Vec<Vec<f32>> = opts
+        .material_fields
+        .iter()
+        .map(|n| load(n, "--material-fields"))
+        .collect::<Result<_>>()?;
+    let fraction_slices: Vec<&[f32]> = fraction_values.iter().map(Vec::as_slice).collect();
+    let in_input = |n: &String| {
+        data.point_data
+            .iter()
+            .chain(&data.cell_data)
+            .any(|a| &a.name == n)
+    };
     let field_values: Vec<Vec<f32>> = opts
         .fields
         .iter()
-        .map(|n| load(n, "--fields"))
+        .enumerate()
+        .map(|(f, n)| {
+            // A field that is no input array but has per-material arrays: Σ fraction × own value.
+            let own: Vec<(usize, &[f32])> = pairs
+                .iter()
+                .zip(&material_values)
+                .filter(|((g, _), _)| *g == f)
+                .map(|(&(_, m), v)| (m, v.as_slice()))
+                .collect();
+            if !in_input(n) && !own.is_empty() {
+                Ok(mixed_from_materials(&fraction_slices, &own))
+            } else {
+                load(n, "--fields")
+            }
+        })
         .collect::<Result<_>>()?;
 
     let start = Instant::now();
     let model = MaterialModel::new(&MaterialInput {
         grid,
-        fractions: fraction_values.iter().map(Vec::as_slice).collect(),
+        fractions: fraction_slices.clone(),
         fields: field_values.iter().map(Vec::as_slice).collect(),
+        material_fields: pairs
+            .iter()
+            .zip(&material_values)
+            .map(|(&(field, material), values)| MaterialField {
+                field,
+                material: material as u8,
+                values,
+            })
+            .collect(),
         interfaces: None,
     })
     .map_err(|e| in_file(e.into()))?;
@@ -467,7 +484,6 @@ pub fn material(opts: &MaterialOptions) -> Result<MaterialSummary> {
     )?;
 
     // ---- The tetrahedra, with the ParaView filter's array names.
-    let names = material_names(&fractions);
     let pair_names: Vec<String> = mesh
         .pairs
         .iter()
@@ -658,27 +674,6 @@ fn write_polygon_mesh(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn material_names_from_array_names() {
-        assert_eq!(
-            material_name("Volume Fraction for Armor Plate"),
-            "Armor Plate"
-        );
-        assert_eq!(material_name("Void Volume Fraction"), "Void");
-        assert_eq!(
-            material_name("volume fraction for Body, Nose"),
-            "Body, Nose"
-        );
-        assert_eq!(material_name("steel_fraction"), "steel");
-        assert_eq!(material_name("Volume Fraction"), "Volume Fraction");
-        assert_eq!(material_name("vf"), "vf");
-        let arrays = [
-            "A Volume Fraction".to_string(),
-            "Volume Fraction for A".to_string(),
-        ];
-        assert_eq!(material_names(&arrays), arrays.to_vec());
-    }
 
     #[test]
     fn names_split_at_commas_without_a_space() {

@@ -54,6 +54,10 @@ pub struct ImpactCase {
     pub fractions: [Vec<f32>; 3],
     /// Mixed density: `Σ fraction × material density`.
     pub density: Vec<f32>,
+    /// Each material's own density at each point (void, block, projectile): the mean over the
+    /// sub-samples of that material, or the material's density at the point where no sub-sample is of
+    /// it (fraction 0). So `density = Σ fraction × material_density` (to rounding); void's is 0.
+    pub material_density: [Vec<f32>; 3],
 }
 
 /// The impact case on `dims` points (the paper's grid is `[32, 32, 52]`).
@@ -77,7 +81,8 @@ pub struct ImpactCase {
 /// Point volume fractions are the fractions of the dual cell of each point (the box of one spacing
 /// centred on it, clipped to the domain) occupied by each material, by 5 × 5 × 5 supersampling: they are
 /// multiples of 1/125 and sum to 1. The density at a point is the average over the same sub-samples of
-/// the density of the material there (each material's density evaluated at the sub-sample).
+/// the density of the material there (each material's density evaluated at the sub-sample); a
+/// material's own density at a point is the average over its sub-samples only.
 pub fn impact_case(dims: [usize; 3]) -> ImpactCase {
     use rayon::prelude::*;
     const LO: [f64; 3] = [0.0, 0.0, -16.0];
@@ -88,7 +93,7 @@ pub fn impact_case(dims: [usize; 3]) -> ImpactCase {
         origin: LO,
         spacing: std::array::from_fn(|a| (HI[a] - LO[a]) / (dims[a].max(2) - 1) as f64),
     };
-    let per_point: Vec<([u32; 3], f64)> = (0..grid.len())
+    let per_point: Vec<([u32; 3], f64, [f64; 3])> = (0..grid.len())
         .into_par_iter()
         .with_min_len(256)
         .map(|index| {
@@ -100,27 +105,41 @@ pub fn impact_case(dims: [usize; 3]) -> ImpactCase {
             let at = |a: usize, s: usize| lo[a] + (hi[a] - lo[a]) * (s as f64 + 0.5) / SUB as f64;
             let mut counts = [0u32; 3];
             let mut density = 0.0;
+            let mut own = [0.0f64; 3];
             for k in 0..SUB {
                 for j in 0..SUB {
                     for i in 0..SUB {
                         let x = [at(0, i), at(1, j), at(2, k)];
                         let m = impact_material(x);
+                        let d = impact_density(m, x);
                         counts[m] += 1;
-                        density += impact_density(m, x);
+                        density += d;
+                        own[m] += d;
                     }
                 }
             }
-            (counts, density / (SUB * SUB * SUB) as f64)
+            let own = std::array::from_fn(|m| match counts[m] {
+                0 => impact_density(m, centre),
+                c => own[m] / c as f64,
+            });
+            (counts, density / (SUB * SUB * SUB) as f64, own)
         })
         .collect();
     let total = (SUB * SUB * SUB) as f32;
-    let fractions =
-        std::array::from_fn(|m| per_point.iter().map(|(c, _)| c[m] as f32 / total).collect());
+    let fractions = std::array::from_fn(|m| {
+        per_point
+            .iter()
+            .map(|(c, ..)| c[m] as f32 / total)
+            .collect()
+    });
     ImpactCase {
         grid,
         names: ["Void", "Block", "Projectile"],
         fractions,
-        density: per_point.iter().map(|&(_, d)| d as f32).collect(),
+        density: per_point.iter().map(|&(_, d, _)| d as f32).collect(),
+        material_density: std::array::from_fn(|m| {
+            per_point.iter().map(|(.., own)| own[m] as f32).collect()
+        }),
     }
 }
 
@@ -225,6 +244,16 @@ mod impact_tests {
         assert!(pure(1).all(|i| (7.85..=10.86).contains(&case.density[i])));
         assert!(pure(1).any(|i| case.density[i] > 10.0));
         assert!(pure(2).all(|i| (17.6..=19.61).contains(&case.density[i])));
+        // Per-material densities: void 0, the mixed density their fraction-weighted sum.
+        assert!(case.material_density[0].iter().all(|&d| d == 0.0));
+        assert!(pure(1).all(|i| case.material_density[1][i] == case.density[i]));
+        for (i, &d) in case.density.iter().enumerate() {
+            let sum: f32 = (0..3).map(|m| f[m][i] * case.material_density[m][i]).sum();
+            assert!((sum - d).abs() < 1e-4, "{sum} vs {d}");
+        }
+        assert!(case.material_density[1]
+            .iter()
+            .all(|d| (7.85..=10.86).contains(d)));
         // Quarter symmetry about the corner axis: the x and y axes play the same role.
         let [nx, ny, _] = g.dims;
         assert_eq!(nx, ny);

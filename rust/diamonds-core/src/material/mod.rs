@@ -7,6 +7,13 @@
 //! - one **linear field per material**, completed by **ghost values** at the vertices that lie in another
 //!   material (§5.2.2–5.2.3), so the field is discontinuous exactly at the approximated interface.
 //!
+//! The fields are given mixed (one value per sample, e.g. the cell's average density) and optionally
+//! per material ([`MaterialField`]: the value inside one material). A material's own value at a sample
+//! of that material is its per-material value when given, else the mixed value; ghost values and the
+//! field error (with ghost values) use these own values, plain interpolation the mixed fields only.
+//! [`naming`] matches per-material arrays to (field, material) by name, as the ParaView filter and the
+//! CLI name them.
+//!
 //! Pipeline: point volume fractions → material of each sample (largest fraction) → interface triangle
 //! meshes, one per pair of touching materials ([`reconstruct`], or given by the user) → spatial index for
 //! closest points ([`distance`]) → selective refinement of a diamond mesh fitted to the data box, first to
@@ -27,12 +34,14 @@
 
 pub mod distance;
 mod model;
+pub mod naming;
 mod polygons;
 pub mod reconstruct;
 #[cfg(test)]
 mod tests;
 
 pub use model::{MaterialModel, MAX_MATERIALS};
+pub use naming::{match_material_fields, material_name, material_names, mixed_from_materials};
 
 use crate::Grid;
 
@@ -48,14 +57,32 @@ pub struct InterfaceMesh {
     pub triangles: Vec<[u32; 3]>,
 }
 
+/// The value of field `field` inside material `material` at every sample (for example the density of
+/// steel, where the mixed field has the density of the steel and void mixture). Read only at the
+/// samples whose material (largest fraction) is `material`; other values may be anything.
+#[derive(Clone, Copy, Debug)]
+pub struct MaterialField<'a> {
+    /// Index into [`MaterialInput::fields`].
+    pub field: usize,
+    /// Index into [`MaterialInput::fractions`].
+    pub material: u8,
+    /// One value per point of the grid.
+    pub values: &'a [f32],
+}
+
 /// The input: per-material volume fractions and the fields to approximate, all point data of `grid`.
 #[derive(Clone, Debug)]
 pub struct MaterialInput<'a> {
     pub grid: Grid,
     /// One array per material (≥ 2), each with one fraction in `[0, 1]` per point; they sum to 1.
     pub fractions: Vec<&'a [f32]>,
-    /// Mixed-cell fields to approximate (for example density), one value per point.
+    /// Mixed-cell fields to approximate (for example density), one value per point. With ghost values,
+    /// a material's own value at its samples is the mixed value unless `material_fields` gives it.
     pub fields: Vec<&'a [f32]>,
+    /// Optional per-material values of the fields, at most one per (field, material). Where given, the
+    /// own value of the material (its vertex values, ghost values and the samples its field error is
+    /// measured at) comes from it instead of the mixed field; plain interpolation ignores them.
+    pub material_fields: Vec<MaterialField<'a>>,
     /// Interface meshes given by the user; `None` reconstructs them from the fractions.
     pub interfaces: Option<Vec<InterfaceMesh>>,
 }
@@ -97,7 +124,8 @@ pub struct MaterialMesh {
     /// `mixed[f][v]`: field `f` resampled at vertex `v` (trilinear; what plain interpolation uses).
     pub mixed: Vec<Vec<f32>>,
     /// `material_field[f * materials + m][v]`: field `f` of material `m` at vertex `v`: its own value
-    /// where `v` lies in `m`, the ghost value elsewhere (§5.2.3). Empty without ghost values.
+    /// where `v` lies in `m` (from `m`'s samples of the per-material field when the input gives one,
+    /// else of the mixed field), the ghost value elsewhere (§5.2.3). Empty without ghost values.
     pub material_field: Vec<Vec<f32>>,
     /// Per tetrahedron: interface error (world units), field error (data units), bit mask of the
     /// materials present (of the samples inside it and its vertices).

@@ -27,6 +27,9 @@ pub struct MaterialModel {
     labels: Vec<u8>,
     /// Copies of the fields (the model outlives the caller's arrays).
     fields: Vec<Vec<f32>>,
+    /// `own[f * materials + m]`: copy of the per-material values of field `f` in material `m`, when
+    /// given (read at the samples of `m` only).
+    own: Vec<Option<Vec<f32>>>,
     interfaces: Vec<InterfaceMesh>,
     index: InterfaceIndex,
     /// Per material: the interface meshes bounding it.
@@ -149,6 +152,7 @@ impl MaterialModel {
         }
         check_fractions(&input.fractions, &grid)?;
         let labels = classify(&input.fractions);
+        let own = check_material_fields(input, &labels, &grid)?;
         let interfaces = match &input.interfaces {
             Some(given) => check_interfaces(given, k)?,
             None => reconstruct(&grid, &labels, &input.fractions),
@@ -173,6 +177,7 @@ impl MaterialModel {
             materials: k,
             labels,
             fields: input.fields.iter().map(|f| f.to_vec()).collect(),
+            own,
             interfaces,
             index,
             boundary,
@@ -279,13 +284,22 @@ impl MaterialModel {
         c.iter().all(|&(i, _)| self.labels[i] == l).then_some(l)
     }
 
+    /// The values of field `f` inside material `m`, valid at the samples of `m`: the per-material
+    /// values when given, else the mixed field.
+    fn own_field(&self, f: usize, m: u8) -> &[f32] {
+        self.own[f * self.materials + m as usize]
+            .as_deref()
+            .unwrap_or(&self.fields[f])
+    }
+
     /// Field `f` of material `m` at `x` from the corners of its cell that lie in `m` (trilinear weights
-    /// renormalised over them), or `None` when no corner does.
+    /// renormalised over them, own values), or `None` when no corner does.
     fn material_value(&self, x: DVec3, m: u8, f: usize) -> Option<f64> {
+        let own = self.own_field(f, m);
         let (mut sum, mut weight, mut plain, mut count) = (0.0, 0.0, 0.0, 0);
         for (i, w) in self.corners(x) {
             if self.labels[i] == m {
-                let v = self.fields[f][i] as f64;
+                let v = own[i] as f64;
                 sum += w * v;
                 weight += w;
                 plain += v;
@@ -300,9 +314,14 @@ impl MaterialModel {
     }
 
     fn mixed_value(&self, x: DVec3, f: usize) -> f64 {
+        self.trilinear(&self.fields[f], x)
+    }
+
+    /// Trilinear interpolation of `values` (one per sample) at `x`.
+    fn trilinear(&self, values: &[f32], x: DVec3) -> f64 {
         self.corners(x)
             .iter()
-            .map(|&(i, w)| w * self.fields[f][i] as f64)
+            .map(|&(i, w)| w * values[i] as f64)
             .sum()
     }
 
@@ -331,7 +350,7 @@ impl MaterialModel {
                 }
             }
             if let Some((_, s)) = best {
-                return Some(self.fields[f][s] as f64);
+                return Some(self.own_field(f, m)[s] as f64);
             }
         }
         None
@@ -460,15 +479,19 @@ impl MaterialModel {
             }
         }
         let nf = self.fields.len();
-        let field_error = |values: &dyn Fn(usize, u8) -> [f64; 4], only: Option<u8>| {
+        // The largest deviation at the samples of t of their value (own value of their material with
+        // ghost values, else mixed) from the linear function `values(f, material)`.
+        let field_error = |values: &dyn Fn(usize, u8) -> [f64; 4]| {
             let mut e = 0.0f64;
             for &(s, l) in samples.iter() {
                 let m = self.labels[s];
-                if only.is_some_and(|o| o != m) {
-                    continue;
-                }
                 for f in 0..nf {
-                    e = e.max((self.fields[f][s] as f64 - dot4(&l, values(f, m))).abs());
+                    let at = if ghost_values {
+                        self.own_field(f, m)[s]
+                    } else {
+                        self.fields[f][s]
+                    };
+                    e = e.max((at as f64 - dot4(&l, values(f, m))).abs());
                 }
             }
             e
@@ -480,7 +503,7 @@ impl MaterialModel {
                 .collect();
             return TetEval {
                 interface: 0.0,
-                field: field_error(&|f, _| vals[f], None),
+                field: field_error(&|f, _| vals[f]),
                 materials: mask,
             };
         }
@@ -508,13 +531,17 @@ impl MaterialModel {
         if iface.is_empty() {
             if let Some(l) = uniform[0] {
                 if uniform.iter().all(|&u| u == Some(l)) && mask & !(1 << l) == 0 {
+                    // Every corner sample of the vertices' cells is of l: l's own values are the
+                    // trilinear interpolation of its samples (what `vertex_info` gives too).
                     let x = wt.x;
                     let vals: Vec<[f64; 4]> = (0..nf)
-                        .map(|f| std::array::from_fn(|v| self.mixed_value(x[v], f)))
+                        .map(|f| {
+                            std::array::from_fn(|v| self.trilinear(self.own_field(f, l), x[v]))
+                        })
                         .collect();
                     return TetEval {
                         interface: 0.0,
-                        field: field_error(&|f, _| vals[f], None),
+                        field: field_error(&|f, _| vals[f]),
                         materials: 1 << l,
                     };
                 }
@@ -541,10 +568,8 @@ impl MaterialModel {
         for vi in &v {
             mask |= 1 << vi.label;
         }
-        let field = field_error(
-            &|f, m| std::array::from_fn(|i| v[i].values[f * k + m as usize] as f64),
-            None,
-        );
+        let field =
+            field_error(&|f, m| std::array::from_fn(|i| v[i].values[f * k + m as usize] as f64));
         TetEval {
             interface,
             field,
@@ -718,6 +743,45 @@ fn check_length(what: &str, i: usize, len: usize, n: usize, grid: &Grid) -> Resu
         "{what} array {i} has {len} values but the grid has {n} points ({:?})",
         grid.dims
     )))
+}
+
+/// Per-material fields: field and material in range, one value per point, finite at the samples of
+/// their material, one per (field, material). Returns their copies indexed by `field * materials +
+/// material`.
+fn check_material_fields(
+    input: &MaterialInput<'_>,
+    labels: &[u8],
+    grid: &Grid,
+) -> Result<Vec<Option<Vec<f32>>>> {
+    let (k, nf) = (input.fractions.len(), input.fields.len());
+    let mut own: Vec<Option<Vec<f32>>> = vec![None; nf * k];
+    for (i, mf) in input.material_fields.iter().enumerate() {
+        if mf.field >= nf || mf.material as usize >= k {
+            return Err(Error::Parameter(format!(
+                "per-material field {i} is field {} of material {}, but there are {nf} fields and {k} materials",
+                mf.field, mf.material
+            )));
+        }
+        check_length("per-material field", i, mf.values.len(), grid.len(), grid)?;
+        if let Some(p) =
+            (0..grid.len()).find(|&p| labels[p] == mf.material && !mf.values[p].is_finite())
+        {
+            return Err(Error::NonFinite {
+                index: p,
+                ijk: grid.ijk(p),
+                value: mf.values[p] as f64,
+            });
+        }
+        let slot = &mut own[mf.field * k + mf.material as usize];
+        if slot.is_some() {
+            return Err(Error::Parameter(format!(
+                "per-material field {i} gives field {} of material {} a second time",
+                mf.field, mf.material
+            )));
+        }
+        *slot = Some(mf.values.to_vec());
+    }
+    Ok(own)
 }
 
 /// Fractions must be finite, in `[0, 1]` and sum to 1 (to 1 %) at every point.

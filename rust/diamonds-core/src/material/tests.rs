@@ -16,6 +16,8 @@ struct Case {
     grid: Grid,
     fractions: Vec<Vec<f32>>,
     fields: Vec<Vec<f32>>,
+    /// Per-material fields: (field, material, values).
+    material_fields: Vec<(usize, u8, Vec<f32>)>,
 }
 
 impl Case {
@@ -25,6 +27,23 @@ impl Case {
             grid: c.grid,
             fractions: c.fractions.to_vec(),
             fields: vec![c.density],
+            material_fields: Vec::new(),
+        }
+    }
+
+    /// The impact case with each material's own density besides the mixed one.
+    fn impact_with_material_densities(dims: [usize; 3]) -> Self {
+        let c = impact_case(dims);
+        Self {
+            grid: c.grid,
+            fractions: c.fractions.to_vec(),
+            fields: vec![c.density],
+            material_fields: c
+                .material_density
+                .into_iter()
+                .enumerate()
+                .map(|(m, d)| (0, m as u8, d))
+                .collect(),
         }
     }
 
@@ -33,7 +52,29 @@ impl Case {
             grid: self.grid,
             fractions: self.fractions.iter().map(|f| f.as_slice()).collect(),
             fields: self.fields.iter().map(|f| f.as_slice()).collect(),
+            material_fields: self
+                .material_fields
+                .iter()
+                .map(|(field, material, values)| MaterialField {
+                    field: *field,
+                    material: *material,
+                    values,
+                })
+                .collect(),
             interfaces: None,
+        }
+    }
+
+    /// The value a sample `s` of material `m` must be approximated by: `m`'s own value of field `f`
+    /// when the case gives it (and ghost values are on), else the mixed value.
+    fn reference(&self, f: usize, m: u8, s: usize, ghost_values: bool) -> f32 {
+        let own = self
+            .material_fields
+            .iter()
+            .find(|(field, material, _)| *field == f && *material == m);
+        match own {
+            Some((.., values)) if ghost_values => values[s],
+            _ => self.fields[f][s],
         }
     }
 
@@ -132,19 +173,21 @@ fn for_each_sample(
 }
 
 /// The largest deviation, over every sample and every tetrahedron containing it, of the sample's field
-/// from the linear interpolation of its own material's vertex values (ghost values included).
+/// (its material's own value when the case gives one) from the linear interpolation of its own
+/// material's vertex values (ghost values included).
 fn measured_field_error(mesh: &MaterialMesh, case: &Case, labels: &[u8]) -> f64 {
     let mut worst = 0.0f64;
     for_each_sample(mesh, &case.grid, |s, c, l| {
         let t = mesh.tets[c];
-        for (f, field) in case.fields.iter().enumerate() {
+        for f in 0..case.fields.len() {
             let column = if mesh.ghost_values {
                 &mesh.material_field[f * mesh.materials + labels[s] as usize]
             } else {
                 &mesh.mixed[f]
             };
             let v: f64 = (0..4).map(|i| l[i] * column[t[i] as usize] as f64).sum();
-            worst = worst.max((v - field[s] as f64).abs());
+            let want = case.reference(f, labels[s], s, mesh.ghost_values);
+            worst = worst.max((v - want as f64).abs());
         }
     });
     worst
@@ -383,4 +426,101 @@ fn bad_inputs_are_refused_with_a_message() {
         model.refine(&query(0.1, 1.0), &mut |_| false).err(),
         Some(Error::Aborted)
     );
+}
+
+#[test]
+fn per_material_densities_are_the_materials_own_values() {
+    let (ti, tf) = (0.15, 3.0);
+    let mixed_case = Case::impact([32, 32, 52]);
+    let mixed = mixed_case
+        .model()
+        .refine(&query(ti, tf), &mut noop())
+        .unwrap();
+    let case = Case::impact_with_material_densities([32, 32, 52]);
+    let model = case.model();
+    let mesh = model.refine(&query(ti, tf), &mut noop()).unwrap();
+    eprintln!(
+        "impact at interface 0.15, density 3: {} tets with mixed densities, {} with per-material densities ({} after the interface pass), field error {:.3}",
+        mixed.tets.len(),
+        mesh.tets.len(),
+        mesh.interface_tetrahedra,
+        mesh.max_field_error
+    );
+    check_conforming(&mesh, case.grid.bounds());
+    // (1) The field tolerance at every sample, against its material's own density.
+    let labels = model.labels();
+    let fe = measured_field_error(&mesh, &case, labels);
+    assert!(fe <= tf + 1e-4, "field error {fe} at a sample");
+    assert!(mesh.max_field_error <= tf);
+    // The samples are compared with the per-material values, not the mixed ones: a mixed sample of
+    // void carries a positive mixed density but void's own is 0.
+    let mixed_void = (0..case.grid.len())
+        .filter(|&s| labels[s] == 0 && case.fields[0][s] > 1.0)
+        .count();
+    assert!(mixed_void > 0, "some void samples have a mixed density");
+    // (2) Void's own density is 0 everywhere: 0 at its vertices, and as ghost values.
+    let void = &mesh.material_field[0];
+    for (v, &m) in mesh.point_material.iter().enumerate() {
+        if m == 0 {
+            assert_eq!(void[v], 0.0, "void vertex {v}");
+        }
+    }
+    assert!(void.iter().all(|&d| d == 0.0));
+    // With the mixed densities void's own value is the mixed density of its samples: not 0.
+    assert!(mixed.material_field[0].iter().any(|&d| d > 1.0));
+    // (3) No more tetrahedra than with the mixed densities.
+    assert!(
+        mesh.tets.len() <= mixed.tets.len(),
+        "{} tets with per-material densities, {} with mixed ones",
+        mesh.tets.len(),
+        mixed.tets.len()
+    );
+    // Plain interpolation ignores the per-material fields.
+    let plain = MaterialQuery {
+        ghost_values: false,
+        ..query(ti, tf)
+    };
+    let a = model.refine(&plain, &mut noop()).unwrap();
+    let b = mixed_case.model().refine(&plain, &mut noop()).unwrap();
+    assert_eq!(a.tets, b.tets);
+}
+
+#[test]
+fn bad_material_fields_are_refused() {
+    let case = Case::impact_with_material_densities([8, 8, 12]);
+    assert!(MaterialModel::new(&case.input()).is_ok());
+    let values = &case.material_fields[1].2;
+    let with = |field: usize, material: u8, values: &[f32]| {
+        let mut input = case.input();
+        input.material_fields.push(MaterialField {
+            field,
+            material,
+            values,
+        });
+        MaterialModel::new(&input).err().map(|e| e.to_string())
+    };
+    let e = with(1, 0, values).expect("field out of range");
+    assert!(e.contains("1 fields"), "{e}");
+    assert!(with(0, 3, values).is_some(), "material out of range");
+    assert!(with(0, 1, values).unwrap().contains("second time"));
+    let mut input = case.input();
+    input.material_fields.truncate(1);
+    assert!(MaterialModel::new(&input).is_ok());
+    let short = vec![1.0f32; 5];
+    let mut input = case.input();
+    input.material_fields[1].values = &short;
+    assert!(MaterialModel::new(&input).is_err(), "wrong length");
+    // NaN is refused only where the array is read: at the samples of its material.
+    let labels = case.model().labels().to_vec();
+    let mut nan_elsewhere = case.material_fields[1].2.clone();
+    let mut nan_inside = nan_elsewhere.clone();
+    let outside = labels.iter().position(|&l| l != 1).unwrap();
+    let inside = labels.iter().position(|&l| l == 1).unwrap();
+    nan_elsewhere[outside] = f32::NAN;
+    nan_inside[inside] = f32::NAN;
+    let mut input = case.input();
+    input.material_fields[1].values = &nan_elsewhere;
+    assert!(MaterialModel::new(&input).is_ok());
+    input.material_fields[1].values = &nan_inside;
+    assert!(MaterialModel::new(&input).is_err(), "NaN in block");
 }
