@@ -37,6 +37,7 @@ vtkStandardNewMacro(vtkAdaptiveIsosurface);
 namespace
 {
 namespace bridge = diamonds::bridge;
+using vtkDiamonds::FixedSizeCells;
 using vtkDiamonds::NamedArray;
 using vtkDiamonds::OneValue;
 
@@ -324,20 +325,7 @@ int vtkAdaptiveIsosurface::RequestData(
   points->SetData(pointArray);
   output->SetPoints(points);
 
-  // Triangles: 32-bit connectivity when the point count allows (half the memory), else 64-bit.
-  vtkNew<vtkCellArray> polys;
-  if (numPoints <= std::numeric_limits<vtkTypeInt32>::max())
-  {
-    polys->SetData(3, NamedArray<vtkTypeInt32Array>(nullptr, 3 * numTriangles, triangles.data()));
-  }
-  else
-  {
-    vtkNew<vtkTypeInt64Array> connectivity;
-    connectivity->SetNumberOfValues(3 * numTriangles);
-    std::copy(triangles.begin(), triangles.end(), connectivity->GetPointer(0));
-    polys->SetData(3, connectivity);
-  }
-  output->SetPolys(polys);
+  output->SetPolys(FixedSizeCells(3, triangles, numPoints));
 
   if (this->ComputeNormals)
   {

@@ -296,6 +296,25 @@ void RequestNoGhostLevels(vtkInformationVector** inputVector)
 }
 
 //------------------------------------------------------------------------------
+vtkSmartPointer<vtkCellArray> FixedSizeCells(
+  int size, rust::Slice<const std::uint32_t> ids, vtkIdType numPoints)
+{
+  auto cells = vtkSmartPointer<vtkCellArray>::New();
+  const auto n = static_cast<vtkIdType>(ids.size());
+  if (numPoints <= std::numeric_limits<vtkTypeInt32>::max())
+  {
+    cells->SetData(size, NamedArray<vtkTypeInt32Array>(nullptr, n, ids.data()));
+  }
+  else
+  {
+    vtkNew<vtkTypeInt64Array> connectivity;
+    connectivity->SetNumberOfValues(n);
+    std::copy(ids.begin(), ids.end(), connectivity->GetPointer(0));
+    cells->SetData(size, connectivity);
+  }
+  return cells;
+}
+
 bool MeshToUnstructuredGrid(vtkAlgorithm* filter, bridge::Mesh& mesh, vtkImageData* input,
   vtkUnstructuredGrid* output, vtkIdType& numberOfTetrahedra, double& maximumError)
 {
@@ -355,19 +374,7 @@ bool MeshToUnstructuredGrid(vtkAlgorithm* filter, bridge::Mesh& mesh, vtkImageDa
   outPD->CopyAllocate(inPD, numPoints);
   outPD->CopyData(inPD, inputIds, vtkIdType(0));
 
-  // Cells: 32-bit connectivity when the point count allows (half the memory), else 64-bit.
-  vtkNew<vtkCellArray> cells;
-  if (numPoints <= std::numeric_limits<vtkTypeInt32>::max())
-  {
-    cells->SetData(4, NamedArray<vtkTypeInt32Array>(nullptr, 4 * numTets, tets.data()));
-  }
-  else
-  {
-    vtkNew<vtkTypeInt64Array> connectivity;
-    connectivity->SetNumberOfValues(4 * numTets);
-    std::copy(tets.begin(), tets.end(), connectivity->GetPointer(0));
-    cells->SetData(4, connectivity);
-  }
+  vtkSmartPointer<vtkCellArray> cells = FixedSizeCells(4, tets, numPoints);
   // The connectivity is copied: free the core's copy before more arrays are allocated.
   try
   {

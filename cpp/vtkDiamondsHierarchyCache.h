@@ -25,6 +25,8 @@
 #include <optional>
 #include <string>
 
+class vtkCellArray;
+
 class vtkAlgorithm;
 class vtkDataArray;
 class vtkFieldData;
@@ -164,6 +166,11 @@ vtkSmartPointer<ArrayT> NamedArray(const char* name, vtkIdType n, const void* va
   }
   return array;
 }
+
+// Cells of `size` points each from `ids` (point indices below `numPoints`, `size` per cell): 32-bit
+// connectivity when the point count allows (half the memory), else 64-bit.
+vtkSmartPointer<vtkCellArray> FixedSizeCells(
+  int size, rust::Slice<const std::uint32_t> ids, vtkIdType numPoints);
 
 // A named one-value array (field data).
 template <typename ArrayT>

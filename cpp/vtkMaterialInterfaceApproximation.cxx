@@ -49,6 +49,7 @@ vtkStandardNewMacro(vtkMaterialInterfaceApproximation);
 namespace
 {
 namespace bridge = diamonds::bridge;
+using vtkDiamonds::FixedSizeCells;
 using vtkDiamonds::NamedArray;
 using vtkDiamonds::OneValue;
 
@@ -1020,19 +1021,7 @@ int vtkMaterialInterfaceApproximation::RequestData(
     const vtkIdType numPoints = static_cast<vtkIdType>(xyz.size() / 3);
     const vtkIdType numTets = static_cast<vtkIdType>(tets.size() / 4);
     tetOutput->SetPoints(PointsFrom(xyz));
-    vtkNew<vtkCellArray> cells;
-    if (numPoints <= std::numeric_limits<vtkTypeInt32>::max())
-    {
-      cells->SetData(4, NamedArray<vtkTypeInt32Array>(nullptr, 4 * numTets, tets.data()));
-    }
-    else
-    {
-      vtkNew<vtkTypeInt64Array> connectivity;
-      connectivity->SetNumberOfValues(4 * numTets);
-      std::copy(tets.begin(), tets.end(), connectivity->GetPointer(0));
-      cells->SetData(4, connectivity);
-    }
-    tetOutput->SetCells(VTK_TETRA, cells);
+    tetOutput->SetCells(VTK_TETRA, FixedSizeCells(4, tets, numPoints));
 
     vtkPointData* pd = tetOutput->GetPointData();
     rust::Slice<const std::uint8_t> pointMaterial = mesh.point_material();

@@ -18,13 +18,10 @@
 //!
 //! User interface meshes arrive as one triangle soup: points, triangles, a material pair per
 //! triangle (two integers: the materials on either side) and optionally normals (per triangle, or
-//! per point). The convention is the core's: the normal points from the pair's first material into
-//! its second. Here the soup is split into one [`InterfaceMesh`] per unordered pair, with the pair
-//! ordered (`a < b`), the triangles wound so that their counter-clockwise normal agrees with the given
-//! normals (or, without normals, with the given winding) after the ordering, and the points of each
-//! mesh compacted.
+//! per point). The core splits it into one [`InterfaceMesh`] per pair
+//! ([`InterfaceMesh::from_soup`]), and validates the input and computes the fields given only per
+//! material ([`material::MaterialModel::new`]): the builder only collects the slices.
 
-use std::collections::BTreeMap;
 use std::pin::Pin;
 
 use diamonds::material::{self, InterfaceMesh, MaterialField, MaterialInput, MaterialQuery};
@@ -39,7 +36,7 @@ pub struct MaterialBuilder {
     grid: Grid,
     fractions: Vec<Vec<f32>>,
     /// The mixed fields; `None` for a field given only per material (its mixed values are computed
-    /// by [`MaterialBuilder::build`]).
+    /// by the core, see [`MaterialInput::fields`]).
     fields: Vec<Option<Vec<f32>>>,
     /// (field, material, values).
     material_fields: Vec<(usize, u8, Vec<f32>)>,
@@ -136,7 +133,7 @@ impl MaterialBuilder {
 
     /// Adds the next field as one given only per material: its mixed values are `Σ fraction ×
     /// per-material value` over the materials with an array ([`MaterialBuilder::add_material_field`];
-    /// the others count 0), computed by [`MaterialBuilder::build`].
+    /// the others count 0), computed by the core in [`MaterialBuilder::build`].
     pub fn add_field_from_materials(&mut self) -> Result<(), String> {
         guard("adding a per-material field", || {
             self.fields.push(None);
@@ -198,88 +195,21 @@ impl MaterialBuilder {
         })
     }
 
-    /// [`Self::build`] without the guard, for Rust callers that have their own.
+    /// [`Self::build`] without the guard, for Rust callers that have their own. The core validates
+    /// the input (number of materials, interface pairs, per-material fields) and computes the fields
+    /// given only per material.
     pub fn build_model(&self) -> Result<MaterialModel, String> {
-        let materials = self.fractions.len();
-        if materials < 2 {
-            return Err(format!(
-                "{materials} volume fraction array{} given; at least 2 materials are needed (one array per material)",
-                if materials == 1 { " was" } else { "s were" }
-            ));
-        }
-        if let Some(meshes) = &self.interfaces {
-            if let Some(m) = meshes.iter().find(|m| m.pair.1 as usize >= materials) {
-                return Err(format!(
-                    "an interface mesh names material {} (pair {:?}) but only {materials} volume fraction arrays were given (materials 0 to {})",
-                    m.pair.1,
-                    m.pair,
-                    materials - 1
-                ));
-            }
-        }
-        let fields = self.fields.len();
-        if let Some(&(f, m, _)) = self
-            .material_fields
-            .iter()
-            .find(|(f, m, _)| *f >= fields || *m as usize >= materials)
-        {
-            return Err(format!(
-                "a per-material field array is given for field {f} of material {m}, but there are {fields} fields and {materials} materials"
-            ));
-        }
-        let fractions: Vec<&[f32]> = self.fractions.iter().map(Vec::as_slice).collect();
-        // The mixed values of the fields given only per material.
-        let derived: Vec<Option<Vec<f32>>> = self
-            .fields
-            .iter()
-            .enumerate()
-            .map(|(f, values)| match values {
-                Some(_) => Ok(None),
-                None => {
-                    let own: Vec<(usize, &[f32])> = self
-                        .material_fields
-                        .iter()
-                        .filter(|(g, ..)| *g == f)
-                        .map(|(_, m, v)| (*m as usize, v.as_slice()))
-                        .collect();
-                    if own.is_empty() {
-                        return Err(format!(
-                            "field {f} is to be computed from per-material arrays, but none was given for it"
-                        ));
-                    }
-                    Ok(Some(material::mixed_from_materials(&fractions, &own)))
-                }
-            })
-            .collect::<Result<_, String>>()?;
         let input = MaterialInput {
             grid: self.grid,
-            fractions,
-            fields: self
-                .fields
-                .iter()
-                .zip(&derived)
-                .map(|(given, computed)| {
-                    given
-                        .as_deref()
-                        .or(computed.as_deref())
-                        .expect("a field is given or computed")
-                })
-                .collect(),
-            material_fields: self
-                .material_fields
-                .iter()
-                .map(|(field, material, values)| MaterialField {
-                    field: *field,
-                    material: *material,
-                    values,
-                })
-                .collect(),
+            fractions: self.fractions.iter().map(Vec::as_slice).collect(),
+            fields: self.fields.iter().map(Option::as_deref).collect(),
+            material_fields: MaterialField::borrow_all(&self.material_fields),
             interfaces: self.interfaces.clone(),
         };
         let model = material::MaterialModel::new(&input).map_err(|e| e.to_string())?;
         Ok(MaterialModel {
             model,
-            materials,
+            materials: self.fractions.len(),
             fields: self.fields.len(),
         })
     }
@@ -302,7 +232,8 @@ pub fn match_material_fields(
     })
 }
 
-/// Splits a triangle soup into one [`InterfaceMesh`] per pair (see [`MaterialBuilder::set_interfaces`]).
+/// Splits a triangle soup into one [`InterfaceMesh`] per pair (see [`MaterialBuilder::set_interfaces`]
+/// and [`InterfaceMesh::from_soup`]).
 pub fn interface_meshes(
     points: &[f64],
     triangles: &[u32],
@@ -310,136 +241,10 @@ pub fn interface_meshes(
     normals: &[f64],
     point_normals: bool,
 ) -> Result<Vec<InterfaceMesh>, String> {
-    if !points.chunks_exact(3).remainder().is_empty() {
-        return Err(format!(
-            "interface mesh: {} point coordinates is not a multiple of 3",
-            points.len()
-        ));
-    }
-    if !triangles.chunks_exact(3).remainder().is_empty() {
-        return Err(format!(
-            "interface mesh: {} triangle corners is not a multiple of 3",
-            triangles.len()
-        ));
-    }
-    let n_points = points.len() / 3;
-    let n_triangles = triangles.len() / 3;
-    if pairs.len() != 2 * n_triangles {
-        return Err(format!(
-            "interface mesh: {n_triangles} triangles need {} material-pair values (2 per triangle), got {}",
-            2 * n_triangles,
-            pairs.len()
-        ));
-    }
-    let expected_normals = match (normals.is_empty(), point_normals) {
-        (true, _) => 0,
-        (false, true) => 3 * n_points,
-        (false, false) => 3 * n_triangles,
-    };
-    if normals.len() != expected_normals {
-        return Err(format!(
-            "interface mesh: {} normal components for {} {} (3 each expected)",
-            normals.len(),
-            if point_normals { n_points } else { n_triangles },
-            if point_normals { "points" } else { "triangles" }
-        ));
-    }
-    if let Some(c) = points.iter().find(|c| !c.is_finite()) {
-        return Err(format!("interface mesh: a point coordinate is {c}"));
-    }
-    let point = |i: u32| -> [f64; 3] {
-        let i = i as usize;
-        [points[3 * i], points[3 * i + 1], points[3 * i + 2]]
-    };
-    // Triangles of each ordered pair, wound so that their normal points from pair.0 into pair.1.
-    let mut by_pair: BTreeMap<(u8, u8), Vec<[u32; 3]>> = BTreeMap::new();
-    for t in 0..n_triangles {
-        let corners = [triangles[3 * t], triangles[3 * t + 1], triangles[3 * t + 2]];
-        if let Some(&c) = corners.iter().find(|&&c| c as usize >= n_points) {
-            return Err(format!(
-                "interface mesh: triangle {t} refers to point {c} but there are {n_points} points"
-            ));
-        }
-        let (first, second) = (pairs[2 * t], pairs[2 * t + 1]);
-        let valid = |m: i64| (0..=255).contains(&m);
-        if !valid(first) || !valid(second) || first == second {
-            return Err(format!(
-                "interface mesh: triangle {t} has the material pair ({first}, {second}); a pair names two different materials, each an index (0, 1, …) into the volume fraction arrays"
-            ));
-        }
-        let [a, b, c] = corners.map(point);
-        let winding = cross(sub(b, a), sub(c, a));
-        // The direction the normal must have, from `first` into `second`.
-        let mut wanted = if normals.is_empty() {
-            winding
-        } else if point_normals {
-            let n = |i: u32| {
-                let i = i as usize;
-                [normals[3 * i], normals[3 * i + 1], normals[3 * i + 2]]
-            };
-            let [na, nb, nc] = corners.map(n);
-            std::array::from_fn(|k| na[k] + nb[k] + nc[k])
-        } else {
-            [normals[3 * t], normals[3 * t + 1], normals[3 * t + 2]]
-        };
-        if wanted.iter().any(|v| !v.is_finite()) {
-            return Err(format!(
-                "interface mesh: triangle {t} has a non-finite normal {wanted:?}"
-            ));
-        }
-        let pair = if first < second {
-            (first as u8, second as u8)
-        } else {
-            wanted = wanted.map(|v| -v);
-            (second as u8, first as u8)
-        };
-        let oriented = if dot(winding, wanted) < 0.0 {
-            [corners[0], corners[2], corners[1]]
-        } else {
-            corners
-        };
-        by_pair.entry(pair).or_default().push(oriented);
-    }
-    // Compact the points of each mesh (first use order).
-    Ok(by_pair
-        .into_iter()
-        .map(|(pair, tris)| {
-            let mut index: BTreeMap<u32, u32> = BTreeMap::new();
-            let mut mesh_points = Vec::new();
-            let triangles = tris
-                .iter()
-                .map(|t| {
-                    t.map(|c| {
-                        *index.entry(c).or_insert_with(|| {
-                            mesh_points.push(point(c));
-                            (mesh_points.len() - 1) as u32
-                        })
-                    })
-                })
-                .collect();
-            InterfaceMesh {
-                pair,
-                points: mesh_points,
-                triangles,
-            }
-        })
-        .collect())
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+    guard("reading the interface meshes", || {
+        InterfaceMesh::from_soup(points, triangles, pairs, normals, point_normals)
+            .map_err(|e| e.to_string())
+    })
 }
 
 impl MaterialModel {
@@ -855,81 +660,29 @@ mod tests {
         }
     }
 
-    fn normal_of(mesh: &InterfaceMesh, t: usize) -> [f64; 3] {
-        let [a, b, c] = mesh.triangles[t].map(|i| mesh.points[i as usize]);
-        cross(sub(b, a), sub(c, a))
-    }
-
-    /// Two triangles of the plane z = 0 with normals +z (counter-clockwise seen from above).
+    /// Two triangles of the plane z = 0 (counter-clockwise seen from above).
     const POINTS: [f64; 12] = [0., 0., 0., 1., 0., 0., 1., 1., 0., 0., 1., 0.];
     const TRIANGLES: [u32; 6] = [0, 1, 2, 0, 2, 3];
 
+    /// The soup is split by the core (its tests cover the orientation); the bridge passes it
+    /// through and its messages back.
     #[test]
-    fn interface_soup_without_normals_keeps_the_winding_and_orders_pairs() {
-        // Pair (0, 1) as given, then (2, 1): the second triangle must be flipped to point from 1
-        // into 2, i.e. its normal toward -z.
+    fn interface_soup_through_the_bridge() {
         let meshes = interface_meshes(&POINTS, &TRIANGLES, &[0, 1, 2, 1], &[], false).unwrap();
+        assert_eq!(
+            meshes,
+            InterfaceMesh::from_soup(&POINTS, &TRIANGLES, &[0, 1, 2, 1], &[], false).unwrap()
+        );
         assert_eq!(meshes.len(), 2);
-        assert_eq!(meshes[0].pair, (0, 1));
-        assert_eq!(meshes[1].pair, (1, 2));
-        assert!(normal_of(&meshes[0], 0)[2] > 0.0);
-        assert!(normal_of(&meshes[1], 0)[2] < 0.0);
-        // Compacted points: 3 each.
-        assert_eq!(meshes[0].points.len(), 3);
-        assert_eq!(meshes[1].points.len(), 3);
-    }
-
-    #[test]
-    fn interface_soup_follows_the_normals() {
-        // Cell normals -z: both triangles flipped.
-        let normals = [0., 0., -1., 0., 0., -1.];
-        let meshes = interface_meshes(&POINTS, &TRIANGLES, &[0, 1, 0, 1], &normals, false).unwrap();
-        assert_eq!(meshes.len(), 1);
-        assert_eq!(meshes[0].points.len(), 4);
-        for t in 0..2 {
-            assert!(normal_of(&meshes[0], t)[2] < 0.0);
-        }
-        // Point normals +z and a swapped pair (1, 0): from 1 into 0 is +z, so from 0 into 1 is -z.
-        let point_normals = [0., 0., 1.].repeat(4);
-        let meshes =
-            interface_meshes(&POINTS, &TRIANGLES, &[1, 0, 1, 0], &point_normals, true).unwrap();
-        assert_eq!(meshes[0].pair, (0, 1));
-        for t in 0..2 {
-            assert!(normal_of(&meshes[0], t)[2] < 0.0);
-        }
-    }
-
-    #[test]
-    fn bad_interface_soups_are_errors() {
-        let ok_pairs = [0, 1, 0, 1];
-        assert!(interface_meshes(&POINTS[..11], &TRIANGLES, &ok_pairs, &[], false).is_err());
-        assert!(interface_meshes(&POINTS, &TRIANGLES[..5], &ok_pairs, &[], false).is_err());
         assert!(
-            interface_meshes(&POINTS, &TRIANGLES, &ok_pairs[..3], &[], false)
+            interface_meshes(&POINTS, &TRIANGLES, &[0, 1, 0], &[], false)
                 .unwrap_err()
                 .contains("material-pair")
         );
-        assert!(interface_meshes(&POINTS, &[0, 1, 7], &[0, 1], &[], false)
-            .unwrap_err()
-            .contains("point 7"));
-        assert!(
-            interface_meshes(&POINTS, &TRIANGLES, &[0, 0, 0, 1], &[], false)
-                .unwrap_err()
-                .contains("pair (0, 0)")
-        );
-        assert!(interface_meshes(&POINTS, &TRIANGLES, &[-1, 1, 0, 1], &[], false).is_err());
-        assert!(interface_meshes(&POINTS, &TRIANGLES, &[0, 300, 0, 1], &[], false).is_err());
-        assert!(
-            interface_meshes(&POINTS, &TRIANGLES, &ok_pairs, &[0.0; 5], false)
-                .unwrap_err()
-                .contains("normal")
-        );
-        let nan = [f64::NAN, 0., 1., 0., 0., 1.];
-        assert!(interface_meshes(&POINTS, &TRIANGLES, &ok_pairs, &nan, false).is_err());
     }
 
     #[test]
-    fn builder_refuses_bad_input_before_the_core() {
+    fn builder_refuses_bad_input() {
         let bad = GridSpec {
             dims: [4, 4, 1],
             origin: [0.0; 3],

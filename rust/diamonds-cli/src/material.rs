@@ -18,8 +18,7 @@ use crate::write::{write_image, write_polygons, write_tets, Polygons, TetGrid};
 use crate::{bail, Array, Result};
 use diamonds::fields::impact_case;
 use diamonds::material::{
-    match_material_fields, mixed_from_materials, MaterialField, MaterialInput, MaterialModel,
-    MaterialQuery, PolygonMesh,
+    match_material_fields, MaterialField, MaterialInput, MaterialModel, MaterialQuery, PolygonMesh,
 };
 /// The material names of the ParaView filter, from the fraction array names (shared with the core).
 pub use diamonds::material::{material_name, material_names};
@@ -398,34 +397,29 @@ pub fn material(opts: &MaterialOptions) -> Result<MaterialSummary> {
         .iter()
         .map(|n| load(n, "--fractions"))
         .collect::<Result<_>>()?;
-    let material_values: Vec<Vec<f32>> = opts
-        .material_fields
+    // (field, material, values) of each per-material array.
+    let material_values: Vec<(usize, u8, Vec<f32>)> = pairs
         .iter()
-        .map(|n| load(n, "--material-fields"))
+        .zip(&opts.material_fields)
+        .map(|(&(field, material), n)| Ok((field, material as u8, load(n, "--material-fields")?)))
         .collect::<Result<_>>()?;
-    let fraction_slices: Vec<&[f32]> = fraction_values.iter().map(Vec::as_slice).collect();
     let in_input = |n: &String| {
         data.point_data
             .iter()
             .chain(&data.cell_data)
             .any(|a| &a.name == n)
     };
-    let field_values: Vec<Vec<f32>> = opts
+    // A field that is no input array but has per-material arrays: `None`, the core computes it as
+    // Σ fraction × own value.
+    let field_values: Vec<Option<Vec<f32>>> = opts
         .fields
         .iter()
         .enumerate()
         .map(|(f, n)| {
-            // A field that is no input array but has per-material arrays: Σ fraction × own value.
-            let own: Vec<(usize, &[f32])> = pairs
-                .iter()
-                .zip(&material_values)
-                .filter(|((g, _), _)| *g == f)
-                .map(|(&(_, m), v)| (m, v.as_slice()))
-                .collect();
-            if !in_input(n) && !own.is_empty() {
-                Ok(mixed_from_materials(&fraction_slices, &own))
+            if !in_input(n) && pairs.iter().any(|&(g, _)| g == f) {
+                Ok(None)
             } else {
-                load(n, "--fields")
+                load(n, "--fields").map(Some)
             }
         })
         .collect::<Result<_>>()?;
@@ -433,17 +427,9 @@ pub fn material(opts: &MaterialOptions) -> Result<MaterialSummary> {
     let start = Instant::now();
     let model = MaterialModel::new(&MaterialInput {
         grid,
-        fractions: fraction_slices.clone(),
-        fields: field_values.iter().map(Vec::as_slice).collect(),
-        material_fields: pairs
-            .iter()
-            .zip(&material_values)
-            .map(|(&(field, material), values)| MaterialField {
-                field,
-                material: material as u8,
-                values,
-            })
-            .collect(),
+        fractions: fraction_values.iter().map(Vec::as_slice).collect(),
+        fields: field_values.iter().map(Option::as_deref).collect(),
+        material_fields: MaterialField::borrow_all(&material_values),
         interfaces: None,
     })
     .map_err(|e| in_file(e.into()))?;

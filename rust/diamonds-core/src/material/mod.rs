@@ -37,6 +37,7 @@ mod model;
 pub mod naming;
 mod polygons;
 pub mod reconstruct;
+mod soup;
 #[cfg(test)]
 mod tests;
 
@@ -70,6 +71,20 @@ pub struct MaterialField<'a> {
     pub values: &'a [f32],
 }
 
+impl<'a> MaterialField<'a> {
+    /// Views of per-material fields kept as `(field, material, values)`.
+    pub fn borrow_all(owned: &'a [(usize, u8, Vec<f32>)]) -> Vec<Self> {
+        owned
+            .iter()
+            .map(|(field, material, values)| MaterialField {
+                field: *field,
+                material: *material,
+                values,
+            })
+            .collect()
+    }
+}
+
 /// The input: per-material volume fractions and the fields to approximate, all point data of `grid`.
 #[derive(Clone, Debug)]
 pub struct MaterialInput<'a> {
@@ -78,12 +93,16 @@ pub struct MaterialInput<'a> {
     pub fractions: Vec<&'a [f32]>,
     /// Mixed-cell fields to approximate (for example density), one value per point. With ghost values,
     /// a material's own value at its samples is the mixed value unless `material_fields` gives it.
-    pub fields: Vec<&'a [f32]>,
+    /// `None` for a field given only per material: its mixed values are `Σ fraction × per-material
+    /// value` over the materials `material_fields` gives it for (the others count 0; see
+    /// [`mixed_from_materials`]), and at least one must be given.
+    pub fields: Vec<Option<&'a [f32]>>,
     /// Optional per-material values of the fields, at most one per (field, material). Where given, the
     /// own value of the material (its vertex values, ghost values and the samples its field error is
     /// measured at) comes from it instead of the mixed field; plain interpolation ignores them.
     pub material_fields: Vec<MaterialField<'a>>,
-    /// Interface meshes given by the user; `None` reconstructs them from the fractions.
+    /// Interface meshes given by the user (for example from a triangle soup,
+    /// [`InterfaceMesh::from_soup`]); `None` reconstructs them from the fractions.
     pub interfaces: Option<Vec<InterfaceMesh>>,
 }
 

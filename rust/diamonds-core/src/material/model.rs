@@ -2,7 +2,7 @@
 
 use super::distance::InterfaceIndex;
 use super::reconstruct::{classify, reconstruct};
-use super::{InterfaceMesh, MaterialInput, MaterialMesh, MaterialQuery};
+use super::{mixed_from_materials, InterfaceMesh, MaterialInput, MaterialMesh, MaterialQuery};
 use crate::diamond::{signed_volume6, Diamond};
 use crate::lattice::{Lattice, Tet};
 use crate::refine::{Refiner, SplitSet};
@@ -132,7 +132,13 @@ impl MaterialModel {
         grid.validate()?;
         let n = grid.len();
         let k = input.fractions.len();
-        if !(2..=MAX_MATERIALS).contains(&k) {
+        if k < 2 {
+            return Err(Error::Parameter(format!(
+                "{k} volume-fraction array{} given, one per material; at least 2 materials are needed (material interfaces take between 2 and {MAX_MATERIALS} materials)",
+                if k == 1 { " was" } else { "s were" }
+            )));
+        }
+        if k > MAX_MATERIALS {
             return Err(Error::Parameter(format!(
                 "{k} volume-fraction arrays given; material interfaces need between 2 and {MAX_MATERIALS} materials"
             )));
@@ -141,7 +147,13 @@ impl MaterialModel {
             check_length("volume-fraction", m, f.len(), n, &grid)?;
         }
         for (i, f) in input.fields.iter().enumerate() {
-            check_length("field", i, f.len(), n, &grid)?;
+            if let Some(f) = f {
+                check_length("field", i, f.len(), n, &grid)?;
+            }
+        }
+        check_material_field_ranges(input, &grid)?;
+        let fields = mixed_fields(input)?;
+        for f in &fields {
             if let Some(p) = f.iter().position(|v| !v.is_finite()) {
                 return Err(Error::NonFinite {
                     index: p,
@@ -176,7 +188,7 @@ impl MaterialModel {
             grid,
             materials: k,
             labels,
-            fields: input.fields.iter().map(|f| f.to_vec()).collect(),
+            fields,
             own,
             interfaces,
             index,
@@ -745,16 +757,9 @@ fn check_length(what: &str, i: usize, len: usize, n: usize, grid: &Grid) -> Resu
     )))
 }
 
-/// Per-material fields: field and material in range, one value per point, finite at the samples of
-/// their material, one per (field, material). Returns their copies indexed by `field * materials +
-/// material`.
-fn check_material_fields(
-    input: &MaterialInput<'_>,
-    labels: &[u8],
-    grid: &Grid,
-) -> Result<Vec<Option<Vec<f32>>>> {
+/// Per-material fields: field and material in range, one value per point.
+fn check_material_field_ranges(input: &MaterialInput<'_>, grid: &Grid) -> Result<()> {
     let (k, nf) = (input.fractions.len(), input.fields.len());
-    let mut own: Vec<Option<Vec<f32>>> = vec![None; nf * k];
     for (i, mf) in input.material_fields.iter().enumerate() {
         if mf.field >= nf || mf.material as usize >= k {
             return Err(Error::Parameter(format!(
@@ -763,6 +768,49 @@ fn check_material_fields(
             )));
         }
         check_length("per-material field", i, mf.values.len(), grid.len(), grid)?;
+    }
+    Ok(())
+}
+
+/// Copies of the mixed fields: the given ones, and for a field given only per material (`None`) `Σ
+/// fraction × per-material value` over the materials with an array (the others count 0). Lengths and
+/// ranges are checked.
+fn mixed_fields(input: &MaterialInput<'_>) -> Result<Vec<Vec<f32>>> {
+    input
+        .fields
+        .iter()
+        .enumerate()
+        .map(|(f, values)| match values {
+            Some(values) => Ok(values.to_vec()),
+            None => {
+                let own: Vec<(usize, &[f32])> = input
+                    .material_fields
+                    .iter()
+                    .filter(|mf| mf.field == f)
+                    .map(|mf| (mf.material as usize, mf.values))
+                    .collect();
+                if own.is_empty() {
+                    return Err(Error::Parameter(format!(
+                        "field {f} is to be computed from per-material arrays, but none was given for it"
+                    )));
+                }
+                Ok(mixed_from_materials(&input.fractions, &own))
+            }
+        })
+        .collect()
+}
+
+/// Per-material fields (in range and of the right length: [`check_material_field_ranges`]): finite
+/// at the samples of their material, one per (field, material). Returns their copies indexed by
+/// `field * materials + material`.
+fn check_material_fields(
+    input: &MaterialInput<'_>,
+    labels: &[u8],
+    grid: &Grid,
+) -> Result<Vec<Option<Vec<f32>>>> {
+    let (k, nf) = (input.fractions.len(), input.fields.len());
+    let mut own: Vec<Option<Vec<f32>>> = vec![None; nf * k];
+    for (i, mf) in input.material_fields.iter().enumerate() {
         if let Some(p) =
             (0..grid.len()).find(|&p| labels[p] == mf.material && !mf.values[p].is_finite())
         {
@@ -813,9 +861,16 @@ fn check_fractions(fractions: &[&[f32]], grid: &Grid) -> Result<()> {
 fn check_interfaces(given: &[InterfaceMesh], k: usize) -> Result<Vec<InterfaceMesh>> {
     for (i, m) in given.iter().enumerate() {
         let (a, b) = m.pair;
-        if a >= b || b as usize >= k {
+        if b as usize >= k {
             return Err(Error::Parameter(format!(
-                "interface mesh {i} names materials {a} and {b}; they must differ and be below {k}"
+                "interface mesh {i} names material {b} (pair {:?}) but only {k} volume-fraction arrays were given (materials 0 to {})",
+                m.pair,
+                k - 1
+            )));
+        }
+        if a >= b {
+            return Err(Error::Parameter(format!(
+                "interface mesh {i} has the pair ({a}, {b}); a pair names two different materials, the smaller first"
             )));
         }
         let n = m.points.len() as u32;

@@ -307,6 +307,7 @@ fn crossing_parameter(gp: f64, gq: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::DVec3;
     use std::collections::HashMap;
 
     /// Fractions of materials 0 (outside) and 1 (inside `inside`) in the dual cell of each point,
@@ -343,20 +344,9 @@ mod tests {
         (labels, meshes)
     }
 
-    fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-        [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-    }
-
-    fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-        [
-            a[1] * b[2] - a[2] * b[1],
-            a[2] * b[0] - a[0] * b[2],
-            a[0] * b[1] - a[1] * b[0],
-        ]
-    }
-
-    fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-        a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+    /// The counter-clockwise (unnormalised) normal of a triangle.
+    fn normal([a, b, c]: [DVec3; 3]) -> DVec3 {
+        (b - a).cross(c - a)
     }
 
     /// Directed edge counts of a mesh.
@@ -405,7 +395,7 @@ mod tests {
     fn sphere_is_closed_oriented_and_encloses_its_volume() {
         let r = 0.62;
         let g = grid([24, 24, 24], -1.0, 2.0 / 23.0);
-        let fractions = two_materials(&g, 6, |x| dot(x, x) < r * r);
+        let fractions = two_materials(&g, 6, |x| DVec3::from(x).length_squared() < r * r);
         let (labels, meshes) = run(&g, &fractions);
         assert_eq!(meshes.len(), 1);
         let mesh = &meshes[0];
@@ -428,13 +418,13 @@ mod tests {
         // Normals point toward the samples labelled pair.1 (material 1, inside the sphere): inward.
         let mut volume = 0.0;
         for t in &mesh.triangles {
-            let [a, b, c] = t.map(|v| mesh.points[v as usize]);
-            let n = cross(sub(b, a), sub(c, a));
-            let centre: [f64; 3] = std::array::from_fn(|i| (a[i] + b[i] + c[i]) / 3.0);
-            if dot(n, n) > 1e-20 {
-                assert!(dot(n, centre) < 0.0, "normal points outward at {centre:?}");
+            let [a, b, c] = t.map(|v| DVec3::from(mesh.points[v as usize]));
+            let n = normal([a, b, c]);
+            let centre = (a + b + c) / 3.0;
+            if n.length_squared() > 1e-20 {
+                assert!(n.dot(centre) < 0.0, "normal points outward at {centre:?}");
             }
-            volume += dot(a, cross(b, c)) / 6.0;
+            volume += a.dot(b.cross(c)) / 6.0;
         }
         // Inward normals: the divergence theorem gives minus the volume.
         let exact = 4.0 / 3.0 * std::f64::consts::PI * r * r * r;
@@ -451,15 +441,14 @@ mod tests {
         // Material 1 above an oblique plane, 0 below: every triangle normal has a positive component
         // along the plane normal (toward material 1).
         let g = grid([9, 10, 11], 0.0, 1.0);
-        let normal = [0.3, -0.5, 0.81];
-        let d = |x: [f64; 3]| dot(x, normal) - 4.0;
+        let plane_normal = DVec3::new(0.3, -0.5, 0.81);
+        let d = |x: [f64; 3]| DVec3::from(x).dot(plane_normal) - 4.0;
         let fractions = two_materials(&g, 4, |x| d(x) > 0.0);
         let (_, meshes) = run(&g, &fractions);
         assert_eq!(meshes.len(), 1);
         for t in &meshes[0].triangles {
-            let [a, b, c] = t.map(|v| meshes[0].points[v as usize]);
-            let n = cross(sub(b, a), sub(c, a));
-            assert!(dot(n, normal) >= 0.0);
+            let corners = t.map(|v| DVec3::from(meshes[0].points[v as usize]));
+            assert!(normal(corners).dot(plane_normal) >= 0.0);
         }
         // The plane crosses the domain: its open edges lie in the domain boundary.
         let m = &meshes[0];
@@ -486,7 +475,7 @@ mod tests {
                 let x: [f64; 3] = std::array::from_fn(|a| {
                     c[a] + g.spacing[a] * ((sub[a] as f64 + 0.5) / n as f64 - 0.5)
                 });
-                let m = if dot(x, x) < 0.5 * 0.5 {
+                let m = if DVec3::from(x).length_squared() < 0.5 * 0.5 {
                     2
                 } else if x[2] > 0.013 {
                     1
@@ -545,7 +534,8 @@ mod tests {
         // A ball of material 1 centred on a corner of the domain and another across a face.
         let g = grid([15, 13, 12], 0.0, 0.25);
         let fractions = two_materials(&g, 4, |x| {
-            dot(x, x) < 1.3 * 1.3 || dot(sub(x, [3.5, 1.5, 1.4]), sub(x, [3.5, 1.5, 1.4])) < 0.6
+            let x = DVec3::from(x);
+            x.length_squared() < 1.3 * 1.3 || x.distance_squared(DVec3::new(3.5, 1.5, 1.4)) < 0.6
         });
         let (_, meshes) = run(&g, &fractions);
         assert_eq!(meshes.len(), 1);
@@ -574,7 +564,7 @@ mod tests {
             assert!(m
                 .points
                 .iter()
-                .any(|p| p[a] == 0.0 && dot(*p, *p) < 1.5 * 1.5));
+                .any(|p| p[a] == 0.0 && DVec3::from(*p).length_squared() < 1.5 * 1.5));
         }
     }
 

@@ -51,16 +51,8 @@ impl Case {
         MaterialInput {
             grid: self.grid,
             fractions: self.fractions.iter().map(|f| f.as_slice()).collect(),
-            fields: self.fields.iter().map(|f| f.as_slice()).collect(),
-            material_fields: self
-                .material_fields
-                .iter()
-                .map(|(field, material, values)| MaterialField {
-                    field: *field,
-                    material: *material,
-                    values,
-                })
-                .collect(),
+            fields: self.fields.iter().map(|f| Some(f.as_slice())).collect(),
+            material_fields: MaterialField::borrow_all(&self.material_fields),
             interfaces: None,
         }
     }
@@ -413,11 +405,11 @@ fn bad_inputs_are_refused_with_a_message() {
     assert!(e.contains("sum to 1"), "{e}");
     let short = vec![0.5f32; 3];
     let mut input = case.input();
-    input.fields.push(&short);
+    input.fields.push(Some(&short));
     assert!(MaterialModel::new(&input).is_err(), "wrong length");
     let nan = vec![f32::NAN; case.grid.len()];
     let mut input = case.input();
-    input.fields.push(&nan);
+    input.fields.push(Some(&nan));
     assert!(MaterialModel::new(&input).is_err(), "NaN field");
     let model = case.model();
     assert!(model.refine(&query(-1.0, 1.0), &mut noop()).is_err());
@@ -523,4 +515,66 @@ fn bad_material_fields_are_refused() {
     assert!(MaterialModel::new(&input).is_ok());
     input.material_fields[1].values = &nan_inside;
     assert!(MaterialModel::new(&input).is_err(), "NaN in block");
+}
+
+#[test]
+fn too_few_materials_and_interface_pairs_beyond_them_are_refused() {
+    let case = Case::impact([8, 8, 12]);
+    let mut input = case.input();
+    input.fractions.truncate(1);
+    let e = MaterialModel::new(&input).err().unwrap().to_string();
+    assert!(
+        e.contains("at least 2 materials") && e.contains("between 2 and"),
+        "{e}"
+    );
+    let mut input = case.input();
+    input.interfaces = Some(
+        InterfaceMesh::from_soup(
+            &[0., 0., 0., 1., 0., 0., 1., 1., 0.],
+            &[0, 1, 2],
+            &[0, 3],
+            &[],
+            false,
+        )
+        .unwrap(),
+    );
+    let e = MaterialModel::new(&input).err().unwrap().to_string();
+    assert!(
+        e.contains("material 3") && e.contains("3 volume-fraction arrays"),
+        "{e}"
+    );
+    input.interfaces.as_mut().unwrap()[0].pair = (1, 1);
+    let e = MaterialModel::new(&input).err().unwrap().to_string();
+    assert!(e.contains("pair (1, 1)"), "{e}");
+}
+
+/// A field given only per material (`None`): its mixed values are the fraction-weighted sum of the
+/// per-material ones, the materials without an array counting 0.
+#[test]
+fn fields_given_only_per_material_are_mixed_by_fraction() {
+    let case = Case::impact_with_material_densities([8, 8, 12]);
+    let given = case.model();
+    let mut input = case.input();
+    input.fields[0] = None;
+    let derived = MaterialModel::new(&input).unwrap();
+    let plain = MaterialQuery {
+        ghost_values: false,
+        ..query(0.3, 3.0)
+    };
+    let a = derived.refine(&plain, &mut noop()).unwrap();
+    let b = given.refine(&plain, &mut noop()).unwrap();
+    assert_eq!(a.tets, b.tets);
+    for (x, y) in a.mixed[0].iter().zip(&b.mixed[0]) {
+        assert!((x - y).abs() < 1e-4, "{x} vs {y}");
+    }
+    // No per-material array for it: refused.
+    input.material_fields.clear();
+    let e = MaterialModel::new(&input).err().unwrap().to_string();
+    assert!(e.contains("none was given"), "{e}");
+    // Out-of-range per-material arrays are refused before the sum reads them.
+    let mut input = case.input();
+    input.fields[0] = None;
+    input.material_fields[0].material = 7;
+    let e = MaterialModel::new(&input).err().unwrap().to_string();
+    assert!(e.contains("3 materials"), "{e}");
 }
