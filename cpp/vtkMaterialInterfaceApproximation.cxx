@@ -64,56 +64,6 @@ std::string Lower(const std::string& s)
   return out;
 }
 
-// A material's name from its volume-fraction array's name: "Volume Fraction for Armor Plate" ->
-// "Armor Plate", "Void Volume Fraction" -> "Void"; the array name itself when nothing is left.
-std::string MaterialName(const std::string& arrayName)
-{
-  std::string name = arrayName;
-  const std::string lower = Lower(name);
-  for (const char* prefix :
-    { "volume fraction for ", "volume fraction of ", "volumefraction_", "volume fraction " })
-  {
-    const std::string p = prefix;
-    if (lower.compare(0, p.size(), p) == 0 && lower.size() > p.size())
-    {
-      return name.substr(p.size());
-    }
-  }
-  for (const char* suffix : { " volume fraction", "_volume_fraction", "_volumefraction",
-         " fraction", "_fraction" })
-  {
-    const std::string s = suffix;
-    if (lower.size() > s.size() && lower.compare(lower.size() - s.size(), s.size(), s) == 0 &&
-      lower != "volume fraction")
-    {
-      return name.substr(0, name.size() - s.size());
-    }
-  }
-  return name;
-}
-
-// Distinct, non-empty material names (falls back to the array names on clashes).
-std::vector<std::string> MaterialNames(const std::vector<std::string>& arrays)
-{
-  std::vector<std::string> names;
-  for (const std::string& a : arrays)
-  {
-    names.push_back(MaterialName(a));
-  }
-  for (std::size_t i = 0; i < names.size(); ++i)
-  {
-    for (std::size_t j = 0; j < names.size(); ++j)
-    {
-      if (i != j && (names[i] == names[j] || names[i].empty()))
-      {
-        names = arrays;
-        return names;
-      }
-    }
-  }
-  return names;
-}
-
 // Where an array was found.
 struct FoundArray
 {
@@ -647,19 +597,34 @@ int vtkMaterialInterfaceApproximation::RequestData(
       }
     }
   }
-  const std::vector<std::string> materialNames = MaterialNames(fractionNames);
+  auto strings = [](const std::vector<std::string>& list) {
+    std::vector<rust::String> out;
+    for (const std::string& s : list)
+    {
+      out.emplace_back(s);
+    }
+    return out;
+  };
+  // Material names from the fraction arrays' names, by the bridge.
+  std::vector<std::string> materialNames;
+  try
+  {
+    const std::vector<rust::String> fractions = strings(fractionNames);
+    for (const rust::String& name :
+      bridge::material_names(rust::Slice<const rust::String>(fractions.data(), fractions.size())))
+    {
+      materialNames.emplace_back(std::string(name));
+    }
+  }
+  catch (const rust::Error& e)
+  {
+    vtkErrorMacro(<< FilterName << ": " << e.what());
+    return 0;
+  }
   // The (field, material) of each per-material array, matched by name in the bridge.
   std::vector<std::array<std::size_t, 2>> materialFieldPairs;
   if (!materialFieldNames.empty())
   {
-    auto strings = [](const std::vector<std::string>& list) {
-      std::vector<rust::String> out;
-      for (const std::string& s : list)
-      {
-        out.emplace_back(s);
-      }
-      return out;
-    };
     const std::vector<rust::String> f = strings(fieldNames);
     const std::vector<rust::String> m = strings(materialNames);
     const std::vector<rust::String> a = strings(materialFieldNames);

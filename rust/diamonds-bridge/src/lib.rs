@@ -208,6 +208,9 @@ mod ffi {
             materials: &[String],
             arrays: &[String],
         ) -> Result<Vec<usize>>;
+        /// The material names of the volume-fraction arrays ("Volume Fraction for Armor Plate" →
+        /// "Armor Plate", "Void Volume Fraction" → "Void"; the array names when two would clash).
+        fn material_names(arrays: &[String]) -> Result<Vec<String>>;
         /// Sets the user's interface meshes from a triangle soup: points (3 each), triangles (3
         /// point indices each), 2 materials per triangle (the normal points from the first into the
         /// second) and normals (none, 3 per triangle, or 3 per point with `point_normals`).
@@ -289,8 +292,8 @@ pub use ffi::{GridSpec, IsoSpec, MaterialQuerySpec, PlaneSpec, QuerySpec, Scalar
 
 pub mod material;
 pub use material::{
-    grid_from_coordinates, match_material_fields, new_material_builder, MaterialBuilder,
-    MaterialMesh, MaterialModel, PolygonMesh,
+    grid_from_coordinates, match_material_fields, material_names, new_material_builder,
+    MaterialBuilder, MaterialMesh, MaterialModel, PolygonMesh,
 };
 
 /// Opaque handle on a [`diamonds::Hierarchy`] for C++.

@@ -215,6 +215,13 @@ impl MaterialBuilder {
     }
 }
 
+/// The material names of the volume-fraction arrays (see [`diamonds::material::material_names`]).
+pub fn material_names(arrays: &[String]) -> Result<Vec<String>, String> {
+    guard("naming the materials", || {
+        Ok(material::material_names(arrays))
+    })
+}
+
 /// The (field, material) of each per-material field array, flattened (`f0, m0, f1, m1, …`): `arrays[i]`
 /// is named `"<fields[f]> for <materials[m]>"` or `"<fields[f]> (<materials[m]>)"`; an error names
 /// the array that matches nothing and lists the accepted names (see
