@@ -8,6 +8,7 @@
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 bash scripts/setup.sh >/dev/null
+cargo build --release --locked -p diamonds-cli   # the material benchmark generates its data with it
 pvpython scripts/bench.py "$@"
 pvpython scripts/bench_isosurface.py
 xvfb-run -a pvbatch scripts/bench_material.py

@@ -226,7 +226,7 @@ def main():
         "",
         "## Material Interface Approximation (issue 4)",
         "",
-        "`pvpython scripts/bench_material.py` (run by `bash scripts/bench.sh`), one run on this machine "
+        "`xvfb-run -a pvbatch scripts/bench_material.py` (run by `bash scripts/bench.sh`), one run on this machine "
         "(2 cores). Times are wall-clock `UpdatePipeline` of a fresh filter, interface reconstruction and "
         "model build included. \"Plain interpolation\" is the same filter with `UseGhostValues` off: one "
         "linear field over each tetrahedron, materials ignored. \"Error reached\" is the largest field error "

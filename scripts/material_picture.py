@@ -5,7 +5,8 @@ and the approximated interfaces (the paper's Figures 15 and 16).
 
     xvfb-run -a pvbatch scripts/material_picture.py
 
-Needs the build (bash scripts/setup.sh). Writes docs/images/material-interface.png.
+Needs the build (bash scripts/setup.sh) and the CLI (cargo build --release -p diamonds-cli). Writes
+docs/images/material-interface.png.
 """
 
 import os
