@@ -11,4 +11,5 @@ bash scripts/setup.sh >/dev/null
 cargo build --release --locked -p diamonds-cli   # the material benchmark generates its data with it
 pvpython scripts/bench.py "$@"
 pvpython scripts/bench_isosurface.py
+pvpython scripts/bench_isovalue_change.py
 xvfb-run -a pvbatch scripts/bench_material.py
