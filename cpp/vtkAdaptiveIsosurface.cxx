@@ -64,6 +64,7 @@ vtkAdaptiveIsosurface::vtkAdaptiveIsosurface()
   , ComputeScalars(0)
   , GenerateCarrierTetrahedra(0)
   , NumberOfHierarchyBuilds(0)
+  , NumberOfReusedMeshes(0)
   , Internals(new vtkInternals)
 {
   this->SetNumberOfOutputPorts(2);
@@ -277,11 +278,19 @@ int vtkAdaptiveIsosurface::RequestData(
     }
   }
 
+  // The cache's isosurface state belongs to its hierarchy (recreated with every build): the
+  // adaptive mesh of the previous execution is reused when only ComputeNormals, ComputeScalars or
+  // GenerateCarrierTetrahedra changed; otherwise the mesh is refined from the root.
   std::optional<rust::Box<bridge::Surface>> surface;
   try
   {
-    surface.emplace(cache.GetHierarchy().isosurface(cache.GetSampleType(), cache.GetSamples(),
-      rust::Slice<const double>(isovalues.data(), isovalues.size()), spec));
+    bridge::IsoState& state = cache.GetIsoState();
+    surface.emplace(cache.GetHierarchy().isosurface(state, cache.GetSampleType(),
+      cache.GetSamples(), rust::Slice<const double>(isovalues.data(), isovalues.size()), spec));
+    if (state.reused())
+    {
+      ++this->NumberOfReusedMeshes;
+    }
   }
   catch (const rust::Error& e)
   {
@@ -407,5 +416,6 @@ void vtkAdaptiveIsosurface::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "GenerateCarrierTetrahedra: " << (this->GenerateCarrierTetrahedra ? "On" : "Off")
      << "\n";
   os << indent << "NumberOfHierarchyBuilds: " << this->NumberOfHierarchyBuilds << "\n";
+  os << indent << "NumberOfReusedMeshes: " << this->NumberOfReusedMeshes << "\n";
   os << indent << "HierarchyMemorySize: " << this->GetHierarchyMemorySize() << "\n";
 }

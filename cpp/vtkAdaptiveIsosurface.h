@@ -42,7 +42,13 @@
  * region of interest re-runs only the extraction, which reads the samples again where the surface
  * passes (the filter keeps a reference to the input array for that, see Memory below).
  * GetNumberOfHierarchyBuilds() counts the builds. The hierarchy is rebuilt when the input array,
- * its values (MTime), its name or the image geometry (extent, origin, spacing) change.
+ * its values (MTime), its name or the image geometry (extent, origin, spacing) change. The
+ * adaptive mesh (split set) of the last extraction is kept with the hierarchy (and dropped with
+ * it): when only ComputeNormals, ComputeScalars or GenerateCarrierTetrahedra change, the next
+ * execution reuses it and skips the refinement (GetNumberOfReusedMeshes() counts those); a change
+ * of the contour values, Tolerance, the budget or the region refines from the root, which was
+ * measured never slower than starting from the previous mesh (Gregorski §6.1; see
+ * Hierarchy::isosurface_from in the core).
  *
  * Options:
  * - contour values (SetValue / SetNumberOfContours / GenerateValues, as vtkFlyingEdges3D): one
@@ -76,7 +82,8 @@
  *
  * Memory. The hierarchy costs 4 bytes per input point, plus 2 per point for the per-diamond
  * isosurface errors that the first extraction caches (they do not depend on the isovalue, so an
- * isovalue change reuses them). To re-read samples near the surface, the filter holds a reference
+ * isovalue change reuses them), plus about one bit per point for the kept adaptive mesh (none
+ * after a budget query). To re-read samples near the surface, the filter holds a reference
  * to the processed input array while the hierarchy is cached (no copy, except for 64-bit integer
  * or non-contiguous arrays, which are converted once); ReleaseHierarchy() drops both.
  *
@@ -226,6 +233,15 @@ public:
   vtkGetMacro(NumberOfHierarchyBuilds, vtkIdType);
 
   /**
+   * Number of executions that reused the adaptive mesh of the previous one instead of refining:
+   * those where nothing that drives refinement changed (same hierarchy, contour values, Tolerance
+   * and region, no triangle budget), i.e. only ComputeNormals, ComputeScalars or
+   * GenerateCarrierTetrahedra. Other changes refine from the root (measured no slower than from the
+   * previous mesh); the surface is the same either way.
+   */
+  vtkGetMacro(NumberOfReusedMeshes, vtkIdType);
+
+  /**
    * Bytes of per-diamond data held by the cached hierarchy (0 when none is cached): 4 per input
    * point, not counting the cached isosurface errors (2 per point) nor the input array it keeps a
    * reference to.
@@ -256,6 +272,7 @@ protected:
   vtkTypeBool ComputeScalars;
   vtkTypeBool GenerateCarrierTetrahedra;
   vtkIdType NumberOfHierarchyBuilds;
+  vtkIdType NumberOfReusedMeshes;
 
 private:
   vtkAdaptiveIsosurface(const vtkAdaptiveIsosurface&) = delete;

@@ -25,6 +25,7 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <utility>
 
 namespace vtkDiamonds
 {
@@ -438,6 +439,7 @@ vtkIdType HierarchyCache::GetMemorySize(vtkAlgorithm* reporter) const
 
 void HierarchyCache::Release()
 {
+  this->IsoState.reset();
   this->Hierarchy.reset();
   this->Built = Key{};
   this->Samples = nullptr;
@@ -523,8 +525,10 @@ HierarchyCache::Status HierarchyCache::Update(vtkAlgorithm* filter, const Filter
   filter->UpdateProgress(from);
   try
   {
-    this->Hierarchy.emplace(bridge::build_hierarchy(
-      grid, *type, rust::Slice<const std::uint8_t>(bytes, byteCount), progress));
+    rust::Box<bridge::Hierarchy> hierarchy = bridge::build_hierarchy(
+      grid, *type, rust::Slice<const std::uint8_t>(bytes, byteCount), progress);
+    this->IsoState.emplace(bridge::new_iso_state());
+    this->Hierarchy.emplace(std::move(hierarchy));
   }
   catch (const rust::Error& e)
   {

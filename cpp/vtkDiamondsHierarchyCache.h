@@ -5,7 +5,8 @@
 //   copy for 64-bit integers and non-contiguous arrays), builds the diamond hierarchy through the
 //   bridge with progress and abort, and keeps it between executions until the array, its values
 //   (MTime), its name or the image geometry change. Optionally keeps the samples alive for queries
-//   that read them again (isosurfaces).
+//   that read them again (isosurfaces), and the isosurface state (the adaptive mesh of the last
+//   isosurface query), which is created with each hierarchy and dropped with it.
 // - SelectPointArray: the single-component point array to process, or an error that says what to do.
 // - CheckRegionOfInterest: a region of interest against the whole image and this process's piece.
 // - MeshToUnstructuredGrid: a bridge mesh as VTK_TETRA cells with the input point data passed through.
@@ -122,6 +123,9 @@ public:
 
   bool HasHierarchy() const { return this->Hierarchy.has_value(); }
   const bridge::Hierarchy& GetHierarchy() const { return **this->Hierarchy; }
+  // The isosurface state of the cached hierarchy (only with a hierarchy): created empty with each
+  // build and released with the hierarchy, so a state never outlives the hierarchy it belongs to.
+  bridge::IsoState& GetIsoState() { return **this->IsoState; }
   // The samples the hierarchy was built from (only with keepSamples) and their type.
   rust::Slice<const std::uint8_t> GetSamples() const;
   bridge::ScalarType GetSampleType() const { return this->SampleType; }
@@ -148,6 +152,7 @@ private:
 
   bool KeepSamples;
   std::optional<rust::Box<bridge::Hierarchy>> Hierarchy;
+  std::optional<rust::Box<bridge::IsoState>> IsoState;
   Key Built;
   vtkSmartPointer<vtkDataArray> Samples;
   bridge::ScalarType SampleType = bridge::ScalarType::F64;

@@ -10,6 +10,9 @@ ParaView's own Contour is the reference surface):
 - two isovalues give two surfaces; ComputeScalars; the region of interest; the triangle budget; the
   carrier tetrahedra of port 1;
 - an isovalue or tolerance change does not rebuild the hierarchy and equals a fresh filter;
+- toggling ComputeNormals, ComputeScalars or the carriers reuses the adaptive mesh (NumberOfReusedMeshes)
+  and gives the same triangles; an isovalue change or a new input (rebuilt hierarchy) does not reuse it
+  and equals a fresh filter;
 - bad inputs: a clear error, empty outputs, no crash.
 
   PV_PLUGIN_PATH=$PWD/build/lib/paraview-5.11/plugins/Diamonds pvpython tests/pvpython/test_isosurface.py
@@ -94,6 +97,51 @@ dc.fetch(filt)
 dc.check(dc.hierarchy_builds(filt) == 2, "changing the input data rebuilds the hierarchy")
 wavelet.Maximum = 255.0
 dc.fetch(filt)
+
+
+
+# The adaptive mesh is kept with the hierarchy: reused as is when only the outputs change, never
+# after an isovalue change (refined from the root) or a rebuild (the mesh belongs to the old hierarchy).
+def reused_meshes(proxy):
+    proxy.UpdatePropertyInformation()
+    return int(proxy.GetProperty("NumberOfReusedMeshes").GetElement(0))
+
+
+keep = simple.AdaptiveIsosurface(Input=wavelet, Isosurfaces=[iso], Tolerance=0.5)
+first = dc.fetch(keep)
+first_normals = vtk_to_numpy(first.GetPointData().GetNormals()).copy()
+dc.check(reused_meshes(keep) == 0 and first.GetNumberOfCells() > 0, f"first execution: nothing to reuse ({first.GetNumberOfCells()} triangles)")
+keep.ComputeNormals = 0
+toggled = dc.fetch(keep)
+dc.check(reused_meshes(keep) == 1, f"ComputeNormals off: the mesh is reused (NumberOfReusedMeshes {reused_meshes(keep)})")
+dc.check(same_surface(first, toggled) and toggled.GetPointData().GetNormals() is None, "ComputeNormals off: same triangles, no normals")
+keep.ComputeScalars = 1
+toggled = dc.fetch(keep)
+dc.check(reused_meshes(keep) == 2, "ComputeScalars on: the mesh is reused")
+dc.check(same_surface(first, toggled) and toggled.GetPointData().GetArray("RTData") is not None, "ComputeScalars on: same triangles, with the scalars")
+keep.ComputeNormals = 1
+keep.ComputeScalars = 0
+keep.GenerateCarrierTetrahedra = 1
+toggled = dc.fetch(keep)
+toggled_normals = vtk_to_numpy(toggled.GetPointData().GetNormals())
+dc.check(reused_meshes(keep) == 3, "normals back on and carriers on: the mesh is reused")
+dc.check(same_surface(first, toggled) and np.array_equal(first_normals, toggled_normals), "normals back on: same triangles and normals")
+dc.check(servermanager.Fetch(keep, idx=1).GetNumberOfCells() > 0, "carriers from the reused mesh")
+keep.GenerateCarrierTetrahedra = 0
+keep.Isosurfaces = [120.0]
+changed = dc.fetch(keep)
+dc.check(reused_meshes(keep) == 3, "isovalue change: the mesh is not reused")
+dc.check(same_surface(changed, fresh), f"isovalue change: same surface as a fresh filter ({changed.GetNumberOfCells()} triangles)")
+wavelet.Maximum = 300.0
+rebuilt = dc.fetch(keep)
+fresh_rebuilt = dc.fetch(simple.AdaptiveIsosurface(Input=wavelet, Isosurfaces=[120.0], Tolerance=0.5))
+dc.check(dc.hierarchy_builds(keep) == 2 and reused_meshes(keep) == 3, f"new input data: rebuilt, the old mesh not reused (builds {dc.hierarchy_builds(keep)}, reused {reused_meshes(keep)})")
+dc.check(not same_surface(rebuilt, changed) and same_surface(rebuilt, fresh_rebuilt), "new input data: a new surface, the same as a fresh filter's")
+wavelet.Maximum = 255.0
+restored = dc.fetch(keep)
+dc.check(reused_meshes(keep) == 3 and same_surface(restored, fresh), "input restored: rebuilt again, not reused, same as a fresh filter")
+keep.ComputeNormals = 0
+dc.check(same_surface(dc.fetch(keep), fresh) and reused_meshes(keep) == 4, "and the rebuilt hierarchy's mesh is reused in turn")
 
 # Normals off: no point data at all.
 filt.ComputeNormals = 0

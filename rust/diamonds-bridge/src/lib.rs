@@ -12,7 +12,9 @@
 //!   ([`ffi::QuerySpec`] for a mesh; the isovalues as a slice plus [`ffi::IsoSpec`] for an
 //!   isosurface, which also reads the samples again);
 //! - out: an opaque [`Hierarchy`] the filters keep between executions (`rust::Box<Hierarchy>`), an
-//!   opaque [`Mesh`] and an opaque [`Surface`] whose arrays C++ reads as slices;
+//!   opaque [`IsoState`] kept next to it (the adaptive mesh of the last isosurface query, see
+//!   `diamonds::iso_state`), an opaque [`Mesh`] and an opaque [`Surface`] whose arrays C++ reads as
+//!   slices;
 //! - material interfaces ([`material`], for `vtkMaterialInterfaceApproximation`): volume fractions
 //!   and fields as `f32` slices added to a [`MaterialBuilder`], optional interface meshes as a
 //!   triangle soup, out an opaque [`MaterialModel`] (kept between executions), [`MaterialMesh`] and
@@ -27,6 +29,7 @@
 use std::any::Any;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::pin::Pin;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use diamonds::{Grid, IsoQuery, IsoSurface, Query, ScalarSlice, TetMesh};
 
@@ -114,6 +117,10 @@ mod ffi {
         type Mesh;
         /// The triangles of one isosurface query (and, when asked, the tetrahedra carrying them).
         type Surface;
+        /// What an isosurface filter keeps between queries: the adaptive mesh of the last query
+        /// and the query it was refined for (`diamonds::iso_state::IsoState`). It belongs to one
+        /// hierarchy: [`isosurface`] forgets it when handed another one.
+        type IsoState;
 
         /// Builds the hierarchy of `samples` (raw bytes of `scalar_type` values, x fastest) on `grid`.
         fn build_hierarchy(
@@ -127,9 +134,14 @@ mod ffi {
         /// Bytes of per-diamond metadata held by the hierarchy.
         fn metadata_bytes(self: &Hierarchy) -> Result<usize>;
         /// Extracts the isosurfaces of `isovalues`. `samples` (of `scalar_type`) must be the very
-        /// samples the hierarchy was built from: the caller keeps them alive and unchanged.
+        /// samples the hierarchy was built from: the caller keeps them alive and unchanged. `state`
+        /// carries the adaptive mesh from one query to the next: reused as is when only
+        /// `compute_normals` or `carrier_tetrahedra` changed, refined from the root otherwise (the
+        /// measured default, `IsoStart::Auto`). The surface is the same whatever `state` holds; a
+        /// state last used with another hierarchy is cleared first, and a failed query clears it.
         fn isosurface(
             self: &Hierarchy,
+            state: &mut IsoState,
             scalar_type: ScalarType,
             samples: &[u8],
             isovalues: &[f64],
@@ -149,6 +161,12 @@ mod ffi {
         /// Frees the tetrahedra once C++ has copied them, lowering the peak memory of large meshes;
         /// `tets()` is empty afterwards.
         fn release_tets(self: &mut Mesh) -> Result<()>;
+
+        /// An empty isosurface state (the next query refines from the root).
+        fn new_iso_state() -> Result<Box<IsoState>>;
+        /// Whether the last query reused the previous adaptive mesh without refining (false
+        /// before the first query and after a failed one).
+        fn reused(self: &IsoState) -> Result<bool>;
 
         /// World coordinates, three per point.
         fn points(self: &Surface) -> Result<&[f64]>;
@@ -296,8 +314,22 @@ pub use material::{
     MaterialBuilder, MaterialMesh, MaterialModel, PolygonMesh,
 };
 
-/// Opaque handle on a [`diamonds::Hierarchy`] for C++.
-pub struct Hierarchy(diamonds::Hierarchy);
+/// Opaque handle on a [`diamonds::Hierarchy`] for C++, with an identity that tells the
+/// [`IsoState`]s of different hierarchies apart.
+pub struct Hierarchy {
+    hierarchy: diamonds::Hierarchy,
+    id: u64,
+}
+
+/// Opaque handle on a [`diamonds::iso_state::IsoState`] for C++: the split set of the last
+/// isosurface query, and the identity of the [`Hierarchy`] it was refined on. A split set belongs
+/// to one hierarchy (a rebuilt one may have the same lattice but other samples): a query on another
+/// hierarchy clears the state first, so a stale mesh can never be reused.
+#[derive(Default)]
+pub struct IsoState {
+    state: diamonds::iso_state::IsoState,
+    hierarchy: Option<u64>,
+}
 
 /// Opaque handle on a [`TetMesh`] for C++, checked for consistency before it is handed over.
 pub struct Mesh(TetMesh);
@@ -314,8 +346,9 @@ pub struct Surface {
 ///
 /// `AssertUnwindSafe` is sound here: a panic can only leave the core's own local state broken,
 /// and that state is dropped during the unwind. What survives a panic is borrowed immutably
-/// (`&Hierarchy`, `&Mesh`, the sample bytes) or is the C++ progress observer, which holds no
-/// invariant the Rust side could break.
+/// (`&Hierarchy`, `&Mesh`, the sample bytes), is the C++ progress observer, which holds no
+/// invariant the Rust side could break, or is an [`IsoState`], which [`Hierarchy::isosurface`]
+/// clears when its body fails or panics.
 pub fn guard<T>(what: &str, body: impl FnOnce() -> Result<T, String>) -> Result<T, String> {
     catch_unwind(AssertUnwindSafe(body)).unwrap_or_else(|payload| {
         Err(format!(
@@ -378,9 +411,28 @@ pub fn build_with(
         spacing: grid.spacing,
     };
     let scalars = typed_slice(scalar_type, samples)?;
+    static NEXT_ID: AtomicU64 = AtomicU64::new(0);
     diamonds::Hierarchy::build(grid, scalars, progress)
-        .map(Hierarchy)
+        .map(|hierarchy| Hierarchy {
+            hierarchy,
+            id: NEXT_ID.fetch_add(1, Ordering::Relaxed),
+        })
         .map_err(|e| e.to_string())
+}
+
+fn new_iso_state() -> Result<Box<IsoState>, String> {
+    guard("creating the isosurface state", || {
+        Ok(Box::new(IsoState::default()))
+    })
+}
+
+impl IsoState {
+    /// Whether the last query reused the previous split set without refining.
+    pub fn reused(&self) -> Result<bool, String> {
+        guard("reading the isosurface state", || {
+            Ok(self.state.last().is_some_and(|stats| stats.reused))
+        })
+    }
 }
 
 fn build_hierarchy(
@@ -406,28 +458,37 @@ impl Hierarchy {
                     .use_region_of_interest
                     .then_some(query.region_of_interest),
             };
-            let mesh = self.0.query(&query).map_err(|e| e.to_string())?;
-            check_mesh(&mesh, self.0.grid().len())?;
+            let mesh = self.hierarchy.query(&query).map_err(|e| e.to_string())?;
+            check_mesh(&mesh, self.hierarchy.grid().len())?;
             Ok(Box::new(Mesh(mesh)))
         })
     }
 
     fn metadata_bytes(&self) -> Result<usize, String> {
-        guard("measuring the hierarchy", || Ok(self.0.metadata_bytes()))
+        guard("measuring the hierarchy", || {
+            Ok(self.hierarchy.metadata_bytes())
+        })
     }
 
     /// Extracts the isosurfaces of `isovalues` and checks the result before C++ indexes with it.
-    /// `samples` must be the samples the hierarchy was built from.
+    /// `samples` must be the samples the hierarchy was built from. `state` keeps the adaptive mesh
+    /// between queries ([`diamonds::Hierarchy::isosurface_from`]); it is cleared first when it was
+    /// last used with another hierarchy, and cleared when the query fails.
     pub fn isosurface(
         &self,
+        state: &mut IsoState,
         scalar_type: ScalarType,
         samples: &[u8],
         isovalues: &[f64],
         spec: &IsoSpec,
     ) -> Result<Box<Surface>, String> {
-        guard("extracting the isosurface", || {
+        if state.hierarchy != Some(self.id) {
+            state.state.clear();
+            state.hierarchy = Some(self.id);
+        }
+        let result = guard("extracting the isosurface", || {
             let scalars = typed_slice(scalar_type, samples)?;
-            let expected = self.0.grid().len();
+            let expected = self.hierarchy.grid().len();
             if scalars.len() != expected {
                 return Err(format!(
                     "the sample array has {} values but the hierarchy was built for {expected} points",
@@ -445,8 +506,8 @@ impl Hierarchy {
                 carrier_tetrahedra: spec.carrier_tetrahedra,
             };
             let mut surface = self
-                .0
-                .isosurface(scalars, &query)
+                .hierarchy
+                .isosurface_from(&mut state.state, scalars, &query)
                 .map_err(|e| e.to_string())?;
             check_surface(&surface, &query)?;
             let carrier = surface.carrier.take();
@@ -457,7 +518,11 @@ impl Hierarchy {
                 surface,
                 carrier: carrier.map(|mesh| Box::new(Mesh(mesh))),
             }))
-        })
+        });
+        if result.is_err() {
+            state.state.clear();
+        }
+        result
     }
 }
 
@@ -770,6 +835,101 @@ mod tests {
         }
     }
 
+    fn fresh() -> IsoState {
+        IsoState::default()
+    }
+
+    fn same(a: &Surface, b: &Surface) -> bool {
+        let (a, b) = (a.inner(), b.inner());
+        a.points == b.points && a.triangles == b.triangles && a.values == b.values
+    }
+
+    #[test]
+    fn isosurface_state_reuses_the_mesh_only_when_refinement_did_not_change() {
+        let (grid, values) = sphere_volume();
+        let bytes: &[u8] = bytemuck::cast_slice(&values);
+        let h = build_with(&grid, ScalarType::F32, bytes, &mut |_| true).unwrap();
+        let mut state = new_iso_state().unwrap();
+        assert!(
+            !state.reused().unwrap(),
+            "nothing to reuse before the first query"
+        );
+        let spec = iso_spec(0.25);
+        let first = h
+            .isosurface(&mut state, ScalarType::F32, bytes, &[2.5], &spec)
+            .unwrap();
+        assert!(!state.reused().unwrap());
+        // Normals and carrier off: same refinement, the mesh is reused, same triangles.
+        let bare = IsoSpec {
+            compute_normals: false,
+            carrier_tetrahedra: false,
+            ..spec
+        };
+        let again = h
+            .isosurface(&mut state, ScalarType::F32, bytes, &[2.5], &bare)
+            .unwrap();
+        assert!(state.reused().unwrap());
+        assert!(same(&first, &again) && again.normals().unwrap().is_empty());
+        // An isovalue change refines (from the root) and equals a fresh query.
+        let changed = h
+            .isosurface(&mut state, ScalarType::F32, bytes, &[3.0], &bare)
+            .unwrap();
+        assert!(!state.reused().unwrap());
+        let reference = h
+            .isosurface(&mut fresh(), ScalarType::F32, bytes, &[3.0], &bare)
+            .unwrap();
+        assert!(same(&changed, &reference));
+        // A tolerance change too.
+        let finer = IsoSpec {
+            tolerance: 0.1,
+            ..bare
+        };
+        h.isosurface(&mut state, ScalarType::F32, bytes, &[3.0], &finer)
+            .unwrap();
+        assert!(!state.reused().unwrap());
+        // A failed query clears the state: the next one refines again.
+        assert!(h
+            .isosurface(&mut state, ScalarType::F32, bytes, &[f64::NAN], &finer)
+            .is_err());
+        assert!(!state.reused().unwrap());
+        h.isosurface(&mut state, ScalarType::F32, bytes, &[3.0], &finer)
+            .unwrap();
+        assert!(!state.reused().unwrap());
+        h.isosurface(&mut state, ScalarType::F32, bytes, &[3.0], &finer)
+            .unwrap();
+        assert!(state.reused().unwrap());
+    }
+
+    #[test]
+    fn isosurface_state_is_not_reused_on_another_hierarchy() {
+        let (grid, values) = sphere_volume();
+        let bytes: &[u8] = bytemuck::cast_slice(&values);
+        let h = build_with(&grid, ScalarType::F32, bytes, &mut |_| true).unwrap();
+        let mut state = fresh();
+        let spec = iso_spec(0.25);
+        h.isosurface(&mut state, ScalarType::F32, bytes, &[2.5], &spec)
+            .unwrap();
+        // Same grid (same lattice), other samples: the split set of `h` must not be reused.
+        let shifted: Vec<f32> = values.iter().map(|v| 2.0 * v).collect();
+        let other_bytes: &[u8] = bytemuck::cast_slice(&shifted);
+        let other = build_with(&grid, ScalarType::F32, other_bytes, &mut |_| true).unwrap();
+        let s = other
+            .isosurface(&mut state, ScalarType::F32, other_bytes, &[2.5], &spec)
+            .unwrap();
+        assert!(
+            !state.reused().unwrap(),
+            "a state of another hierarchy is cleared"
+        );
+        let reference = other
+            .isosurface(&mut fresh(), ScalarType::F32, other_bytes, &[2.5], &spec)
+            .unwrap();
+        assert!(same(&s, &reference));
+        other
+            .isosurface(&mut state, ScalarType::F32, other_bytes, &[2.5], &spec)
+            .unwrap();
+        assert!(state.reused().unwrap());
+    }
+
     #[test]
     fn isosurface_through_the_bridge() {
         let (grid, values) = sphere_volume();
@@ -777,7 +937,13 @@ mod tests {
         let h = build_with(&grid, ScalarType::F32, bytes, &mut |_| true).unwrap();
         for tolerance in [0.0, 0.25] {
             let s = h
-                .isosurface(ScalarType::F32, bytes, &[2.5], &iso_spec(tolerance))
+                .isosurface(
+                    &mut fresh(),
+                    ScalarType::F32,
+                    bytes,
+                    &[2.5],
+                    &iso_spec(tolerance),
+                )
                 .unwrap();
             let points = s.points().unwrap();
             let n = points.len() / 3;
@@ -823,7 +989,7 @@ mod tests {
             ..iso_spec(0.1)
         };
         let mut s = h
-            .isosurface(ScalarType::F32, bytes, &[1.5, 3.0], &spec)
+            .isosurface(&mut fresh(), ScalarType::F32, bytes, &[1.5, 3.0], &spec)
             .unwrap();
         assert!(s.normals().unwrap().is_empty());
         assert!(!s.has_carrier().unwrap());
@@ -838,11 +1004,29 @@ mod tests {
         let (grid, values) = sphere_volume();
         let bytes: &[u8] = bytemuck::cast_slice(&values);
         let h = build_with(&grid, ScalarType::F32, bytes, &mut |_| true).unwrap();
-        let short = h.isosurface(ScalarType::F32, &bytes[..4 * 100], &[2.5], &iso_spec(0.0));
+        let short = h.isosurface(
+            &mut fresh(),
+            ScalarType::F32,
+            &bytes[..4 * 100],
+            &[2.5],
+            &iso_spec(0.0),
+        );
         assert!(short.err().unwrap().contains("100 values"));
-        let negative = h.isosurface(ScalarType::F32, bytes, &[2.5], &iso_spec(-1.0));
+        let negative = h.isosurface(
+            &mut fresh(),
+            ScalarType::F32,
+            bytes,
+            &[2.5],
+            &iso_spec(-1.0),
+        );
         assert!(negative.err().unwrap().contains("tolerance"));
-        let nan = h.isosurface(ScalarType::F32, bytes, &[f64::NAN], &iso_spec(0.0));
+        let nan = h.isosurface(
+            &mut fresh(),
+            ScalarType::F32,
+            bytes,
+            &[f64::NAN],
+            &iso_spec(0.0),
+        );
         assert!(nan.is_err());
     }
 
