@@ -10,7 +10,7 @@
 #    checks of the meshes, isosurfaces and material interfaces, properties, bad inputs
 #    (test_material.py writes its impact case with target/release/diamonds, brought up to date
 #    with cargo).
-# 3. tests/pvpython/mpi_pieces.py and mpi_isosurface.py under `mpiexec -n 2 pvbatch`.
+# 3. tests/pvpython/mpi_pieces.py, mpi_isosurface.py and mpi_material.py under `mpiexec -n 2 pvbatch`.
 # 4. scripts/demo.py under `xvfb-run -a pvbatch` (the only step that renders), into build/test-demo.
 # Ends with the line "N passed, M failed"; exits non-zero if any step failed.
 set -uo pipefail
@@ -79,7 +79,7 @@ step "C++ consumer of the installed package" cpp_consumer
 for t in tests/pvpython/test_*.py; do
   step "pvpython $t" pvpython "$t"
 done
-for t in tests/pvpython/mpi_pieces.py tests/pvpython/mpi_isosurface.py; do
+for t in tests/pvpython/mpi_pieces.py tests/pvpython/mpi_isosurface.py tests/pvpython/mpi_material.py; do
   step "mpiexec -n 2 pvbatch $t" mpiexec --allow-run-as-root --oversubscribe -n 2 pvbatch "$t"
 done
 step "xvfb-run -a pvbatch scripts/demo.py" demo_render

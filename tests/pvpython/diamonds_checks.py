@@ -18,6 +18,8 @@ Run the tests with the plugin on PV_PLUGIN_PATH, e.g.
 """
 
 import os
+import shutil
+import subprocess
 import sys
 import time
 
@@ -303,3 +305,14 @@ def programmable_image(simple, dims, script_body, origin=(0.0, 0.0, 0.0), spacin
         "        out.GetPointData().SetActiveScalars(name)\n" + script_body
     )
     return src
+
+
+def diamonds_binary():
+    """The CLI (target/release/diamonds), brought up to date with cargo when cargo is there (a no-op
+    when it is fresh)."""
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    binary = os.path.join(root, "target", "release", "diamonds")
+    cargo = shutil.which("cargo") or os.path.expanduser("~/.cargo/bin/cargo")
+    if os.path.exists(cargo):
+        subprocess.run([cargo, "build", "--release", "--locked", "-p", "diamonds-cli"], cwd=root, check=True)
+    return binary

@@ -52,15 +52,6 @@ VTK_TETRA = 10
 CTH_MASS_TOLERANCE = 0.001  # "Mass for ..." of the CTH data reach about 0.0094
 
 
-def diamonds_binary():
-    """The CLI, brought up to date with cargo when cargo is there (a no-op when it is fresh)."""
-    binary = os.path.join(ROOT, "target", "release", "diamonds")
-    cargo = shutil.which("cargo") or os.path.expanduser("~/.cargo/bin/cargo")
-    if os.path.exists(cargo):
-        subprocess.run([cargo, "build", "--release", "--locked", "-p", "diamonds-cli"], cwd=ROOT, check=True)
-    return binary
-
-
 def fetch_all(f):
     f.UpdatePipeline()
     return [servermanager.Fetch(f, idx=i) for i in range(3)]
@@ -178,7 +169,7 @@ def check_ghosts(image, ug, field, label):
 # ---- The impact case, written by the CLI and read by ParaView.
 tmp = tempfile.mkdtemp(prefix="diamonds-material-")
 impact_path = os.path.join(tmp, "impact.vti")
-subprocess.run([diamonds_binary(), "generate", impact_path, "--field", "impact"], check=True)
+subprocess.run([dc.diamonds_binary(), "generate", impact_path, "--field", "impact"], check=True)
 reader = simple.XMLImageDataReader(FileName=[impact_path])
 reader.UpdatePipeline()
 image = servermanager.Fetch(reader)
