@@ -621,7 +621,9 @@ int vtkMaterialInterfaceApproximation::RequestData(
     vtkErrorMacro(<< FilterName << ": " << e.what());
     return 0;
   }
-  // The (field, material) of each per-material array, matched by name in the bridge.
+  // The (field, material) of each per-material array, matched by name in the bridge; a <field> that
+  // is none of FieldArrays is added after them (a field given only per material).
+  const std::size_t numGivenFields = fieldNames.size();
   std::vector<std::array<std::size_t, 2>> materialFieldPairs;
   if (!materialFieldNames.empty())
   {
@@ -630,13 +632,18 @@ int vtkMaterialInterfaceApproximation::RequestData(
     const std::vector<rust::String> a = strings(materialFieldNames);
     try
     {
-      rust::Vec<std::size_t> pairs =
-        bridge::match_material_fields(rust::Slice<const rust::String>(f.data(), f.size()),
+      bridge::MaterialFields matched =
+        bridge::material_fields(rust::Slice<const rust::String>(f.data(), f.size()),
           rust::Slice<const rust::String>(m.data(), m.size()),
           rust::Slice<const rust::String>(a.data(), a.size()));
-      for (std::size_t i = 0; i + 1 < pairs.size(); i += 2)
+      fieldNames.clear();
+      for (const rust::String& name : matched.fields)
       {
-        materialFieldPairs.push_back({ pairs[i], pairs[i + 1] });
+        fieldNames.emplace_back(std::string(name));
+      }
+      for (std::size_t i = 0; i + 1 < matched.pairs.size(); i += 2)
+      {
+        materialFieldPairs.push_back({ matched.pairs[i], matched.pairs[i + 1] });
       }
     }
     catch (const rust::Error& e)
@@ -644,7 +651,11 @@ int vtkMaterialInterfaceApproximation::RequestData(
       vtkErrorMacro(<< FilterName << " (MaterialFieldArrays): " << e.what());
       return 0;
     }
-    if (materialFieldPairs.size() != materialFieldNames.size())
+    if (materialFieldPairs.size() != materialFieldNames.size() ||
+      fieldNames.size() < numGivenFields ||
+      std::any_of(materialFieldPairs.begin(), materialFieldPairs.end(),
+        [&](const std::array<std::size_t, 2>& p)
+        { return p[0] >= fieldNames.size() || p[1] >= materialNames.size(); }))
     {
       vtkErrorMacro(<< "internal error: " << materialFieldPairs.size() << " matches for "
                     << materialFieldNames.size() << " per-material arrays.");
@@ -670,7 +681,8 @@ int vtkMaterialInterfaceApproximation::RequestData(
       input->GetCellData()->GetArray(name.c_str());
     const bool perMaterial = std::any_of(materialFieldPairs.begin(), materialFieldPairs.end(),
       [f](const std::array<std::size_t, 2>& p) { return p[0] == f; });
-    if (!inInput && perMaterial)
+    // Defined by MaterialFieldArrays only, or a FieldArrays name that is no input array.
+    if (f >= numGivenFields || (!inInput && perMaterial))
     {
       fields.emplace_back(); // computed from the per-material arrays
       continue;

@@ -137,14 +137,17 @@ public:
    * Optional per-material values of the fields, point or cell data of input 0 (converted like the
    * fields): the value of a field inside one material (say the density of steel, where the mixed
    * field has the density of the steel and void mixture). Each array is matched by name: "<field> for
-   * <material>" or "<field> (<material>)", <field> one of FieldArrays, <material> a material name
-   * (see MaterialNames below); an array that matches nothing is an error listing the accepted names.
+   * <material>" or "<field> (<material>)", <material> a material name (see MaterialNames below); an
+   * array that matches nothing is an error listing the accepted names. A <field> that is none of
+   * FieldArrays defines that field (after FieldArrays, in order of first appearance), given only
+   * per material.
    * With ghost values, a material's own value at its samples (its vertex values, ghost values and
    * field error) is then its per-material value instead of the mixed one; plain interpolation
    * ignores them. A name of FieldArrays that is not an array of the input but has per-material
    * arrays is a field given only per material: its mixed values are the sum over the materials of
-   * fraction x per-material value (the materials without an array count 0). CTH example: FieldArrays
-   * "Mass", MaterialFieldArrays "Mass for Armor Plate", "Mass for Body, Nose" (void: none, 0).
+   * fraction x per-material value (the materials without an array count 0). CTH example:
+   * MaterialFieldArrays "Mass for Armor Plate", "Mass for Body, Nose" gives a field "Mass" (void:
+   * none, 0), as FieldArrays "Mass" with them would.
    */
   void SetNumberOfMaterialFieldArrays(int n);
   int GetNumberOfMaterialFieldArrays();
@@ -171,7 +174,7 @@ public:
    * Largest deviation, in data units and for every field, of a sample of a material from that
    * material's linear field (with ghost values) or from the linear interpolation of the mixed field
    * (without). Must be >= 0. Default 3 (the paper's density tolerance for its impact data set).
-   * Ignored without FieldArrays.
+   * Ignored without fields (FieldArrays or fields defined by MaterialFieldArrays).
    */
   vtkSetMacro(FieldTolerance, double);
   vtkGetMacro(FieldTolerance, double);

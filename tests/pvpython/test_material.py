@@ -11,14 +11,17 @@
   field tolerance;
 - per-material densities (MaterialFieldArrays "Density for Void", ...): FieldError <= FieldTolerance,
   void's own density 0 at every vertex, no more tetrahedra than with the mixed density; a field
-  given only per material (its mixed values: the fraction-weighted sum); an unmatched name -> error;
+  given only per material (its mixed values: the fraction-weighted sum); MaterialFieldArrays alone
+  define their field ("Density for ..." gives "Density", same tetrahedra as naming it in FieldArrays
+  without the input array); an unmatched name -> error;
 - defaults, the automatic choice of fraction arrays, cell-data input, uniform rectilinear input,
   user interface meshes on input 1;
 - the kept model: tolerance, ghost-value and slice changes do not rebuild it; a slice change does
   not refine again;
 - bad inputs: an error message, empty outputs, no crash; AbortExecute;
 - the CTH armor impact data of ../shared when present, with FieldArrays "Mass" given only per
-  material ("Mass for Armor Plate", "Mass for Body, Nose"); skipped with a message otherwise.
+  material ("Mass for Armor Plate", "Mass for Body, Nose"), and with FieldArrays empty (the
+  MaterialFieldArrays define "Mass": the same tetrahedra); skipped with a message otherwise.
 
   PV_PLUGIN_PATH=$PWD/build/lib/paraview-5.11/plugins/Diamonds pvpython tests/pvpython/test_material.py
 """
@@ -89,6 +92,15 @@ def polygons(poly):
 def on_box(points, bounds, eps=1e-6):
     b = np.asarray(bounds)
     return np.stack([np.abs(points[..., a] - b[2 * a + s]) <= eps for a in range(3) for s in (0, 1)], axis=-1)
+
+
+def same_tets(a, b):
+    """Whether two tetrahedral meshes have the same points and the same cells."""
+    if a.GetNumberOfCells() != b.GetNumberOfCells() or a.GetNumberOfPoints() != b.GetNumberOfPoints():
+        return False
+    pa, pb = (vtk_to_numpy(m.GetPoints().GetData()) for m in (a, b))
+    ca, cb = (vtk_to_numpy(m.GetCells().GetConnectivityArray()) for m in (a, b))
+    return bool(np.array_equal(pa, pb) and np.array_equal(ca, cb))
 
 
 def check_tets(ug, bounds, label):
@@ -295,6 +307,22 @@ if e0.GetNumberOfCells():
     dc.check(err < 1e-3, f"Density only per material: the mixed field is the sum of fraction x per-material density (max diff {err:.3g} from the generated Density)")
     dc.check(get_array(e0, "FieldError", True).max() <= 3.0 * (1 + 1e-6), "Density only per material: FieldError <= 3")
 
+# MaterialFieldArrays alone define their field: "Density for ..." gives a field "Density" given only per
+# material (the input's "Density" array unused), as naming "Density" in FieldArrays without that array.
+implicit = simple.MaterialInterfaceApproximation(Input=reader, VolumeFractionArrays=FRACTIONS, FieldArrays=[], MaterialFieldArrays=MATERIAL_DENSITIES, InterfaceTolerance=0.15, FieldTolerance=3.0)
+no_density = simple.PassArrays(Input=reader, PointDataArrays=FRACTIONS + MATERIAL_DENSITIES, CellDataArrays=[], FieldDataArrays=[])
+explicit = simple.MaterialInterfaceApproximation(Input=no_density, VolumeFractionArrays=FRACTIONS, FieldArrays=["Density"], MaterialFieldArrays=MATERIAL_DENSITIES, InterfaceTolerance=0.15, FieldTolerance=3.0)
+with dc.ErrorCapture(implicit) as errors:
+    i0 = fetch_all(implicit)[0]
+with dc.ErrorCapture(explicit) as explicit_errors:
+    x0 = fetch_all(explicit)[0]
+print(f"Density from MaterialFieldArrays only: {i0.GetNumberOfCells()} tetrahedra, {x0.GetNumberOfCells()} naming it in FieldArrays")
+dc.check(not errors.messages and not explicit_errors.messages and i0.GetNumberOfCells() > 0, f"Density from MaterialFieldArrays only: non-empty output {errors.text()[:200]} {explicit_errors.text()[:200]}")
+dc.check(strings(i0, "FieldNames") == ["Density"] and i0.GetPointData().GetArray("Density") is not None and i0.GetPointData().GetArray("Density (Block)") is not None, f"Density from MaterialFieldArrays only: output field Density with its per-material values ({strings(i0, 'FieldNames')})")
+dc.check(same_tets(i0, x0), "Density from MaterialFieldArrays only: the same tetrahedra as FieldArrays ['Density'] without the input array")
+if i0.GetNumberOfCells() and x0.GetNumberOfCells() == i0.GetNumberOfCells():
+    dc.check(np.array_equal(get_array(i0, "Density"), get_array(x0, "Density")), "Density from MaterialFieldArrays only: the same mixed Density as naming it")
+
 # ---- The kept model.
 builds, refs = model_builds(filt), refinements(filt)
 dc.check(builds == 1 and refs == 1, f"one model build, one refinement so far ({builds}, {refs})")
@@ -394,7 +422,11 @@ expect_error(M(Input=reader, VolumeFractionArrays=FRACTIONS[:2]), "sum to 1", "f
 expect_error(M(Input=reader, VolumeFractionArrays=FRACTIONS, FieldArrays=[FRACTIONS[0]]), "twice", "an array selected twice")
 steel = simple.Calculator(Input=reader, ResultArrayName="Density for Steel", Function="Density")
 expect_error(M(Input=steel, VolumeFractionArrays=FRACTIONS, FieldArrays=["Density"], MaterialFieldArrays=["Density for Steel"]), ("matches no field", "Density (Projectile)"), "a per-material array matching no field and material")
-expect_error(M(Input=reader, VolumeFractionArrays=FRACTIONS, FieldArrays=["Mass"], MaterialFieldArrays=["Density for Block"]), "matches no field", "a per-material array of a field not selected")
+# A per-material array of a field not selected now defines that field ("Density"); "Mass" is still no
+# array of the input and has no per-material array.
+expect_error(M(Input=reader, VolumeFractionArrays=FRACTIONS, FieldArrays=["Mass"], MaterialFieldArrays=["Density for Block"]), "no numeric point or cell array named \"Mass\"", "a per-material array of a field not selected defines it; Mass still missing")
+# A typo cannot create a field: the array lookup fails first.
+expect_error(M(Input=reader, VolumeFractionArrays=FRACTIONS, MaterialFieldArrays=["Densty for Block"]), "no numeric point or cell array named \"Densty for Block\"", "a per-material array not in the input, no FieldArrays")
 expect_error(M(Input=reader, VolumeFractionArrays=FRACTIONS, FieldArrays=["Mass"]), "Mass", "a field neither in the input nor per material")
 expect_error(M(Input=reader, VolumeFractionArrays=FRACTIONS, InterfaceTolerance=-0.1), "InterfaceTolerance must be", "negative InterfaceTolerance")
 expect_error(M(Input=reader, VolumeFractionArrays=FRACTIONS, FieldArrays=["Density"], FieldTolerance=-1.0), "FieldTolerance must be", "negative FieldTolerance")
@@ -478,6 +510,13 @@ else:
         dc.check(get_array(k0, "FieldError", True).max() <= CTH_MASS_TOLERANCE * (1 + 1e-6), f"CTH: FieldError <= {CTH_MASS_TOLERANCE}")
         dc.check(get_array(k0, "InterfaceError", True).max() <= 0.1 * (1 + 1e-6), "CTH: InterfaceError <= 0.1")
         check_crack_free(k1, resampled_bounds := servermanager.Fetch(resampled).GetBounds(), "CTH interfaces")
+    # FieldArrays empty: the MaterialFieldArrays alone define "Mass", with the same tetrahedra.
+    cth_implicit = M(Input=resampled, VolumeFractionArrays=cth_fractions, FieldArrays=[], MaterialFieldArrays=["Mass for Armor Plate", "Mass for Body, Nose"], InterfaceTolerance=0.1, FieldTolerance=CTH_MASS_TOLERANCE)
+    with dc.ErrorCapture(cth_implicit) as errors:
+        j0 = fetch_all(cth_implicit)[0]
+    print(f"CTH with MaterialFieldArrays only: {j0.GetNumberOfCells()} tetrahedra {errors.text()[:300]}")
+    dc.check(not errors.messages and strings(j0, "FieldNames") == ["Mass"] and j0.GetPointData().GetArray("Mass (Armor Plate)") is not None, f"CTH, FieldArrays empty: field Mass from MaterialFieldArrays ({strings(j0, 'FieldNames')})")
+    dc.check(j0.GetNumberOfCells() > 0 and same_tets(j0, k0), f"CTH, FieldArrays empty: the same tetrahedra as FieldArrays ['Mass'] ({j0.GetNumberOfCells()} vs {k0.GetNumberOfCells()})")
 
 shutil.rmtree(tmp, ignore_errors=True)
 dc.finish("test_material")

@@ -84,6 +84,16 @@ mod ffi {
         carrier_tetrahedra: bool,
     }
 
+    /// The fields of the per-material field arrays (see `diamonds::material::material_fields`).
+    #[derive(Debug)]
+    struct MaterialFields {
+        /// The given fields, then those defined only by per-material arrays, in order of first
+        /// appearance.
+        fields: Vec<String>,
+        /// The (field into `fields`, material) of each array, flattened.
+        pairs: Vec<usize>,
+    }
+
     /// One material refinement query (see `diamonds::material::MaterialQuery`).
     struct MaterialQuerySpec {
         /// Largest distance (world units) from an interface-mesh vertex to its approximating plane.
@@ -218,14 +228,15 @@ mod ffi {
             material: usize,
             values: &[f32],
         ) -> Result<()>;
-        /// The (field, material) of each per-material field array, flattened: an array is named
-        /// "<field> for <material>" or "<field> (<material>)"; an error names the one that matches
-        /// nothing and lists the accepted names.
-        fn match_material_fields(
+        /// The fields and the (field, material) of each per-material field array: an array is named
+        /// "<field> for <material>" or "<field> (<material>)"; a <field> that is none of `fields`
+        /// is added after them (a field given only per material); an error names the array that
+        /// matches nothing and lists the accepted names.
+        fn material_fields(
             fields: &[String],
             materials: &[String],
             arrays: &[String],
-        ) -> Result<Vec<usize>>;
+        ) -> Result<MaterialFields>;
         /// The material names of the volume-fraction arrays ("Volume Fraction for Armor Plate" →
         /// "Armor Plate", "Void Volume Fraction" → "Void"; the array names when two would clash).
         fn material_names(arrays: &[String]) -> Result<Vec<String>>;
@@ -306,12 +317,14 @@ mod ffi {
     }
 }
 
-pub use ffi::{GridSpec, IsoSpec, MaterialQuerySpec, PlaneSpec, QuerySpec, ScalarType};
+pub use ffi::{
+    GridSpec, IsoSpec, MaterialFields, MaterialQuerySpec, PlaneSpec, QuerySpec, ScalarType,
+};
 
 pub mod material;
 pub use material::{
-    grid_from_coordinates, match_material_fields, material_names, new_material_builder,
-    MaterialBuilder, MaterialMesh, MaterialModel, PolygonMesh,
+    grid_from_coordinates, material_fields, material_names, new_material_builder, MaterialBuilder,
+    MaterialMesh, MaterialModel, PolygonMesh,
 };
 
 /// Opaque handle on a [`diamonds::Hierarchy`] for C++, with an identity that tells the

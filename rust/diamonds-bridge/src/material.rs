@@ -8,7 +8,8 @@
 //!   copies them, since the kept model outlives the VTK arrays), optional interface triangle meshes as
 //!   flat arrays, the query ([`MaterialQuerySpec`]) and the slice plane ([`PlaneSpec`]);
 //! - names: the per-material field arrays' names are matched to (field, material) here
-//!   ([`match_material_fields`], the core's rule), so that C++ only passes arrays along;
+//!   ([`material_fields`], the core's rule, which also adds the fields given only by such arrays), so
+//!   that C++ only passes arrays along;
 //! - out: an opaque [`MaterialModel`] that the filter keeps between executions, an opaque
 //!   [`MaterialMesh`] and [`PolygonMesh`]es whose arrays C++ reads as slices.
 //!
@@ -222,20 +223,26 @@ pub fn material_names(arrays: &[String]) -> Result<Vec<String>, String> {
     })
 }
 
-/// The (field, material) of each per-material field array, flattened (`f0, m0, f1, m1, …`): `arrays[i]`
-/// is named `"<fields[f]> for <materials[m]>"` or `"<fields[f]> (<materials[m]>)"`; an error names
-/// the array that matches nothing and lists the accepted names (see
-/// [`diamonds::material::match_material_fields`]).
-pub fn match_material_fields(
+/// The fields of the per-material field arrays and the (field, material) of each, flattened (`f0, m0,
+/// f1, m1, …`): `arrays[i]` is named `"<field> for <materials[m]>"` or `"<field> (<materials[m]>)"`,
+/// `<field>` one of `fields` or else a field defined by the arrays, listed after `fields` in order of
+/// first appearance; an error names the array that matches nothing and lists the accepted names (see
+/// [`diamonds::material::material_fields`]).
+pub fn material_fields(
     fields: &[String],
     materials: &[String],
     arrays: &[String],
-) -> Result<Vec<usize>, String> {
+) -> Result<ffi::MaterialFields, String> {
     guard("matching the per-material field arrays", || {
-        Ok(material::match_material_fields(fields, materials, arrays)?
-            .into_iter()
-            .flat_map(|(f, m)| [f, m])
-            .collect())
+        let matched = material::material_fields(fields, materials, arrays)?;
+        Ok(ffi::MaterialFields {
+            fields: matched.fields,
+            pairs: matched
+                .pairs
+                .into_iter()
+                .flat_map(|(f, m)| [f, m])
+                .collect(),
+        })
     })
 }
 
@@ -932,10 +939,13 @@ mod tests {
         let names: Vec<String> = case.names.iter().map(|s| s.to_string()).collect();
         let arrays: Vec<String> = names.iter().map(|m| format!("Density for {m}")).collect();
         let fields = vec!["Density".to_string()];
-        let pairs = match_material_fields(&fields, &names, &arrays).unwrap();
+        let pairs = material_fields(&fields, &names, &arrays).unwrap().pairs;
         assert_eq!(pairs, [0, 0, 0, 1, 0, 2]);
-        let e =
-            match_material_fields(&fields, &names, &["Density for Steel".to_string()]).unwrap_err();
+        // Without the field: the arrays define it.
+        let implicit = material_fields(&[], &names, &arrays).unwrap();
+        assert_eq!(implicit.fields, fields);
+        assert_eq!(implicit.pairs, pairs);
+        let e = material_fields(&fields, &names, &["Density for Steel".to_string()]).unwrap_err();
         assert!(e.contains("Density for Steel") && e.contains("\"Density (Projectile)\""));
         let query = MaterialQuerySpec {
             interface_tolerance: 0.3,

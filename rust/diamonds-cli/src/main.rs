@@ -170,14 +170,16 @@ enum Command {
         /// Per-material values of the fields, comma-separated like --fractions: arrays named
         /// "<field> for <material>" or "<field> (<material>)" (a material's name from its fraction
         /// array: "Volume Fraction for Armor Plate" gives "Armor Plate"). With ghost values, a
-        /// material's own value at its samples is then this value instead of the mixed one.
+        /// material's own value at its samples is then this value instead of the mixed one. A
+        /// <field> not in --fields is a field given only per material ("Mass for Armor Plate,Mass
+        /// for Body, Nose" alone gives a field "Mass").
         #[arg(long, value_name = "A,...")]
         material_fields: Vec<String>,
         /// Interface tolerance in world units [default: about one cell diagonal: the diagonal of the
         /// bounds over the cube root of the number of cells, as the ParaView filter].
         #[arg(long, value_name = "T", allow_negative_numbers = true)]
         interface_tolerance: Option<f64>,
-        /// Field tolerance in data units (required with --fields).
+        /// Field tolerance in data units (required with --fields or --material-fields).
         #[arg(long, value_name = "T", allow_negative_numbers = true)]
         field_tolerance: Option<f64>,
         /// Plain linear interpolation of the mixed fields instead of one field per material.

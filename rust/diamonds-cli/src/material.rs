@@ -5,8 +5,9 @@
 //! Input: a `.vti`, or a `.vtr` whose coordinates are uniformly spaced along each axis (a non-uniform
 //! one is refused with the core's message, or resampled with `--resample`), with one volume-fraction
 //! array per material and optionally fields (mixed, and per material: "<field> for <material>" or
-//! "<field> (<material>)", matched by the core's [`diamonds::material::match_material_fields`], as
-//! the filter's MaterialFieldArrays), as point or cell data. Cell data are converted to point
+//! "<field> (<material>)", matched by the core's [`diamonds::material::material_fields`], as the
+//! filter's MaterialFieldArrays; a <field> not among `--fields` is a field given only per material),
+//! as point or cell data. Cell data are converted to point
 //! data the way `vtkCellDataToPointData` does: the value at a point is the average of the cells around
 //! it (8 inside, fewer on the boundary).
 //!
@@ -18,7 +19,8 @@ use crate::write::{write_image, write_polygons, write_tets, Polygons, TetGrid};
 use crate::{bail, Array, Result};
 use diamonds::fields::impact_case;
 use diamonds::material::{
-    match_material_fields, MaterialField, MaterialInput, MaterialModel, MaterialQuery, PolygonMesh,
+    material_fields, MaterialField, MaterialFieldMatch, MaterialInput, MaterialModel,
+    MaterialQuery, PolygonMesh,
 };
 /// The material names of the ParaView filter, from the fraction array names (shared with the core).
 pub use diamonds::material::{material_name, material_names};
@@ -104,7 +106,8 @@ pub struct MaterialOptions {
     /// `Σ fraction × per-material value`).
     pub fields: Vec<String>,
     /// Per-material values of the fields: arrays named "<field> for <material>" or
-    /// "<field> (<material>)".
+    /// "<field> (<material>)"; a <field> not among `fields` is added after them, as a field given only
+    /// per material.
     pub material_fields: Vec<String>,
     /// World units; `None`: about one cell diagonal (as the ParaView filter's panel).
     pub interface_tolerance: Option<f64>,
@@ -308,8 +311,10 @@ pub fn material(opts: &MaterialOptions) -> Result<MaterialSummary> {
             }
         }
     }
-    if !opts.fields.is_empty() && opts.field_tolerance.is_none() {
-        bail!("give --field-tolerance (data units) with --fields");
+    if (!opts.fields.is_empty() || !opts.material_fields.is_empty())
+        && opts.field_tolerance.is_none()
+    {
+        bail!("give --field-tolerance (data units) with --fields or --material-fields");
     }
     if let Some(s) = opts.slice {
         if s.iter().any(|v| !v.is_finite()) || s[3..].iter().all(|&v| v == 0.0) {
@@ -380,8 +385,10 @@ pub fn material(opts: &MaterialOptions) -> Result<MaterialSummary> {
         bail!("array '{a}' is given twice (--fractions, --fields and --material-fields must name different arrays)");
     }
     let names = material_names(&fractions);
-    let pairs = match_material_fields(&opts.fields, &names, &opts.material_fields)
-        .map_err(|e| in_file(crate::Error(format!("--material-fields: {e}"))))?;
+    // The given fields, then those defined only by per-material arrays.
+    let MaterialFieldMatch { fields, pairs } =
+        material_fields(&opts.fields, &names, &opts.material_fields)
+            .map_err(|e| in_file(crate::Error(format!("--material-fields: {e}"))))?;
     let rectilinear = match &data.geometry {
         Geometry::Rectilinear(c) if opts.resample && data.grid().is_err() => Some(c),
         _ => None,
@@ -409,14 +416,14 @@ pub fn material(opts: &MaterialOptions) -> Result<MaterialSummary> {
             .chain(&data.cell_data)
             .any(|a| &a.name == n)
     };
-    // A field that is no input array but has per-material arrays: `None`, the core computes it as
-    // Σ fraction × own value.
-    let field_values: Vec<Option<Vec<f32>>> = opts
-        .fields
+    // A field defined by the per-material arrays, or given but no input array and with per-material
+    // arrays: `None`, the core computes it as Σ fraction × own value.
+    let field_values: Vec<Option<Vec<f32>>> = fields
         .iter()
         .enumerate()
         .map(|(f, n)| {
-            if !in_input(n) && pairs.iter().any(|&(g, _)| g == f) {
+            let per_material = pairs.iter().any(|&(g, _)| g == f);
+            if f >= opts.fields.len() || (!in_input(n) && per_material) {
                 Ok(None)
             } else {
                 load(n, "--fields").map(Some)
@@ -440,7 +447,7 @@ pub fn material(opts: &MaterialOptions) -> Result<MaterialSummary> {
     let diagonal = ((b[1] - b[0]).powi(2) + (b[3] - b[2]).powi(2) + (b[5] - b[4]).powi(2)).sqrt();
     let cells: f64 = grid.dims.iter().map(|&d| (d - 1) as f64).product();
     let interface_tolerance = opts.interface_tolerance.unwrap_or(diagonal / cells.cbrt());
-    let field_tolerance = if opts.fields.is_empty() {
+    let field_tolerance = if fields.is_empty() {
         0.0
     } else {
         opts.field_tolerance.unwrap_or(0.0)
@@ -489,7 +496,7 @@ pub fn material(opts: &MaterialOptions) -> Result<MaterialSummary> {
         point_data.push(Array::scalars(format!("SignedDistance {name}"), d.clone()));
     }
     let per_material = opts.ghost_values && !mesh.material_field.is_empty();
-    for (f, field) in opts.fields.iter().enumerate() {
+    for (f, field) in fields.iter().enumerate() {
         point_data.push(Array::scalars(field, mesh.mixed[f].clone()));
         if per_material {
             for (m, name) in names.iter().enumerate() {
@@ -591,7 +598,7 @@ pub fn material(opts: &MaterialOptions) -> Result<MaterialSummary> {
     let slice_values = cut
         .values
         .iter()
-        .zip(&opts.fields)
+        .zip(&fields)
         .map(|(v, name)| Array::scalars(name, v.clone()))
         .collect();
     write_polygon_mesh(
@@ -615,7 +622,7 @@ pub fn material(opts: &MaterialOptions) -> Result<MaterialSummary> {
     Ok(MaterialSummary {
         dims: grid.dims,
         materials: names,
-        fields: opts.fields.clone(),
+        fields,
         interfaces: model.interfaces().len(),
         tets: mesh.tets.len(),
         interface_tets: mesh.interface_tetrahedra,

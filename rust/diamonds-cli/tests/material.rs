@@ -389,6 +389,45 @@ fn rectilinear_grids_with_cell_data() {
     assert!(said.contains("tetrahedra"), "{said}");
 }
 
+/// `--material-fields` alone defines the fields it names: "Density for Void,..." gives a field
+/// "Density" given only per material (mixed = Σ fraction × value), the "Density" input array unused.
+#[test]
+fn material_fields_alone_define_their_field() {
+    let dir = TempDir::new("material-implicit");
+    let input = generate_impact(&dir);
+    let base = dir.join("implicit");
+    let densities = "Density for Void,Density for Block,Density for Projectile";
+    let said = run_material(
+        &input,
+        &base,
+        &[
+            "--fractions",
+            FRACTIONS,
+            "--material-fields",
+            densities,
+            "--field-tolerance",
+            "3",
+        ],
+    );
+    assert!(said.contains("fields [Density]"), "{said}");
+    let mesh = read_unstructured(&outputs(&base)[0]).unwrap();
+    let point_names = names(&mesh.point_data);
+    for name in ["Density", "Density (Void)", "Density (Projectile)"] {
+        assert!(point_names.contains(&name), "{name} in {point_names:?}");
+    }
+    assert!(field_value(&mesh.field_data, "MaximumFieldError") <= 3.0);
+    let e = diamonds([
+        "material",
+        s(&input),
+        "-o",
+        s(&dir.join("e")),
+        "--material-fields",
+        densities,
+    ])
+    .user_error();
+    assert!(e.contains("--field-tolerance"), "{e}");
+}
+
 #[test]
 fn bad_inputs_are_clear_errors() {
     let dir = TempDir::new("material-bad");

@@ -42,7 +42,10 @@ mod soup;
 mod tests;
 
 pub use model::{MaterialModel, MAX_MATERIALS};
-pub use naming::{match_material_fields, material_name, material_names, mixed_from_materials};
+pub use naming::{
+    match_material_fields, material_fields, material_name, material_names, mixed_from_materials,
+    MaterialFieldMatch,
+};
 
 use crate::Grid;
 

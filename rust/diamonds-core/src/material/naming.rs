@@ -4,6 +4,8 @@
 //! - per-material field arrays matched to (field, material) by name ([`match_material_fields`]):
 //!   `"<field> for <material>"` (CTH writes "Mass for Armor Plate") or `"<field> (<material>)"` (what
 //!   the filter writes for its per-material outputs, e.g. "Density (Void)");
+//! - the fields those arrays define ([`material_fields`]): a per-material array whose field is not
+//!   among the given ones defines that field ("Mass for Armor Plate" alone gives a field "Mass");
 //! - the mixed field of a field given only per material ([`mixed_from_materials`]).
 
 /// A material's name from its volume-fraction array's name: "Volume Fraction for Armor Plate" →
@@ -121,6 +123,55 @@ pub fn match_material_fields<F: AsRef<str>, M: AsRef<str>, A: AsRef<str>>(
     Ok(out)
 }
 
+/// The result of [`material_fields`].
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct MaterialFieldMatch {
+    /// The given fields, then those defined only by per-material arrays, in order of first appearance.
+    pub fields: Vec<String>,
+    /// The (field into `fields`, material) of each per-material array.
+    pub pairs: Vec<(usize, usize)>,
+}
+
+/// The fields of the per-material arrays and the (field, material) of each array: the given `fields`
+/// first, then, in order of first appearance, the fields defined only by the arrays. An array that
+/// matches no given field but is named `"<field> for <material>"` or `"<field> (<material>)"` with a
+/// non-empty `<field>` and `<material>` one of `materials` defines `<field>` (a field given only per
+/// material: CTH's "Mass for Armor Plate" and "Mass for Body, Nose" give a field "Mass" without a
+/// "Mass" array). The arrays are then matched to the full list by [`match_material_fields`], with its
+/// errors (an array whose material is none of `materials`, an ambiguous array, two arrays for one
+/// pair).
+pub fn material_fields<F: AsRef<str>, M: AsRef<str>, A: AsRef<str>>(
+    fields: &[F],
+    materials: &[M],
+    arrays: &[A],
+) -> Result<MaterialFieldMatch, String> {
+    let mut all: Vec<String> = fields.iter().map(|f| f.as_ref().to_string()).collect();
+    for array in arrays.iter().map(AsRef::as_ref) {
+        let given = fields.iter().any(|f| {
+            materials.iter().any(|m| {
+                let (f, m) = (f.as_ref(), m.as_ref());
+                array == format!("{f} for {m}") || array == format!("{f} ({m})")
+            })
+        });
+        if given {
+            continue;
+        }
+        for m in materials.iter().map(AsRef::as_ref) {
+            let prefixes = [
+                array.strip_suffix(&format!(" for {m}")),
+                array.strip_suffix(&format!(" ({m})")),
+            ];
+            for field in prefixes.into_iter().flatten() {
+                if !field.is_empty() && !all.iter().any(|f| f == field) {
+                    all.push(field.to_string());
+                }
+            }
+        }
+    }
+    let pairs = match_material_fields(&all, materials, arrays)?;
+    Ok(MaterialFieldMatch { fields: all, pairs })
+}
+
 /// The mixed field of a field given only per material: `Σ fraction × per-material value` at every
 /// point, over the materials given in `per_material` as (material index into `fractions`, values); the
 /// materials without an array count 0. The value of a material is read only where its fraction is not
@@ -198,6 +249,61 @@ mod tests {
         assert!(match_material_fields(&none, &materials, &none)
             .unwrap()
             .is_empty());
+    }
+
+    #[test]
+    fn per_material_arrays_define_missing_fields() {
+        let materials = ["Void", "Armor Plate", "Body, Nose"];
+        // CTH: no "Mass" array, no field given: the arrays define "Mass".
+        let MaterialFieldMatch { fields, pairs } = material_fields(
+            &[] as &[&str],
+            &materials,
+            &["Mass for Armor Plate", "Mass for Body, Nose"],
+        )
+        .unwrap();
+        assert_eq!(fields, ["Mass"]);
+        assert_eq!(pairs, [(0, 1), (0, 2)]);
+        // Given fields first (not duplicated), then the inferred ones in order of first appearance.
+        let arrays = [
+            "Pressure (Void)",
+            "Density for Armor Plate",
+            "Mass for Body, Nose",
+            "Pressure for Body, Nose",
+            "Mass (Void)",
+        ];
+        let MaterialFieldMatch { fields, pairs } =
+            material_fields(&["Density"], &materials, &arrays).unwrap();
+        assert_eq!(fields, ["Density", "Pressure", "Mass"]);
+        assert_eq!(pairs, [(1, 0), (0, 1), (2, 2), (1, 2), (2, 0)]);
+        let MaterialFieldMatch { fields, pairs } =
+            material_fields(&["Mass", "Density"], &materials, &arrays).unwrap();
+        assert_eq!(fields, ["Mass", "Density", "Pressure"]);
+        assert_eq!(pairs, [(2, 0), (1, 1), (0, 2), (2, 2), (0, 0)]);
+        // Nothing to infer: the given fields alone.
+        let MaterialFieldMatch { fields, pairs } =
+            material_fields(&["Mass"], &materials, &[] as &[&str]).unwrap();
+        assert_eq!(fields, ["Mass"]);
+        assert!(pairs.is_empty());
+        // A material that is none of the materials defines nothing: still an error.
+        let e = material_fields(&["Mass"], &materials, &["Mass for Steel"]).unwrap_err();
+        assert!(
+            e.contains("matches no field") && e.contains("\"Mass for Steel\""),
+            "{e}"
+        );
+        let e = material_fields(&[] as &[&str], &materials, &["Density for Steel"]).unwrap_err();
+        assert!(e.contains("matches no field"), "{e}");
+        let e = material_fields(&[] as &[&str], &materials, &[" for Void"]).unwrap_err();
+        assert!(e.contains("matches no field"), "{e}");
+        // Ambiguity and duplicates: the rules of `match_material_fields`.
+        let e = material_fields(&[] as &[&str], &["C", "B for C"], &["A for B for C"]).unwrap_err();
+        assert!(e.contains("ambiguous"), "{e}");
+        let e = material_fields(
+            &[] as &[&str],
+            &materials,
+            &["Mass for Void", "Mass (Void)"],
+        )
+        .unwrap_err();
+        assert!(e.contains("both give"), "{e}");
     }
 
     #[test]
