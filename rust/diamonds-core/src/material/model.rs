@@ -67,13 +67,13 @@ pub(super) struct TetEval {
 }
 
 /// A tetrahedron in world space with its barycentric map.
-struct WorldTet {
+pub(super) struct WorldTet {
     x: [DVec3; 4],
     inv: DMat3,
 }
 
 impl WorldTet {
-    fn new(x: [DVec3; 4]) -> Self {
+    pub(super) fn new(x: [DVec3; 4]) -> Self {
         let m = DMat3::from_cols(x[1] - x[0], x[2] - x[0], x[3] - x[0]);
         Self {
             x,
@@ -88,7 +88,7 @@ impl WorldTet {
     }
 
     /// Gradient of the linear function with vertex values `v`.
-    fn gradient(&self, v: [f64; 4]) -> DVec3 {
+    pub(super) fn gradient(&self, v: [f64; 4]) -> DVec3 {
         // λ_k (k = 1..3) = row k of inv · (p − x0); λ_0 = 1 − Σ.
         let rows = self.inv.transpose();
         (v[1] - v[0]) * rows.x_axis + (v[2] - v[0]) * rows.y_axis + (v[3] - v[0]) * rows.z_axis
@@ -223,7 +223,7 @@ impl MaterialModel {
         let mut items = Vec::new();
         for (i, mesh) in self.interfaces.iter().enumerate() {
             for (p, x) in mesh.points.iter().enumerate() {
-                let c = self.cell_of(DVec3::from_array(*x));
+                let c = self.cell_index(self.cell_corner(DVec3::from_array(*x)));
                 count[c + 1] += 1;
                 items.push((c, i as u32, p as u32));
             }
@@ -258,8 +258,8 @@ impl MaterialModel {
         std::array::from_fn(|a| (u[a].floor().max(0.0) as usize).min(self.grid.dims[a] - 2))
     }
 
-    fn cell_of(&self, x: DVec3) -> usize {
-        let [i, j, k] = self.cell_corner(x);
+    /// Linear index of the data cell whose lower corner is sample `[i, j, k]`.
+    fn cell_index(&self, [i, j, k]: [usize; 3]) -> usize {
         let d = self.grid.dims;
         i + (d[0] - 1) * (j + (d[1] - 1) * k)
     }
@@ -325,8 +325,15 @@ impl MaterialModel {
         }
     }
 
-    fn mixed_value(&self, x: DVec3, f: usize) -> f64 {
-        self.trilinear(&self.fields[f], x)
+    /// Per field, the trilinear interpolation of `field(f)` at the four vertices of `t`.
+    fn vertex_values<'a>(
+        &'a self,
+        t: &WorldTet,
+        field: impl Fn(usize) -> &'a [f32],
+    ) -> Vec<[f64; 4]> {
+        (0..self.fields.len())
+            .map(|f| std::array::from_fn(|v| self.trilinear(field(f), t.x[v])))
+            .collect()
     }
 
     /// Trilinear interpolation of `values` (one per sample) at `x`.
@@ -432,7 +439,9 @@ impl MaterialModel {
                 .unwrap_or(0) as u8
         });
         let nf = self.fields.len();
-        let mixed: Vec<f32> = (0..nf).map(|f| self.mixed_value(x, f) as f32).collect();
+        let mixed: Vec<f32> = (0..nf)
+            .map(|f| self.trilinear(&self.fields[f], x) as f32)
+            .collect();
         let mut values = vec![0f32; nf * k];
         for f in 0..nf {
             for m in 0..k {
@@ -509,10 +518,7 @@ impl MaterialModel {
             e
         };
         if !ghost_values {
-            let x = wt.x;
-            let vals: Vec<[f64; 4]> = (0..nf)
-                .map(|f| std::array::from_fn(|v| self.mixed_value(x[v], f)))
-                .collect();
+            let vals = self.vertex_values(&wt, |f| &self.fields[f]);
             return TetEval {
                 interface: 0.0,
                 field: field_error(&|f, _| vals[f]),
@@ -525,7 +531,7 @@ impl MaterialModel {
         for k in c0[2]..=c1[2] {
             for j in c0[1]..=c1[1] {
                 for i in c0[0]..=c1[0] {
-                    let c = i + (d[0] - 1) * (j + (d[1] - 1) * k);
+                    let c = self.cell_index([i, j, k]);
                     let items = &self.bucket_items
                         [self.bucket_start[c] as usize..self.bucket_start[c + 1] as usize];
                     for &(m, p) in items {
@@ -545,12 +551,7 @@ impl MaterialModel {
                 if uniform.iter().all(|&u| u == Some(l)) && mask & !(1 << l) == 0 {
                     // Every corner sample of the vertices' cells is of l: l's own values are the
                     // trilinear interpolation of its samples (what `vertex_info` gives too).
-                    let x = wt.x;
-                    let vals: Vec<[f64; 4]> = (0..nf)
-                        .map(|f| {
-                            std::array::from_fn(|v| self.trilinear(self.own_field(f, l), x[v]))
-                        })
-                        .collect();
+                    let vals = self.vertex_values(&wt, |f| self.own_field(f, l));
                     return TetEval {
                         interface: 0.0,
                         field: field_error(&|f, _| vals[f]),

@@ -9,6 +9,7 @@
 //! alone and identified by (carrier, equalities), so neighbouring tetrahedra produce the same point and
 //! the polygons are crack-free, junctions of three or four materials included.
 
+use super::model::WorldTet;
 use super::{MaterialMesh, PolygonMesh};
 use crate::{Error, Result};
 use arrayvec::ArrayVec;
@@ -241,14 +242,9 @@ impl Functions<'_> {
         }
     }
 
-    /// Gradient direction of the linear function with values `g` on tetrahedron `t` (least-squares
-    /// free: exact for a non-degenerate tetrahedron).
+    /// Gradient of the linear function with values `g` on tetrahedron `t`.
     fn gradient(&self, t: &[u32; 4], g: &dyn Fn(u32) -> f64) -> DVec3 {
-        let x: [DVec3; 4] = t.map(|p| DVec3::from_array(self.mesh.points[p as usize]));
-        let m = glam::DMat3::from_cols(x[1] - x[0], x[2] - x[0], x[3] - x[0]);
-        let d = DVec3::new(g(t[1]) - g(t[0]), g(t[2]) - g(t[0]), g(t[3]) - g(t[0]));
-        // g(x) = g0 + ∇g · (x − x0) ⇒ Mᵀ ∇g = d.
-        m.transpose().inverse() * d
+        WorldTet::new(t.map(|p| DVec3::from_array(self.mesh.points[p as usize]))).gradient(t.map(g))
     }
 }
 
