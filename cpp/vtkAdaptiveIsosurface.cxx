@@ -49,7 +49,7 @@ class vtkAdaptiveIsosurface::vtkInternals
 {
 public:
   // The extraction reads the samples again: keep them with the hierarchy.
-  vtkDiamonds::HierarchyCache Cache{ true };
+  vtkDiamonds::HierarchyCache Cache{ vtkDiamonds::HierarchyCache::Use::Isosurfaces };
 };
 
 //------------------------------------------------------------------------------
@@ -384,7 +384,8 @@ int vtkAdaptiveIsosurface::RequestData(
     }
     vtkIdType numTets = 0;
     double maxError = 0.0;
-    if (!vtkDiamonds::MeshToUnstructuredGrid(this, **mesh, input, carrier, numTets, maxError))
+    if (!vtkDiamonds::MeshToUnstructuredGrid(
+          this, **mesh, input, "IsosurfaceError", carrier, numTets, maxError))
     {
       output->Initialize();
       carrier->Initialize();

@@ -60,16 +60,18 @@
  * - MaximumNumberOfTriangles: 0 = no limit.
  * - UseRegionOfInterest / RegionOfInterest: Tolerance applies only to diamonds touching the box
  *   (world bounds); elsewhere the surface is as coarse as conformity allows.
- * - ComputeNormals (default on): point normals "Normals" (float, unit length) from the gradient
- *   of the samples at the lattice points (central differences, one-sided at the image boundary),
- *   interpolated along the edge; they point toward increasing values, like the triangle
+ * - ComputeNormals (default on): point normals "Normals" (float, unit length): the gradient of
+ *   the samples at the point (central differences at the lattice points, one-sided at the image
+ *   boundary, interpolated trilinearly over the grid cell holding the point; the gradient of the
+ *   carrying tetrahedron where that vanishes); they point toward increasing values, like the triangle
  *   orientation (vtkFlyingEdges3D and vtkContourFilter orient both toward decreasing values).
  * - ComputeScalars (default off): a point array named like the processed array, of its type, whose
  *   value at every point is the point's isovalue.
  * - GenerateCarrierTetrahedra (default off): fills output port 1 with the tetrahedra of the adaptive
  *   mesh that carry the surface, as a vtkUnstructuredGrid like vtkAdaptiveTetrahedra's output
- *   (VTK_TETRA, input point data passed through, cell data "Level" and "ApproximationError",
- *   field data "NumberOfTetrahedra" and "MaximumError"). Port 1 is an empty vtkUnstructuredGrid
+ *   (VTK_TETRA, input point data passed through, cell data "Level" and "IsosurfaceError" — the
+ *   isosurface error of the tetrahedron's diamond in world units —, field data "NumberOfTetrahedra"
+ *   and "MaximumError", the largest IsosurfaceError). Port 1 is an empty vtkUnstructuredGrid
  *   otherwise.
  *
  * Output port 0 (vtkPolyData): points in double precision; triangles only; point data "Normals"
@@ -80,10 +82,14 @@
  * input's field data. Unlike vtkFlyingEdges3D, the other input point arrays are not interpolated
  * onto the surface.
  *
- * Memory. The hierarchy costs 4 bytes per input point, plus 2 per point for the per-diamond
- * isosurface errors that the first extraction caches (they do not depend on the isovalue, so an
- * isovalue change reuses them), plus about one bit per point for the kept adaptive mesh (none
- * after a budget query). To re-read samples near the surface, the filter holds a reference
+ * Memory and time. The filter builds the isosurface-only hierarchy: no per-diamond records (the
+ * build takes milliseconds; HierarchyMemorySize is 0). Each extraction measures the isosurface
+ * errors at the samples that decide its surface (the corners of the grid cells its isovalues cross)
+ * and keeps them, 2 bytes and 1 bit per input point, while only Tolerance (not below the one they
+ * were measured for), the region, the budget or the outputs change; new isovalues measure them
+ * again. The smallest gradient of each diamond's tetrahedra is cached too (2 bytes per point, for
+ * every isovalue), plus about one bit per point for the kept adaptive mesh (none after a budget
+ * query). To re-read samples near the surface, the filter holds a reference
  * to the processed input array while the hierarchy is cached (no copy, except for 64-bit integer
  * or non-contiguous arrays, which are converted once); ReleaseHierarchy() drops both.
  *

@@ -37,7 +37,7 @@ class vtkAdaptiveTetrahedra::vtkInternals
 {
 public:
   // The mesh query does not read the samples again: no need to keep them.
-  vtkDiamonds::HierarchyCache Cache{ false };
+  vtkDiamonds::HierarchyCache Cache{ vtkDiamonds::HierarchyCache::Use::Tetrahedra };
 };
 
 //------------------------------------------------------------------------------
@@ -198,7 +198,8 @@ int vtkAdaptiveTetrahedra::RequestData(
   // ---- Output.
   vtkIdType numTets = 0;
   double maxError = 0.0;
-  if (!vtkDiamonds::MeshToUnstructuredGrid(this, **mesh, input, output, numTets, maxError))
+  if (!vtkDiamonds::MeshToUnstructuredGrid(
+        this, **mesh, input, "ApproximationError", output, numTets, maxError))
   {
     output->Initialize();
     return 0;

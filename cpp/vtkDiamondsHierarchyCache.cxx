@@ -317,7 +317,8 @@ vtkSmartPointer<vtkCellArray> FixedSizeCells(
 }
 
 bool MeshToUnstructuredGrid(vtkAlgorithm* filter, bridge::Mesh& mesh, vtkImageData* input,
-  vtkUnstructuredGrid* output, vtkIdType& numberOfTetrahedra, double& maximumError)
+  const char* errorName, vtkUnstructuredGrid* output, vtkIdType& numberOfTetrahedra,
+  double& maximumError)
 {
   rust::Slice<const std::size_t> pointIds;
   rust::Slice<const std::uint32_t> tets;
@@ -391,13 +392,13 @@ bool MeshToUnstructuredGrid(vtkAlgorithm* filter, bridge::Mesh& mesh, vtkImageDa
   output->GetCellData()->AddArray(
     NamedArray<vtkUnsignedCharArray>("Level", numTets, levels.data()));
   output->GetCellData()->AddArray(
-    NamedArray<vtkFloatArray>("ApproximationError", numTets, errors.data()));
+    NamedArray<vtkFloatArray>(errorName, numTets, errors.data()));
   return true;
 }
 
 //------------------------------------------------------------------------------
-HierarchyCache::HierarchyCache(bool keepSamples)
-  : KeepSamples(keepSamples)
+HierarchyCache::HierarchyCache(Use use)
+  : Purpose(use)
 {
 }
 
@@ -525,8 +526,10 @@ HierarchyCache::Status HierarchyCache::Update(vtkAlgorithm* filter, const Filter
   filter->UpdateProgress(from);
   try
   {
-    rust::Box<bridge::Hierarchy> hierarchy = bridge::build_hierarchy(
-      grid, *type, rust::Slice<const std::uint8_t>(bytes, byteCount), progress);
+    const rust::Slice<const std::uint8_t> slice(bytes, byteCount);
+    rust::Box<bridge::Hierarchy> hierarchy = this->Purpose == Use::Isosurfaces
+      ? bridge::build_isosurface_hierarchy(grid, *type, slice)
+      : bridge::build_hierarchy(grid, *type, slice, progress);
     this->IsoState.emplace(bridge::new_iso_state());
     this->Hierarchy.emplace(std::move(hierarchy));
   }
@@ -543,7 +546,7 @@ HierarchyCache::Status HierarchyCache::Update(vtkAlgorithm* filter, const Filter
   }
   this->Built = key;
   this->SampleType = *type;
-  if (this->KeepSamples)
+  if (this->Purpose == Use::Isosurfaces)
   {
     this->Samples = samples;
   }

@@ -92,11 +92,13 @@ bool CheckRegionOfInterest(vtkAlgorithm* filter, const double roi[6],
 void RequestNoGhostLevels(vtkInformationVector** inputVector);
 
 // Fills `output` with the tetrahedra of `mesh` over `input`: points at the sample positions, every
-// input point array passed through, cell data "Level" and "ApproximationError". The mesh's
+// input point array passed through, cell data "Level" and the mesh's per-tetrahedron errors named
+// `errorName` ("ApproximationError" for Adaptive Tetrahedra, "IsosurfaceError" for carriers). The mesh's
 // tetrahedra are released as soon as they are copied (lower peak memory). Reports an error on
 // `filter` and returns false if the mesh cannot be read.
 bool MeshToUnstructuredGrid(vtkAlgorithm* filter, bridge::Mesh& mesh, vtkImageData* input,
-  vtkUnstructuredGrid* output, vtkIdType& numberOfTetrahedra, double& maximumError);
+  const char* errorName, vtkUnstructuredGrid* output, vtkIdType& numberOfTetrahedra,
+  double& maximumError);
 
 // Quoted, comma-separated names of the arrays of `data`, for messages.
 std::string ArrayNames(vtkFieldData* data);
@@ -104,9 +106,17 @@ std::string ArrayNames(vtkFieldData* data);
 class HierarchyCache
 {
 public:
-  // `keepSamples`: keep a reference to the samples the hierarchy was built from (needed by
-  // queries that read them again; costs nothing when the input keeps its array anyway).
-  explicit HierarchyCache(bool keepSamples);
+  // What the hierarchy serves. Tetrahedra: the full hierarchy (per-diamond errors and ranges,
+  // 4 bytes per point). Isosurfaces: the isosurface-only hierarchy (no per-diamond records: each
+  // query measures its errors at the samples that decide its surface), with a reference to the
+  // samples it was built from, which its queries read again (costs nothing when the input keeps its
+  // array anyway).
+  enum class Use
+  {
+    Tetrahedra,
+    Isosurfaces
+  };
+  explicit HierarchyCache(Use use);
 
   enum class Status
   {
@@ -126,7 +136,7 @@ public:
   // The isosurface state of the cached hierarchy (only with a hierarchy): created empty with each
   // build and released with the hierarchy, so a state never outlives the hierarchy it belongs to.
   bridge::IsoState& GetIsoState() { return **this->IsoState; }
-  // The samples the hierarchy was built from (only with keepSamples) and their type.
+  // The samples the hierarchy was built from (only for isosurfaces) and their type.
   rust::Slice<const std::uint8_t> GetSamples() const;
   bridge::ScalarType GetSampleType() const { return this->SampleType; }
 
@@ -150,7 +160,7 @@ private:
     bool operator==(const Key& o) const;
   };
 
-  bool KeepSamples;
+  Use Purpose;
   std::optional<rust::Box<bridge::Hierarchy>> Hierarchy;
   std::optional<rust::Box<bridge::IsoState>> IsoState;
   Key Built;

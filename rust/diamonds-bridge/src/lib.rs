@@ -139,6 +139,13 @@ mod ffi {
             samples: &[u8],
             progress: Pin<&mut ProgressObserver>,
         ) -> Result<Box<Hierarchy>>;
+        /// Builds the isosurface-only hierarchy of `samples` (no per-diamond records, no base mesh:
+        /// milliseconds; `query` refuses it, `metadata_bytes` is 0).
+        fn build_isosurface_hierarchy(
+            grid: &GridSpec,
+            scalar_type: ScalarType,
+            samples: &[u8],
+        ) -> Result<Box<Hierarchy>>;
         /// Extracts the mesh for `query`; cheap compared with the build.
         fn query(self: &Hierarchy, query: &QuerySpec) -> Result<Box<Mesh>>;
         /// Bytes of per-diamond metadata held by the hierarchy.
@@ -418,14 +425,40 @@ pub fn build_with(
     samples: &[u8],
     progress: &mut dyn FnMut(f64) -> bool,
 ) -> Result<Hierarchy, String> {
-    let grid = Grid {
+    let scalars = typed_slice(scalar_type, samples)?;
+    wrap(diamonds::Hierarchy::build(
+        core_grid(grid),
+        scalars,
+        progress,
+    ))
+}
+
+/// Builds the isosurface-only hierarchy ([`diamonds::Hierarchy::build_for_isosurfaces`]). Not itself
+/// guarded: callers go through [`guard`].
+pub fn build_isosurfaces_with(
+    grid: &GridSpec,
+    scalar_type: ScalarType,
+    samples: &[u8],
+) -> Result<Hierarchy, String> {
+    let scalars = typed_slice(scalar_type, samples)?;
+    wrap(diamonds::Hierarchy::build_for_isosurfaces(
+        core_grid(grid),
+        scalars,
+    ))
+}
+
+fn core_grid(grid: &GridSpec) -> Grid {
+    Grid {
         dims: grid.dims,
         origin: grid.origin,
         spacing: grid.spacing,
-    };
-    let scalars = typed_slice(scalar_type, samples)?;
+    }
+}
+
+/// Gives a built hierarchy its id (see [`Hierarchy`]).
+fn wrap(built: diamonds::Result<diamonds::Hierarchy>) -> Result<Hierarchy, String> {
     static NEXT_ID: AtomicU64 = AtomicU64::new(0);
-    diamonds::Hierarchy::build(grid, scalars, progress)
+    built
         .map(|hierarchy| Hierarchy {
             hierarchy,
             id: NEXT_ID.fetch_add(1, Ordering::Relaxed),
@@ -446,6 +479,16 @@ impl IsoState {
             Ok(self.state.last().is_some_and(|stats| stats.reused))
         })
     }
+}
+
+fn build_isosurface_hierarchy(
+    grid: &GridSpec,
+    scalar_type: ScalarType,
+    samples: &[u8],
+) -> Result<Box<Hierarchy>, String> {
+    guard("building the diamond hierarchy", || {
+        build_isosurfaces_with(grid, scalar_type, samples).map(Box::new)
+    })
 }
 
 fn build_hierarchy(
@@ -911,6 +954,38 @@ mod tests {
         h.isosurface(&mut state, ScalarType::F32, bytes, &[3.0], &finer)
             .unwrap();
         assert!(state.reused().unwrap());
+    }
+
+    #[test]
+    fn isosurface_only_hierarchy_serves_isosurfaces_and_refuses_meshes() {
+        let (grid, values) = sphere_volume();
+        let bytes: &[u8] = bytemuck::cast_slice(&values);
+        let full = build_with(&grid, ScalarType::F32, bytes, &mut |_| true).unwrap();
+        let iso = build_isosurface_hierarchy(&grid, ScalarType::F32, bytes).unwrap();
+        assert_ne!(full.id, iso.id);
+        assert_eq!(iso.metadata_bytes().unwrap(), 0);
+        assert!(full.metadata_bytes().unwrap() > 0);
+        let err = iso
+            .query(&QuerySpec {
+                tolerance: 0.1,
+                max_tetrahedra: 0,
+                use_region_of_interest: false,
+                region_of_interest: [0.0; 6],
+            })
+            .map(|_| ())
+            .unwrap_err();
+        assert!(err.contains("isosurfaces only"), "{err}");
+        // Tolerance 0: both give the full-resolution surface.
+        let spec = iso_spec(0.0);
+        let a = full
+            .isosurface(&mut fresh(), ScalarType::F32, bytes, &[2.5], &spec)
+            .unwrap();
+        let b = iso
+            .isosurface(&mut fresh(), ScalarType::F32, bytes, &[2.5], &spec)
+            .unwrap();
+        assert!(same(&a, &b) && !b.triangles().unwrap().is_empty());
+        // Bad input is an error, not a panic.
+        assert!(build_isosurface_hierarchy(&grid, ScalarType::F32, &bytes[4..]).is_err());
     }
 
     #[test]

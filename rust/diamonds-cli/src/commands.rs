@@ -319,7 +319,7 @@ pub fn iso(opts: &IsoOptions) -> Result<IsoSummary> {
         );
     }
     let start = Instant::now();
-    let hierarchy = Hierarchy::build(grid, array.scalar_slice()?, &mut |_| true)?;
+    let hierarchy = Hierarchy::build_for_isosurfaces(grid, array.scalar_slice()?)?;
     let build_seconds = start.elapsed().as_secs_f64();
     let start = Instant::now();
     let surface = hierarchy.isosurface(

@@ -4,6 +4,10 @@
 //! `cargo run --release -p diamonds-core --example probe -- file.u8 nx ny nz iso ISO1,ISO2,... TOL...`
 //! `cargo run --release -p diamonds-core --example probe -- file.u8 nx ny nz isoseq ISO1,ISO2,... TOL...`
 //!
+//! `cargo run --release -p diamonds-core --example probe -- file.u8 nx ny nz isochange ISO1,ISO2,... TOL[%]...`
+//!
+//! `isochange` builds the isosurface-only hierarchy and times the first extraction at ISO1 (build
+//! included) and then each change to the next isovalue (minimum over `REPEAT` rounds).
 //! `isoseq` times each isovalue change of the sequence from the root and from the current mesh
 //! (minimum over `REPEAT` runs, default 5; the isosurface-error cache is warmed first). A tolerance
 //! ending in `%` is a percentage of the data diagonal.
@@ -22,6 +26,10 @@ fn main() {
     let data = std::fs::read(&a[1]).expect("readable file");
     let dims = [2, 3, 4].map(|i| a[i].parse().expect("dimension"));
     let parse = |s: &String| -> f64 { s.parse().expect("number") };
+    if a[5] == "isochange" {
+        iso_change(&data, dims, &a[6], &a[7..]);
+        return;
+    }
     let t = Instant::now();
     let h =
         Hierarchy::build(Grid::new(dims), ScalarSlice::U8(&data), &mut |_| true).expect("build");
@@ -148,6 +156,60 @@ fn main() {
                     );
                 }
             }
+        }
+    }
+}
+
+/// First extraction (isosurface-only hierarchy build included) and isovalue changes, in seconds.
+fn iso_change(data: &[u8], dims: [usize; 3], isovalues: &str, tolerances: &[String]) {
+    let isovalues: Vec<f64> = isovalues
+        .split(',')
+        .map(|v| v.parse().expect("isovalue"))
+        .collect();
+    let grid = Grid::new(dims);
+    let b = grid.bounds();
+    let diagonal = ((b[1] - b[0]).powi(2) + (b[3] - b[2]).powi(2) + (b[5] - b[4]).powi(2)).sqrt();
+    let repeat: usize = std::env::var("REPEAT")
+        .ok()
+        .and_then(|r| r.parse().ok())
+        .unwrap_or(3);
+    let scalars = ScalarSlice::U8(data);
+    for tol in tolerances {
+        let tol = match tol.strip_suffix('%') {
+            Some(p) => p.parse::<f64>().expect("number") / 100.0 * diagonal,
+            None => tol.parse().expect("number"),
+        };
+        let mut first = f64::INFINITY;
+        let mut changes = vec![f64::INFINITY; isovalues.len()];
+        let mut triangles = vec![0; isovalues.len()];
+        for _ in 0..repeat {
+            let mut t = Instant::now();
+            let h = Hierarchy::build_for_isosurfaces(grid, scalars).expect("build");
+            let mut state = IsoState::new();
+            for (i, &iso) in isovalues.iter().enumerate() {
+                let s = h
+                    .isosurface_from(&mut state, scalars, &IsoQuery::new(iso, tol))
+                    .expect("isosurface");
+                let seconds = t.elapsed().as_secs_f64();
+                if i == 0 {
+                    first = first.min(seconds);
+                } else {
+                    changes[i] = changes[i].min(seconds);
+                }
+                triangles[i] = s.triangles.len();
+                t = Instant::now();
+            }
+        }
+        println!(
+            "tol {:.2}% ({tol:.3}): first {first:.3}s ({} triangles)",
+            100.0 * tol / diagonal,
+            triangles[0]
+        );
+        for i in 1..isovalues.len() {
+            println!(
+                "  -> {}: {:.3}s ({} triangles)",
+                isovalues[i], changes[i], triangles[i]
+            );
         }
     }
 }

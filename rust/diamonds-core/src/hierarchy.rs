@@ -110,6 +110,31 @@ impl Hierarchy {
         available: Option<u64>,
         progress: Progress<'_>,
     ) -> Result<Self> {
+        Self::check_size(&grid, available)?;
+        with_volume!(grid, scalars, |v| Self::build_volume(&v, progress))
+    }
+
+    /// The hierarchy without per-diamond records and without base mesh, for isosurface queries only:
+    /// these measure the errors they need at the surface samples of their isovalues
+    /// ([`crate::iso_error`]) and split the diamonds straddling a far face only where the surface
+    /// passes, so nothing is precomputed over the whole volume; [`Hierarchy::query`] refuses it. Checks the
+    /// samples (finite, matching the grid) and the memory like [`Hierarchy::build`].
+    pub fn build_for_isosurfaces(grid: Grid, scalars: ScalarSlice<'_>) -> Result<Self> {
+        Self::build_for_isosurfaces_with_memory_limit(grid, scalars, available_memory())
+    }
+
+    /// [`Hierarchy::build_for_isosurfaces`] with an explicit memory limit (`None`: no check).
+    pub fn build_for_isosurfaces_with_memory_limit(
+        grid: Grid,
+        scalars: ScalarSlice<'_>,
+        available: Option<u64>,
+    ) -> Result<Self> {
+        Self::check_size(&grid, available)?;
+        with_volume!(grid, scalars, |v| Self::skeleton(&v, Vec::new(), v.range()))
+    }
+
+    /// Refuses grids too large for 32-bit point ids or for the available memory.
+    fn check_size(grid: &Grid, available: Option<u64>) -> Result<()> {
         grid.validate()?;
         if grid.len() > u32::MAX as usize {
             return Err(Error::Parameter(format!(
@@ -125,7 +150,43 @@ impl Hierarchy {
                 available,
             });
         }
-        with_volume!(grid, scalars, |v| Self::build_volume(&v, progress))
+        Ok(())
+    }
+
+    /// The hierarchy of `volume` (samples in `value_range`) with `records` (empty: none) and its base mesh.
+    fn skeleton<T: Sample>(
+        volume: &Volume<'_, T>,
+        records: Vec<Record>,
+        value_range: (f64, f64),
+    ) -> Result<Self> {
+        let lattice = Lattice::new(volume.grid.dims)?;
+        let mut hierarchy = Self {
+            grid: volume.grid,
+            lattice,
+            records,
+            value_range,
+            base: SplitSet::new(&lattice),
+            base_tets: 0,
+            base_candidates: Vec::new(),
+            iso_cache: OnceLock::new(),
+        };
+        if hierarchy.has_errors() {
+            let (base, base_tets) = Refiner::base_mesh(&hierarchy);
+            hierarchy.base_candidates = Refiner::candidates(&lattice, &base);
+            hierarchy.base = base;
+            hierarchy.base_tets = base_tets;
+        } else {
+            // Isosurface queries split the diamonds straddling a far face only where the surface
+            // passes (see `Hierarchy::iso_criterion`), so they start from the root.
+            let root = Diamond::root(&lattice);
+            hierarchy.base_candidates = vec![root];
+            hierarchy.base_tets = root
+                .tets(&lattice)
+                .iter()
+                .filter(|t| lattice.place(t) == Placement::Inside)
+                .count();
+        }
+        Ok(hierarchy)
     }
 
     fn build_volume<T: Sample>(volume: &Volume<'_, T>, progress: Progress<'_>) -> Result<Self> {
@@ -159,26 +220,19 @@ impl Hierarchy {
         if !progress(0.9) {
             return Err(Error::Aborted);
         }
-        let mut hierarchy = Self {
-            grid,
-            lattice,
-            records,
-            value_range,
-            base: SplitSet::new(&lattice),
-            base_tets: 0,
-            base_candidates: Vec::new(),
-            iso_cache: OnceLock::new(),
-        };
-        let (base, base_tets) = Refiner::base_mesh(&hierarchy);
-        hierarchy.base_candidates = Refiner::candidates(&lattice, &base);
-        hierarchy.base = base;
-        hierarchy.base_tets = base_tets;
+        let hierarchy = Self::skeleton(volume, records, value_range)?;
         progress(1.0);
         Ok(hierarchy)
     }
 
     /// Extracts the adaptive mesh for `query` (Gregorski §4 selective refinement with closure).
     pub fn query(&self, query: &Query) -> Result<TetMesh> {
+        if !self.has_errors() {
+            return Err(Error::Parameter(
+                "this hierarchy was built for isosurfaces only: it holds no per-diamond errors"
+                    .into(),
+            ));
+        }
         let split = Refiner::run(self, query, &|d| self.error(d))?;
         Ok(crate::mesh::extract(self, &split))
     }
@@ -198,7 +252,13 @@ impl Hierarchy {
         self.value_range
     }
 
-    /// Bytes of per-diamond metadata (4 per input point).
+    /// Whether the hierarchy holds the per-diamond records ([`Hierarchy::build`]) that tetrahedral
+    /// queries need.
+    pub fn has_errors(&self) -> bool {
+        !self.records.is_empty()
+    }
+
+    /// Bytes of per-diamond metadata (4 per input point; 0 when built for isosurfaces only).
     pub fn metadata_bytes(&self) -> usize {
         self.records.len() * std::mem::size_of::<Record>()
     }

@@ -13,6 +13,7 @@
 //! [`IsoStart::Auto`] starts there; [`IsoStart::Current`] remains for callers and probes.
 
 use crate::isosurface::refine_query;
+use crate::lattice::Tet;
 use crate::refine::{Refiner, SplitSet};
 use crate::volume::{Sample, Volume};
 use crate::{with_volume, Hierarchy, IsoQuery, IsoSurface, Result, ScalarSlice};
@@ -37,7 +38,7 @@ pub struct IsoStats {
     pub reused: bool,
     /// Refined from the current mesh rather than from the root.
     pub from_current: bool,
-    /// Seconds spent refining (split set only).
+    /// Seconds spent refining (the split set and its leaves carrying the surface).
     pub refine_seconds: f64,
     /// Seconds spent extracting the surface from the split set.
     pub extract_seconds: f64,
@@ -61,6 +62,8 @@ pub struct IsoState {
 struct Current {
     query: IsoQuery,
     split: SplitSet,
+    /// Its leaves that carry the surface.
+    carriers: Vec<Tet>,
 }
 
 impl IsoState {
@@ -108,7 +111,8 @@ impl Hierarchy {
     /// and [`IsoStart::Root`] start from the root. Budget queries (`max_triangles > 0`) and tolerance or
     /// region changes start from the root; a budget query keeps no mesh.
     ///
-    /// Measured (`examples/probe.rs isoseq`, 2 cores, minimum of 5 runs, isosurface-error cache warm;
+    /// Measured when the isosurface errors were precomputed for every diamond (the full
+    /// [`Hierarchy::build`]; `examples/probe.rs isoseq`, 2 cores, minimum of 5 runs, cache warm;
     /// isovalue changes 40.5 → ±0.5, ±2, ±10 → 40.5), from-root vs from-current, per query:
     ///
     /// | volume, tolerance | refine, from root | refine, from current | whole query, current vs root |
@@ -124,7 +128,8 @@ impl Hierarchy {
     /// pass visits the same diamonds and evaluates the same criterion as a refinement from the root;
     /// the split set costs about a quarter of a query, the leaf walk and marching tetrahedra the rest,
     /// which both starts share. So isovalue changes start from the root by default. Reusing the mesh
-    /// when only normals or carrier output change saves the refinement: 166 → 119 ms (bonsai 256³, 1 %),
+    /// when only normals or carrier output change saves the refinement and the leaf walk (numbers of
+    /// the same set-up): 166 → 119 ms (bonsai 256³, 1 %),
     /// 84 → 66 ms (2 %), 16 → 11 ms and 10 → 6 ms (neghip 64³, 1 % and 2 %).
     pub fn isosurface_from(
         &self,
@@ -154,12 +159,12 @@ impl Hierarchy {
             .current
             .take()
             .filter(|c| c.split.lattice() == self.lattice() && same_refinement(&c.query, query));
-        let criterion = self.iso_criterion(volume, &query.isovalues, query.tolerance);
         let refine = refine_query(query, query.tolerance);
-        let split = match previous {
+        let (split, carriers) = match previous {
             Some(c) if c.query.isovalues == query.isovalues => {
                 stats.reused = true;
-                c.split
+                let carriers = c.carriers;
+                (c.split, carriers)
             }
             Some(c)
                 if match state.start {
@@ -168,19 +173,23 @@ impl Hierarchy {
                 } =>
             {
                 stats.from_current = true;
-                Refiner::rerun(self, &refine, &criterion, &c.split)?
+                self.refine_iso(volume, query, query.tolerance, &mut |criterion| {
+                    Refiner::rerun(self, &refine, criterion, &c.split)
+                })?
             }
-            _ => Refiner::run(self, &refine, &criterion)?,
+            _ => self.refine_iso(volume, query, query.tolerance, &mut |criterion| {
+                Refiner::run(self, &refine, criterion)
+            })?,
         };
         stats.refine_seconds = t.elapsed().as_secs_f64();
         let t = Instant::now();
-        let carriers = self.carriers_of(volume, &query.isovalues, &split);
-        let surface = self.surface_of(volume, query, &carriers);
+        let surface = self.surface_of(volume, query, query.tolerance, &carriers);
         stats.extract_seconds = t.elapsed().as_secs_f64();
         stats.split_diamonds = split.len();
         state.current = Some(Current {
             query: query.clone(),
             split,
+            carriers,
         });
         state.last = Some(stats);
         Ok(surface)
@@ -218,8 +227,19 @@ mod tests {
         p
     }
 
-    /// The from-root split set of `query`.
+    /// The from-root split set of `query` (hidden pieces far from the surface included).
     fn from_root_split(h: &Hierarchy, values: &[f32], query: &IsoQuery) -> SplitSet {
+        let volume = Volume::new(*h.grid(), values).unwrap();
+        let refine = refine_query(query, query.tolerance);
+        h.refine_iso(&volume, query, query.tolerance, &mut |criterion| {
+            Refiner::run(h, &refine, criterion)
+        })
+        .unwrap()
+        .0
+    }
+
+    /// The from-root split set of the diamond error alone (no pass for hidden pieces).
+    fn criterion_split(h: &Hierarchy, values: &[f32], query: &IsoQuery) -> SplitSet {
         let volume = Volume::new(*h.grid(), values).unwrap();
         let criterion = h.iso_criterion(&volume, &query.isovalues, query.tolerance);
         Refiner::run(h, &refine_query(query, query.tolerance), &criterion).unwrap()
@@ -502,8 +522,8 @@ mod tests {
             for tol in [0.05 * d, 0.02 * d] {
                 for w in isovalues.windows(2) {
                     let (q0, q1) = (IsoQuery::new(w[0], tol), IsoQuery::new(w[1], tol));
-                    let old = from_root_split(&h, &v, &q0);
-                    let new = from_root_split(&h, &v, &q1);
+                    let old = criterion_split(&h, &v, &q0);
+                    let new = criterion_split(&h, &v, &q1);
                     let bottom_up = bottom_up_rerun(&h, &v, &q1, &old);
                     let all = crate::diamond::all_diamonds(h.lattice());
                     // Never fewer than from-root (it only merges what the new criterion allows) …

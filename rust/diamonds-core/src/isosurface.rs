@@ -4,21 +4,37 @@
 //! A query refines the hierarchy with the *isosurface error* of Gregorski §6.2 as the diamond error:
 //! for each tetrahedron `T` of a diamond, `ie_T = ae / ‖∇T‖` (the diamond's approximation error over the
 //! magnitude of the tetrahedron's linear gradient, in world units) clamped to the tetrahedron's size,
-//! because a surface drawn through `T` never leaves it. Diamonds whose sample range misses every
-//! isovalue are *empty* (Gregorski §6.1) and never split. Tolerance 0 splits every non-empty diamond,
-//! so the surface is exactly the full-resolution one. The surface is then extracted from the leaves of
-//! the adaptive, conforming mesh by marching tetrahedra; a point is shared by every triangle through
-//! its mesh edge, so the surface is crack-free wherever the full-resolution one is.
+//! because a surface drawn through `T` never leaves it. `ae` is measured per query at the samples that
+//! decide the surface ([`crate::iso_error`]), so no per-diamond precomputation over the volume is
+//! needed ([`Hierarchy::build_for_isosurfaces`]). Diamonds whose sample range misses every isovalue are
+//! *empty* (Gregorski §6.1) and never split; diamonds straddling a far face of the domain are split
+//! where the surface may pass. Tolerance 0 splits every non-empty diamond, so the surface is exactly
+//! the full-resolution one.
+//!
+//! Beyond the paper: the surface of a coarse tetrahedron whose vertices all lie on one side of the
+//! isovalue is lost, and a small closed piece (a speck of noise, a thin branch) lost that way can lie
+//! far from every drawn triangle — the local error cannot see it. After refining, the pieces hidden in
+//! leaves farther than the tolerance (plus a voxel) from the drawn surface are found and the diamonds
+//! down to one sample of each are split; so every part of the full-resolution surface ends up within
+//! about the tolerance of the result, which bounds the Hausdorff distance from that side.
+//!
+//! The surface is extracted from the leaves of the adaptive, conforming mesh by marching tetrahedra; a
+//! point is shared by every triangle through its mesh edge, so the surface is crack-free wherever the
+//! full-resolution one is.
 
 use crate::diamond::{signed_volume6, Diamond};
-use crate::hierarchy::{decode_error, encode_error};
+use crate::hierarchy::{decode_error, place_diamond};
+use crate::iso_error::{
+    encode_down, far_hidden_samples, paths_to, smallest_gradient, tet_gradient, world, IsoErrors,
+};
 use crate::lattice::{Lattice, Placement, Tet};
 use crate::refine::{Query, Refiner, SplitSet};
-use crate::volume::{Grid, Sample, Volume};
+use crate::volume::{Sample, Volume};
 use crate::{with_volume, Error, Hierarchy, Result, ScalarSlice, TetMesh};
-use glam::{DMat3, DVec3, I64Vec3, IVec3};
-use rustc_hash::FxHashMap;
+use glam::{DVec3, I64Vec3, IVec3};
+use rayon::prelude::*;
 use std::sync::atomic::{AtomicU16, Ordering};
+use std::sync::{Arc, Mutex};
 
 /// An isosurface query.
 #[derive(Clone, Debug, PartialEq)]
@@ -102,6 +118,7 @@ impl Hierarchy {
         query: &IsoQuery,
     ) -> Result<IsoSurface> {
         let mut carriers = self.carriers_at(volume, query, query.tolerance)?;
+        let mut used = query.tolerance;
         if query.max_triangles > 0
             && count_triangles(volume, &carriers, &query.isovalues) > query.max_triangles
         {
@@ -124,26 +141,34 @@ impl Hierarchy {
                     break;
                 }
             }
+            used = hi;
         }
-        Ok(self.surface_of(volume, query, &carriers))
+        Ok(self.surface_of(volume, query, used, &carriers))
     }
 
-    /// Marching tetrahedra on `carriers`, with the error bound and, when asked for, the carrier mesh.
+    /// Marching tetrahedra on `carriers` (refined at `tolerance`), with the error bound and, when asked
+    /// for, the carrier mesh.
     pub(crate) fn surface_of<T: Sample>(
         &self,
         volume: &Volume<'_, T>,
         query: &IsoQuery,
+        tolerance: f64,
         carriers: &[Tet],
     ) -> IsoSurface {
         let mut surface =
             marching_tetrahedra(volume, carriers, &query.isovalues, query.compute_normals);
-        surface.error_bound = carriers
-            .iter()
-            .filter_map(Diamond::of_tet)
-            .map(|d| self.cached_isosurface_error(volume, d))
-            .fold(0.0, f64::max);
+        // At tolerance 0 the surface is the full-resolution one: error 0.
+        let errors =
+            (tolerance > 0.0).then(|| self.iso_errors(volume, &query.isovalues, tolerance));
+        let error = |t: &Tet| match (&errors, Diamond::of_tet(t)) {
+            (Some(errors), Some(d)) if self.lattice().in_domain(d.center) => {
+                errors.error(self, volume, d)
+            }
+            _ => 0.0,
+        };
+        surface.error_bound = carriers.iter().map(error).fold(0.0, f64::max);
         if query.carrier_tetrahedra {
-            surface.carrier = Some(carrier_mesh(self, carriers));
+            surface.carrier = Some(carrier_mesh(self, carriers, error));
         }
         surface
     }
@@ -155,12 +180,83 @@ impl Hierarchy {
         query: &IsoQuery,
         tolerance: f64,
     ) -> Result<Vec<Tet>> {
-        let criterion = self.iso_criterion(volume, &query.isovalues, tolerance);
-        let split = Refiner::run(self, &refine_query(query, tolerance), &criterion)?;
-        Ok(self.carriers_of(volume, &query.isovalues, &split))
+        let refine = refine_query(query, tolerance);
+        let (_, carriers) = self.refine_iso(volume, query, tolerance, &mut |criterion| {
+            Refiner::run(self, &refine, criterion)
+        })?;
+        Ok(carriers)
     }
 
-    /// The diamond error of isosurface queries for `isovalues` at `tolerance`.
+    /// The split set of `query`'s isovalues at `tolerance` and its leaves that carry the surface.
+    /// `refine` splits with the diamond error it is given (from the root or from a current mesh).
+    /// When parts of the surface hidden in leaves ([`crate::iso_error`]) lie farther than the
+    /// tolerance (plus a voxel diagonal) from the surface drawn, the diamonds down to one sample of
+    /// each such part are split as well and `refine` runs again, so every part of the full-resolution
+    /// surface is drawn within the tolerance.
+    pub(crate) fn refine_iso<T: Sample>(
+        &self,
+        volume: &Volume<'_, T>,
+        query: &IsoQuery,
+        tolerance: f64,
+        refine: &mut RefineWith<'_>,
+    ) -> Result<(SplitSet, Vec<Tet>)> {
+        let isovalues = &query.isovalues;
+        let criterion = self.iso_criterion(volume, isovalues, tolerance);
+        let split = refine(&criterion)?;
+        if tolerance == 0.0 {
+            // Full resolution wherever the surface may pass: nothing is hidden.
+            let carriers = self.carriers_of(volume, isovalues, &split);
+            return Ok((split, carriers));
+        }
+        let errors = self.iso_errors(volume, isovalues, tolerance);
+        let lattice = *self.lattice();
+        let (carriers, hiders): (Vec<Tet>, Vec<Tet>) = self
+            .leaves_of(volume, isovalues, &split, |t, f| {
+                isovalues.iter().any(|&v| crosses(f, v))
+                    || Diamond::of_tet(t).is_some_and(|d| errors.hides(&lattice, d))
+            })
+            .into_iter()
+            .partition(|t| {
+                let f = t.map(|p| volume.at(p.x as usize, p.y as usize, p.z as usize));
+                isovalues.iter().any(|&v| crosses(&f, v))
+            });
+        if hiders.is_empty() {
+            return Ok((split, carriers));
+        }
+        let drawn = polygon_centres(volume, &carriers, isovalues);
+        let voxel = DVec3::from(self.grid().spacing).length();
+        let mut far = far_hidden_samples(volume, isovalues, &hiders, &drawn, tolerance + voxel);
+        if let Some(roi) = query.region_of_interest {
+            // The tolerance applies inside the region only.
+            far.retain(|&s| {
+                let p = world(volume, s);
+                (0..3).all(|a| roi[2 * a] <= p[a] && p[a] <= roi[2 * a + 1])
+            });
+        }
+        if far.is_empty() {
+            return Ok((split, carriers));
+        }
+        // Continue from this mesh: split the diamonds down to each far sample (with closure) and
+        // whatever their new children need. Every diamond above the tolerance in the result is
+        // reachable from the diamonds split here, so this equals refining from the root with the
+        // paths' diamonds infinitely wrong.
+        let paths = paths_to(&lattice, &far);
+        let forced: rustc_hash::FxHashSet<Diamond> = paths.iter().copied().collect();
+        let criterion = |d: Diamond| {
+            if forced.contains(&d) {
+                f64::INFINITY
+            } else {
+                criterion(d)
+            }
+        };
+        let (split, _) = Refiner::new(lattice, split, 0, &criterion).refine_with(tolerance, &paths);
+        let carriers = self.carriers_of(volume, isovalues, &split);
+        Ok((split, carriers))
+    }
+
+    /// The diamond error of isosurface queries for `isovalues` at `tolerance`: the isosurface error
+    /// measured at the surface samples ([`crate::iso_error`]); at tolerance 0, infinite for every
+    /// diamond whose sample range may hold an isovalue, so the surface is the full-resolution one.
     pub(crate) fn iso_criterion<'a, T: Sample>(
         &'a self,
         volume: &'a Volume<'_, T>,
@@ -168,17 +264,31 @@ impl Hierarchy {
         tolerance: f64,
     ) -> impl Fn(Diamond) -> f64 + 'a {
         let lattice = *self.lattice();
-        move |d: Diamond| {
-            if !lattice.in_domain(d.center) {
-                return 0.0; // split in the base mesh, or outside the domain
-            }
-            let (lo, hi) = self.range(d);
-            if !isovalues.iter().any(|&v| lo <= v && v <= hi) {
-                0.0 // empty (Gregorski §6.1)
-            } else if tolerance == 0.0 {
+        let errors = (tolerance > 0.0).then(|| self.iso_errors(volume, isovalues, tolerance));
+        // Infinite where the diamond's sample range may hold an isovalue, else 0 (empty, §6.1).
+        let non_empty = move |d: Diamond| {
+            let (lo, hi) = d.bounds();
+            let (lo, hi) = self.box_range(volume, lo.max(IVec3::ZERO), hi.min(lattice.hi));
+            if isovalues.iter().any(|&v| lo <= v && v <= hi) {
                 f64::INFINITY
             } else {
-                self.cached_isosurface_error(volume, d)
+                0.0
+            }
+        };
+        move |d: Diamond| {
+            if !d.bounds().1.cmple(lattice.hi).all() {
+                // Near a far face: a diamond straddling it must be split wherever the surface may
+                // pass (its tetrahedra have vertices without samples); one outside is never split.
+                match place_diamond(&lattice, d) {
+                    Placement::Straddling => return non_empty(d),
+                    Placement::Outside => return 0.0,
+                    Placement::Inside => {}
+                }
+            }
+            match &errors {
+                _ if !lattice.in_domain(d.center) => 0.0, // outside the domain
+                Some(errors) => errors.error(self, volume, d),
+                None => non_empty(d), // tolerance 0
             }
         }
     }
@@ -190,6 +300,20 @@ impl Hierarchy {
         isovalues: &[f64],
         split: &SplitSet,
     ) -> Vec<Tet> {
+        self.leaves_of(volume, isovalues, split, |_, f| {
+            isovalues.iter().any(|&v| crosses(f, v))
+        })
+    }
+
+    /// The leaves of the mesh of `split` whose range may hold an isovalue and for which `keep` holds
+    /// (given the leaf and its vertex values).
+    fn leaves_of<T: Sample>(
+        &self,
+        volume: &Volume<'_, T>,
+        isovalues: &[f64],
+        split: &SplitSet,
+        keep: impl Fn(&Tet, &[f64; 4]) -> bool + Sync,
+    ) -> Vec<Tet> {
         // Walk only below tetrahedra whose sample range holds an isovalue.
         let empty = |t: &Tet| {
             let (lo, hi) = self.tet_range(volume, t);
@@ -197,10 +321,13 @@ impl Hierarchy {
         };
         crate::mesh::leaves_where(self.lattice(), split, empty, |t| {
             let f = t.map(|p| volume.at(p.x as usize, p.y as usize, p.z as usize));
-            isovalues.iter().any(|&v| crosses(&f, v))
+            keep(t, &f)
         })
     }
 }
+
+/// A refinement (from the root or from a current mesh) with a given diamond error.
+pub(crate) type RefineWith<'a> = dyn FnMut(&dyn Fn(Diamond) -> f64) -> Result<SplitSet> + 'a;
 
 /// The refinement query of an isosurface query at `tolerance`.
 pub(crate) fn refine_query(query: &IsoQuery, tolerance: f64) -> Query {
@@ -232,23 +359,23 @@ fn count_triangles<T: Sample>(volume: &Volume<'_, T>, tets: &[Tet], isovalues: &
         .sum()
 }
 
-/// What isosurface queries keep between isovalues: the isovalue-independent isosurface error of each
-/// diamond (computed the first time a query needs it, stored rounded up like the approximation error)
-/// and the sample range of 8³ bricks, which bounds the range of any box (used to skip subtrees of the
-/// base mesh, whose diamonds carry no range of their own).
+/// What isosurface queries keep: the sample range of 8³ bricks, which bounds the range of any box
+/// (computed by the first query), and the errors of the last isovalues ([`crate::iso_error`]), reused
+/// while only the tolerance, region, normals or carrier output change.
 pub(crate) struct IsoCache {
-    errors: Vec<AtomicU16>,
     bricks: Bricks,
+    /// By central vertex: the smallest gradient magnitude of the diamond's tetrahedra, rounded down
+    /// (bfloat16; [`UNKNOWN`] until a query needs it).
+    gradients: Vec<AtomicU16>,
+    errors: Mutex<Option<Arc<IsoErrors>>>,
 }
+
+/// Marks a gradient no query has computed yet.
+const UNKNOWN: u16 = u16::MAX;
 
 impl std::fmt::Debug for IsoCache {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "IsoCache({} diamonds, {} bricks)",
-            self.errors.len(),
-            self.bricks.min.len()
-        )
+        write!(f, "IsoCache({} bricks)", self.bricks.min.len())
     }
 }
 
@@ -265,24 +392,65 @@ impl Bricks {
     fn new<T: Sample>(volume: &Volume<'_, T>) -> Self {
         let g = &volume.grid;
         let dims = g.dims.map(|d| (d - 1).div_ceil(BRICK).max(1));
-        let n = dims[0] * dims[1] * dims[2];
-        let (mut min, mut max) = (vec![f64::INFINITY; n], vec![f64::NEG_INFINITY; n]);
-        for (i, s) in volume.samples.iter().enumerate() {
-            let v = s.to_f64();
-            let p = g.ijk(i);
-            // Bricks holding this sample: b with 8b ≤ p ≤ 8b + 8 on every axis.
-            let span = p.map(|c| (c.saturating_sub(1) / BRICK, c / BRICK));
-            for bz in span[2].0..=span[2].1.min(dims[2] - 1) {
-                for by in span[1].0..=span[1].1.min(dims[1] - 1) {
-                    for bx in span[0].0..=span[0].1.min(dims[0] - 1) {
-                        let b = bx + dims[0] * (by + dims[1] * bz);
-                        min[b] = min[b].min(v);
-                        max[b] = max[b].max(v);
+        let (min, max) = (0..dims[0] * dims[1] * dims[2])
+            .into_par_iter()
+            .map(|b| {
+                let c = [b % dims[0], b / dims[0] % dims[1], b / (dims[0] * dims[1])];
+                let span = |a: usize| BRICK * c[a]..=(BRICK * (c[a] + 1)).min(g.dims[a] - 1);
+                let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+                for z in span(2) {
+                    for y in span(1) {
+                        let row = g.index(0, y, z);
+                        for s in &volume.samples[row + BRICK * c[0]..=row + *span(0).end()] {
+                            let v = s.to_f64();
+                            lo = lo.min(v);
+                            hi = hi.max(v);
+                        }
                     }
                 }
-            }
-        }
+                (lo, hi)
+            })
+            .unzip();
         Self { dims, min, max }
+    }
+
+    /// Lower corners (point indices) of the grid cells that `v` crosses (min < v ≤ max over the
+    /// corners, as [`crosses`]), found in the bricks whose range allows it.
+    fn cells_crossed<T: Sample>(&self, volume: &Volume<'_, T>, v: f64) -> Vec<u32> {
+        let g = &volume.grid;
+        let [nx, ny, nz] = g.dims;
+        let (sy, sz) = (nx, nx * ny);
+        (0..self.min.len())
+            .into_par_iter()
+            .filter(|&b| self.min[b] < v && v <= self.max[b])
+            .flat_map_iter(|b| {
+                let (bx, by, bz) = (
+                    b % self.dims[0],
+                    b / self.dims[0] % self.dims[1],
+                    b / (self.dims[0] * self.dims[1]),
+                );
+                let mut out = Vec::new();
+                for z in BRICK * bz..(BRICK * (bz + 1)).min(nz - 1) {
+                    for y in BRICK * by..(BRICK * (by + 1)).min(ny - 1) {
+                        for x in BRICK * bx..(BRICK * (bx + 1)).min(nx - 1) {
+                            let i = g.index(x, y, z);
+                            let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+                            for c in [i, i + 1, i + sy, i + sy + 1] {
+                                for c in [c, c + sz] {
+                                    let f = volume.samples[c].to_f64();
+                                    lo = lo.min(f);
+                                    hi = hi.max(f);
+                                }
+                            }
+                            if lo < v && v <= hi {
+                                out.push(i as u32);
+                            }
+                        }
+                    }
+                }
+                out
+            })
+            .collect()
     }
 
     /// A superset of the sample range in the box `[lo, hi]` (lattice coordinates inside the grid).
@@ -308,42 +476,64 @@ impl Bricks {
 impl Hierarchy {
     fn iso_cache<T: Sample>(&self, volume: &Volume<'_, T>) -> &IsoCache {
         self.iso_cache.get_or_init(|| IsoCache {
-            errors: (0..self.grid().len())
+            bricks: Bricks::new(volume),
+            gradients: (0..self.grid().len())
                 .map(|_| AtomicU16::new(UNKNOWN))
                 .collect(),
-            bricks: Bricks::new(volume),
+            errors: Mutex::new(None),
         })
     }
 
-    /// The isosurface error of `d` (central vertex in the domain), from the cache or computed now.
-    fn cached_isosurface_error<T: Sample>(&self, volume: &Volume<'_, T>, d: Diamond) -> f64 {
-        let slot = &self.iso_cache(volume).errors[self.lattice().index(d.center)];
-        let code = slot.load(Ordering::Relaxed);
-        if code != UNKNOWN {
-            return decode_error(code);
+    /// The smallest gradient magnitude (world units) of the inside tetrahedra of `d` (central vertex
+    /// in the domain), rounded down, from the cache or computed now.
+    pub(crate) fn smallest_gradient<T: Sample>(&self, volume: &Volume<'_, T>, d: Diamond) -> f64 {
+        let slot = &self.iso_cache(volume).gradients[self.lattice().index(d.center)];
+        let mut code = slot.load(Ordering::Relaxed);
+        if code == UNKNOWN {
+            code = encode_down(smallest_gradient(self.lattice(), volume, d));
+            slot.store(code, Ordering::Relaxed);
         }
-        let code = encode_error(isosurface_error(self, volume, d));
-        slot.store(code, Ordering::Relaxed);
         decode_error(code)
+    }
+
+    /// The isosurface errors of `isovalues` for a query at `tolerance` (> 0): those of the previous
+    /// query when they serve, else measured now down to tetrahedra of the tolerance's size (smaller
+    /// diamonds' errors are bounded by their size, hence by the tolerance).
+    pub(crate) fn iso_errors<T: Sample>(
+        &self,
+        volume: &Volume<'_, T>,
+        isovalues: &[f64],
+        tolerance: f64,
+    ) -> Arc<IsoErrors> {
+        let cache = self.iso_cache(volume);
+        let mut kept = cache.errors.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(e) = kept.as_ref().filter(|e| e.serve(isovalues, tolerance)) {
+            return e.clone();
+        }
+        *kept = None; // free the old table first
+        let errors = Arc::new(IsoErrors::new(
+            self.lattice(),
+            volume,
+            isovalues,
+            tolerance,
+            |v| cache.bricks.cells_crossed(volume, v),
+        ));
+        *kept = Some(errors.clone());
+        errors
+    }
+
+    /// A superset of the sample range in the box `[lo, hi]` (lattice coordinates inside the grid).
+    fn box_range<T: Sample>(&self, volume: &Volume<'_, T>, lo: IVec3, hi: IVec3) -> (f64, f64) {
+        self.iso_cache(volume).bricks.range(lo, hi)
     }
 
     /// A superset of the sample range of the tetrahedron `t` (inside or straddling the domain).
     fn tet_range<T: Sample>(&self, volume: &Volume<'_, T>, t: &Tet) -> (f64, f64) {
-        let lattice = self.lattice();
-        if let Some(d) = Diamond::of_tet(t) {
-            let (lo, hi) = d.bounds();
-            if lattice.in_domain(lo) && lattice.in_domain(hi) {
-                return self.range(d); // the diamond, hence its range, lies inside the domain
-            }
-        }
-        let lo = t[0].min(t[1]).min(t[2].min(t[3]));
-        let hi = t[0].max(t[1]).max(t[2].max(t[3])).min(lattice.hi);
-        self.iso_cache(volume).bricks.range(lo, hi)
+        let lo = t[0].min(t[1]).min(t[2].min(t[3])).max(IVec3::ZERO);
+        let hi = t[0].max(t[1]).max(t[2].max(t[3])).min(self.lattice().hi);
+        self.box_range(volume, lo, hi)
     }
 }
-
-/// Marks a diamond whose isosurface error no query has computed yet.
-const UNKNOWN: u16 = u16::MAX;
 
 /// Does the tetrahedron with vertex values `f` carry the isosurface of `v`? (Vertices at `v` count as above.)
 #[inline]
@@ -353,44 +543,33 @@ fn crosses(f: &[f64; 4], v: f64) -> bool {
     min < v && v <= max
 }
 
-/// World position of a lattice point.
-#[inline]
-fn world(grid: &Grid, p: IVec3) -> DVec3 {
-    DVec3::from(grid.point([p.x as usize, p.y as usize, p.z as usize]))
-}
-
-/// Gradient (world units) of the linear interpolant on `t`.
-fn tet_gradient<T: Sample>(volume: &Volume<'_, T>, t: &Tet) -> DVec3 {
-    let p = t.map(|q| world(&volume.grid, q));
-    let f = t.map(|q| volume.at(q.x as usize, q.y as usize, q.z as usize));
-    let m = DMat3::from_cols(p[1] - p[0], p[2] - p[0], p[3] - p[0]);
-    m.transpose().inverse() * DVec3::new(f[1] - f[0], f[2] - f[0], f[3] - f[0])
-}
-
-/// Gregorski §6.2, Eq. (5): the largest `min(ae / ‖∇T‖, size(T))` over the diamond's inside tetrahedra.
-fn isosurface_error<T: Sample>(h: &Hierarchy, volume: &Volume<'_, T>, d: Diamond) -> f64 {
-    let ae = h.error(d);
-    if ae == 0.0 {
-        return 0.0;
+/// Gradient (world units) of the data at world position `p`: the central-difference gradients at the
+/// corners of the grid cell holding `p`, interpolated trilinearly.
+fn gradient_at<T: Sample>(volume: &Volume<'_, T>, p: DVec3) -> DVec3 {
+    let grid = &volume.grid;
+    let mut cell = IVec3::ZERO;
+    let mut w = DVec3::ZERO;
+    for a in 0..3 {
+        let x = ((p[a] - grid.origin[a]) / grid.spacing[a]).clamp(0.0, (grid.dims[a] - 1) as f64);
+        let c = (x.floor() as i32).min(grid.dims[a] as i32 - 2).max(0);
+        cell[a] = c;
+        w[a] = x - c as f64;
     }
-    let lattice = h.lattice();
-    d.tets(lattice)
-        .iter()
-        .filter(|t| lattice.place(t) == Placement::Inside)
-        .map(|t| {
-            let p = t.map(|q| world(&volume.grid, q));
-            let size = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)]
-                .iter()
-                .map(|&(a, b)| p[a].distance(p[b]))
-                .fold(0.0, f64::max);
-            let g = tet_gradient(volume, t).length();
-            if g > 0.0 {
-                (ae / g).min(size)
-            } else {
-                size
-            }
-        })
-        .fold(0.0, f64::max)
+    let mut g = DVec3::ZERO;
+    for k in 0..8 {
+        let o = IVec3::new(k & 1, (k >> 1) & 1, (k >> 2) & 1);
+        let weight: f64 = (0..3)
+            .map(|a| if o[a] == 1 { w[a] } else { 1.0 - w[a] })
+            .product();
+        if weight > 0.0 {
+            g += weight
+                * point_gradient(
+                    volume,
+                    (cell + o).min(IVec3::from(grid.dims.map(|d| d as i32 - 1))),
+                );
+        }
+    }
+    g
 }
 
 /// Gradient at a lattice point by central differences (one-sided on the boundary), world units.
@@ -410,75 +589,195 @@ fn point_gradient<T: Sample>(volume: &Volume<'_, T>, p: IVec3) -> DVec3 {
 
 /// Marching tetrahedra over `tets` (all inside the grid) for every isovalue. Points are shared by edge
 /// and isovalue, so the surface is crack-free across face-adjacent tetrahedra; triangles are oriented
-/// toward increasing values.
+/// toward increasing values. Parallel: each tetrahedron's polygons name their points by edge, the
+/// distinct edges (sorted) become the points, each interpolated once from its lower-index end.
 pub fn marching_tetrahedra<T: Sample>(
     volume: &Volume<'_, T>,
     tets: &[Tet],
     isovalues: &[f64],
     compute_normals: bool,
 ) -> IsoSurface {
-    let grid = &volume.grid;
-    let lattice_index = |p: IVec3| grid.index(p.x as usize, p.y as usize, p.z as usize);
-    let mut surface = IsoSurface::default();
-    let mut ids: FxHashMap<(usize, usize, usize), u32> = FxHashMap::default();
-    for t in tets {
-        let f = t.map(|p| volume.at(p.x as usize, p.y as usize, p.z as usize));
-        let gradient = tet_gradient(volume, t);
-        for (k, &v) in isovalues.iter().enumerate() {
-            if !crosses(&f, v) {
-                continue;
-            }
-            let mut point = |a: usize, b: usize| -> u32 {
-                let (ia, ib) = (lattice_index(t[a]), lattice_index(t[b]));
-                let key = (ia.min(ib), ia.max(ib), k);
-                *ids.entry(key).or_insert_with(|| {
-                    // Interpolate from the lower id so that both tets sharing the edge agree bit for bit.
-                    let (a, b) = if ia < ib { (a, b) } else { (b, a) };
-                    let s = (v - f[a]) / (f[b] - f[a]);
-                    let (pa, pb) = (world(grid, t[a]), world(grid, t[b]));
-                    surface.points.push((pa + s * (pb - pa)).to_array());
-                    surface.values.push(v);
-                    if compute_normals {
-                        let (ga, gb) = (point_gradient(volume, t[a]), point_gradient(volume, t[b]));
-                        let n = (ga + s * (gb - ga)).normalize_or(gradient.normalize_or_zero());
-                        surface.normals.push(n.as_vec3().to_array());
-                    }
-                    (surface.points.len() - 1) as u32
-                })
-            };
-            let above: Vec<usize> = (0..4).filter(|&i| f[i] >= v).collect();
-            let below: Vec<usize> = (0..4).filter(|&i| f[i] < v).collect();
-            // The crossed edges in cyclic order around the polygon.
-            let mut edges: Vec<(usize, usize)> = match (above.len(), below.len()) {
-                (1, 3) => below.iter().map(|&b| (above[0], b)).collect(),
-                (3, 1) => above.iter().map(|&a| (a, below[0])).collect(),
-                _ => {
-                    let ([a, b], [c, d]) = ([above[0], above[1]], [below[0], below[1]]);
-                    vec![(a, c), (a, d), (b, d), (b, c)]
-                }
-            };
-            // Orientation from the lattice alone, so that it holds even when points coincide with
-            // samples (zero-area triangles): the polygon through the edges' midpoints, in doubled
-            // integer coordinates, must face from the vertices below to those above. (A positive
-            // diagonal scaling to world coordinates keeps the sign.)
-            let mid2 = |(a, b): (usize, usize)| (t[a] + t[b]).as_i64vec3();
-            let q: Vec<I64Vec3> = edges.iter().map(|&e| mid2(e)).collect();
-            let sum = |vs: &[usize]| vs.iter().map(|&i| t[i].as_i64vec3()).sum::<I64Vec3>();
-            let up = sum(&above) * below.len() as i64 - sum(&below) * above.len() as i64;
-            if (q[1] - q[0]).cross(q[2] - q[0]).dot(up) < 0 {
-                edges.reverse();
-            }
-            let polygon: Vec<u32> = edges.into_iter().map(|(a, b)| point(a, b)).collect();
-            for tri in [[0, 1, 2], [0, 2, 3]].iter().take(polygon.len() - 2) {
-                surface.triangles.push(tri.map(|i| polygon[i]));
-            }
+    let polygons = polygons(volume, tets, isovalues);
+    // Every polygon corner with its slot, sorted by edge: equal edges are neighbours.
+    let mut corners: Vec<(EdgeKey, u32)> = polygons
+        .iter()
+        .enumerate()
+        .flat_map(|(p, poly)| (0..poly.n).map(move |i| (poly.keys[i], (4 * p + i) as u32)))
+        .collect();
+    corners.par_sort_unstable();
+    // The distinct edges, with the polygon of their first corner.
+    let mut keys: Vec<(EdgeKey, u32)> = Vec::new();
+    let mut slot_ids = vec![0u32; 4 * polygons.len()];
+    for &(key, slot) in &corners {
+        if keys.last().map(|k| k.0) != Some(key) {
+            keys.push((key, slot / 4));
         }
+        slot_ids[slot as usize] = (keys.len() - 1) as u32;
     }
-    surface
+    drop(corners);
+    let interpolated: Vec<(DVec3, f64, [f32; 3])> = keys
+        .par_iter()
+        .map(|&(key, p)| {
+            let (point, value, normal) = interpolate(volume, isovalues, key, compute_normals);
+            // Where the gradients vanish: the gradient of the tetrahedron, toward increasing values.
+            let normal = normal.unwrap_or_else(|| {
+                compute_normals
+                    .then(|| tet_gradient(volume, &tets[polygons[p as usize].tet as usize]))
+                    .unwrap_or_default()
+                    .normalize_or_zero()
+            });
+            (point, value, normal.as_vec3().to_array())
+        })
+        .collect();
+    IsoSurface {
+        points: interpolated.iter().map(|p| p.0.to_array()).collect(),
+        values: interpolated.iter().map(|p| p.1).collect(),
+        normals: if compute_normals {
+            interpolated.iter().map(|p| p.2).collect()
+        } else {
+            Vec::new()
+        },
+        triangles: polygons
+            .iter()
+            .enumerate()
+            .map(|(p, poly)| (p, poly.n, &slot_ids))
+            .flat_map(|(p, n, slot_ids)| {
+                let id = move |i: usize| slot_ids[4 * p + i];
+                [[0, 1, 2], [0, 2, 3]]
+                    .into_iter()
+                    .take(n - 2)
+                    .map(move |tri| tri.map(id))
+            })
+            .collect(),
+        ..IsoSurface::default()
+    }
 }
 
-/// The carrier tetrahedra as a mesh of their own (points deduplicated by input point).
-fn carrier_mesh(h: &Hierarchy, tets: &[Tet]) -> TetMesh {
+/// A point of each polygon marching tetrahedra makes from `tets` (the mean of its corners).
+pub(crate) fn polygon_centres<T: Sample>(
+    volume: &Volume<'_, T>,
+    tets: &[Tet],
+    isovalues: &[f64],
+) -> Vec<[f64; 3]> {
+    polygons(volume, tets, isovalues)
+        .par_iter()
+        .map(|poly| {
+            let sum: DVec3 = poly.keys[..poly.n]
+                .iter()
+                .map(|&key| interpolate(volume, isovalues, key, false).0)
+                .sum();
+            (sum / poly.n as f64).to_array()
+        })
+        .collect()
+}
+
+/// A polygon of marching tetrahedra: 3 or 4 corners, oriented toward increasing values, each an
+/// edge key; made by tetrahedron `tet`.
+struct Polygon {
+    keys: [EdgeKey; 4],
+    n: usize,
+    tet: u32,
+}
+
+/// The polygons of `tets` for every isovalue.
+fn polygons<T: Sample>(volume: &Volume<'_, T>, tets: &[Tet], isovalues: &[f64]) -> Vec<Polygon> {
+    let grid = &volume.grid;
+    let index = |p: IVec3| grid.index(p.x as usize, p.y as usize, p.z as usize) as u32;
+    tets.par_iter()
+        .enumerate()
+        .flat_map_iter(|(tet, t)| {
+            let f = t.map(|p| volume.at(p.x as usize, p.y as usize, p.z as usize));
+            isovalues.iter().enumerate().filter_map(move |(k, &v)| {
+                if !crosses(&f, v) {
+                    return None;
+                }
+                let mut above = [0usize; 4];
+                let mut below = [0usize; 4];
+                let (mut na, mut nb) = (0, 0);
+                for (i, &fi) in f.iter().enumerate() {
+                    if fi >= v {
+                        above[na] = i;
+                        na += 1;
+                    } else {
+                        below[nb] = i;
+                        nb += 1;
+                    }
+                }
+                // The crossed edges in cyclic order around the polygon.
+                let (mut edges, n) = match (na, nb) {
+                    (1, 3) => {
+                        let a = above[0];
+                        ([(a, below[0]), (a, below[1]), (a, below[2]), (0, 0)], 3)
+                    }
+                    (3, 1) => {
+                        let b = below[0];
+                        ([(above[0], b), (above[1], b), (above[2], b), (0, 0)], 3)
+                    }
+                    _ => {
+                        let ([a, b], [c, d]) = ([above[0], above[1]], [below[0], below[1]]);
+                        ([(a, c), (a, d), (b, d), (b, c)], 4)
+                    }
+                };
+                // Orientation from the lattice alone, so that it holds even when points coincide
+                // with samples (zero-area triangles): the polygon through the edges' midpoints, in
+                // doubled integer coordinates, must face from the vertices below to those above.
+                // (A positive diagonal scaling to world coordinates keeps the sign.)
+                let mid2 = |(a, b): (usize, usize)| (t[a] + t[b]).as_i64vec3();
+                let (q0, q1, q2) = (mid2(edges[0]), mid2(edges[1]), mid2(edges[2]));
+                let sum = |vs: &[usize]| vs.iter().map(|&i| t[i].as_i64vec3()).sum::<I64Vec3>();
+                let up = sum(&above[..na]) * nb as i64 - sum(&below[..nb]) * na as i64;
+                if (q1 - q0).cross(q2 - q0).dot(up) < 0 {
+                    edges[..n].reverse();
+                }
+                let keys = edges.map(|(a, b)| {
+                    let (ia, ib) = (index(t[a]), index(t[b]));
+                    (ia.min(ib), ia.max(ib), k as u32)
+                });
+                Some(Polygon {
+                    keys,
+                    n,
+                    tet: tet as u32,
+                })
+            })
+        })
+        .collect()
+}
+
+/// The point of edge `key`: position, isovalue and, when asked and defined, the unit normal (the
+/// gradient of the data at the point, [`gradient_at`]: a long edge of a coarse tetrahedron may join
+/// samples whose gradients point apart). Interpolated from the lower-index end so that every
+/// tetrahedron sharing the edge gets the same point bit for bit.
+fn interpolate<T: Sample>(
+    volume: &Volume<'_, T>,
+    isovalues: &[f64],
+    (ia, ib, k): EdgeKey,
+    compute_normals: bool,
+) -> (DVec3, f64, Option<DVec3>) {
+    let grid = &volume.grid;
+    let at = |i: u32| {
+        let [x, y, z] = grid.ijk(i as usize);
+        IVec3::new(x as i32, y as i32, z as i32)
+    };
+    let v = isovalues[k as usize];
+    let (a, b) = (at(ia), at(ib));
+    let (fa, fb) = (volume.at_index(ia as usize), volume.at_index(ib as usize));
+    let s = (v - fa) / (fb - fa);
+    let (pa, pb) = (world(volume, a), world(volume, b));
+    let point = pa + s * (pb - pa);
+    let normal = if compute_normals {
+        gradient_at(volume, point).try_normalize()
+    } else {
+        None
+    };
+    (point, v, normal)
+}
+
+/// A point of marching tetrahedra: the lower and higher point ids of its edge, the isovalue's index.
+type EdgeKey = (u32, u32, u32);
+
+/// The carrier tetrahedra as a mesh of their own (points deduplicated by input point), each with the
+/// isosurface error of its diamond.
+fn carrier_mesh(h: &Hierarchy, tets: &[Tet], error_of: impl Fn(&Tet) -> f64) -> TetMesh {
     let lattice: &Lattice = h.lattice();
     let grid = h.grid();
     let mut point_ids: Vec<usize> = tets.iter().flatten().map(|&p| lattice.index(p)).collect();
@@ -491,10 +790,8 @@ fn carrier_mesh(h: &Hierarchy, tets: &[Tet]) -> TetMesh {
         if signed_volume6(&t) < 0 {
             t.swap(2, 3);
         }
-        let (depth, error) = match Diamond::of_tet(&t) {
-            Some(d) => (d.depth(lattice), h.error(d) as f32),
-            None => (3 * lattice.levels, 0.0),
-        };
+        let depth = Diamond::of_tet(&t).map_or(3 * lattice.levels, |d| d.depth(lattice));
+        let error = error_of(&t) as f32;
         mesh.tets.push(t.map(id));
         mesh.levels.push(depth as u8);
         mesh.errors.push(error);
@@ -508,6 +805,7 @@ fn carrier_mesh(h: &Hierarchy, tets: &[Tet]) -> TetMesh {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::Grid;
 
     #[test]
     fn brick_ranges_hold_every_box() {

@@ -16,8 +16,10 @@
 //! - [`hierarchy`]: the precomputed per-diamond records (error, min, max) in 4 bytes per voxel.
 //! - [`refine`]: the split set, the [`refine::SplitQueue`] and selective refinement with closure.
 //! - [`mesh`]: extraction of the current mesh as deduplicated points and tetrahedra.
-//! - [`isosurface`], [`iso_state`]: multiresolution isosurfaces (Gregorski §6) and the split set kept
-//!   between isosurface queries (reuse; isovalue changes "from the current mesh", measured, §6.1).
+//! - [`isosurface`], [`iso_error`], [`iso_state`]: multiresolution isosurfaces (Gregorski §6), the
+//!   isosurface error measured per query at the samples that decide the surface (no precomputation:
+//!   [`Hierarchy::build_for_isosurfaces`]), and the split set kept between isosurface queries (reuse;
+//!   isovalue changes "from the current mesh", measured, §6.1).
 //! - [`material`]: material interfaces with ghost values (Gregorski §5).
 //! - [`fields`]: generated volumes (Marschner–Lobb, distance fields) for the demo and the tests.
 //! - [`validate`]: independent checks (conformity, volume, tolerance at every sample) used by tests and the CLI.
@@ -25,6 +27,7 @@
 pub mod diamond;
 pub mod fields;
 pub mod hierarchy;
+pub mod iso_error;
 pub mod iso_state;
 pub mod isosurface;
 pub mod lattice;

@@ -399,11 +399,14 @@ impl<'h> Refiner<'h> {
         }
     }
 
-    /// The error that drives refinement: the criterion inside the region of interest, 0 outside.
+    /// The error that drives refinement: the criterion inside the region of interest, 0 outside
+    /// (except for diamonds straddling a far face, which the criterion may require to split).
     fn error(&self, d: Diamond) -> f64 {
         if let Some((lo, hi)) = self.roi {
             let (dlo, dhi) = d.bounds();
-            if dlo.as_dvec3().cmpgt(hi).any() || dhi.as_dvec3().cmplt(lo).any() {
+            if (dlo.as_dvec3().cmpgt(hi).any() || dhi.as_dvec3().cmplt(lo).any())
+                && place_diamond(&self.lattice, d) != Placement::Straddling
+            {
                 return 0.0;
             }
         }

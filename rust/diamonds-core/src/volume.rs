@@ -258,6 +258,12 @@ impl<'a, T: Sample> Volume<'a, T> {
         Ok(Self { grid, samples })
     }
 
+    /// Sample at point index `i` (x fastest) as `f64`.
+    #[inline]
+    pub fn at_index(&self, i: usize) -> f64 {
+        self.samples[i].to_f64()
+    }
+
     /// Sample at lattice point (i, j, k) as `f64`.
     #[inline]
     pub fn at(&self, i: usize, j: usize, k: usize) -> f64 {

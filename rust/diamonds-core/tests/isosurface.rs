@@ -1,6 +1,7 @@
 //! Isosurface properties: watertight, consistently oriented, exact at tolerance 0 (same as marching
 //! tetrahedra over the full-resolution LEB mesh), Hausdorff distance to analytic surfaces shrinking with
-//! the tolerance, isovalue changes equal to fresh runs, budgets honoured.
+//! the tolerance, isovalue changes equal to fresh runs, budgets honoured, isolated pieces kept. Run on
+//! the isosurface-only hierarchy (what the filter and the CLI build), compared with the full one.
 
 use diamonds::diamond::{bisect, Diamond};
 use diamonds::fields::{sample, sphere_distance, torus_distance, unit_grid};
@@ -11,7 +12,7 @@ use glam::DVec3;
 use std::collections::HashMap;
 
 fn build(grid: Grid, s: &[f32]) -> Hierarchy {
-    Hierarchy::build(grid, ScalarSlice::F32(s), &mut |_| true).expect("build")
+    Hierarchy::build_for_isosurfaces(grid, ScalarSlice::F32(s)).expect("build")
 }
 
 fn sphere(dims: [usize; 3], r: f64) -> (Grid, Vec<f32>) {
@@ -280,7 +281,7 @@ fn isovalues_equal_to_samples_keep_a_consistent_orientation() {
             .clamp(0.0, 255.0)
             .round() as u8
     });
-    let h = Hierarchy::build(g, ScalarSlice::U8(&v), &mut |_| true).unwrap();
+    let h = Hierarchy::build_for_isosurfaces(g, ScalarSlice::U8(&v)).unwrap();
     for (iso, tol) in [(128.0, 0.0), (100.0, 0.0), (128.0, 0.05)] {
         let s = h
             .isosurface(ScalarSlice::U8(&v), &IsoQuery::new(iso, tol))
@@ -299,4 +300,67 @@ fn assert_watertight_or_degenerate(s: &IsoSurface) {
         }
     }
     assert!(edges.values().all(|&n| n == 2));
+}
+
+#[test]
+fn both_hierarchies_give_the_same_surfaces() {
+    // The full hierarchy (records, base mesh) and the isosurface-only one (errors measured per query,
+    // far faces split only where the surface passes) refine alike: the same surface on grids without
+    // a far-face band (2^k + 1 points), the full-resolution one at tolerance 0 on any grid.
+    for (dims, tolerances) in [
+        ([33, 33, 33], &[0.0, 0.01, 0.05, 0.2][..]),
+        ([40, 29, 35], &[0.0][..]),
+    ] {
+        let (g, v) = sphere(dims, 0.7);
+        let full = Hierarchy::build(g, ScalarSlice::F32(&v), &mut |_| true).unwrap();
+        let iso = build(g, &v);
+        assert!(full.has_errors() && !iso.has_errors() && iso.metadata_bytes() == 0);
+        assert!(iso.query(&diamonds::Query::tolerance(0.1)).is_err());
+        for &tol in tolerances {
+            let q = IsoQuery::new(0.0, tol);
+            let a = full.isosurface(ScalarSlice::F32(&v), &q).unwrap();
+            let b = iso.isosurface(ScalarSlice::F32(&v), &q).unwrap();
+            assert_eq!(a, b, "{dims:?} tol {tol}");
+        }
+    }
+}
+
+#[test]
+fn isolated_pieces_are_drawn_within_the_tolerance() {
+    // A small sphere and single-sample spikes far from it, on a grid with a far-face band: at a
+    // tolerance far larger than a spike, the surface around each spike is still drawn (within a
+    // voxel of it) — a coarse tetrahedron whose vertices miss the isovalue would hide it.
+    let g = unit_grid([70, 66, 61]);
+    let mut v = sample(&g, |x, y, z| sphere_distance(0.25)(x, y, z) as f32);
+    let spikes = [
+        [10, 12, 50],
+        [55, 7, 9],
+        [63, 60, 30],
+        [33, 50, 15],
+        [3, 40, 41],
+    ];
+    for s in spikes {
+        v[g.index(s[0], s[1], s[2])] = -0.01;
+    }
+    let h = build(g, &v);
+    let voxel = DVec3::from(g.spacing).length();
+    for tol in [0.05, 0.2, 0.5] {
+        let s = h
+            .isosurface(ScalarSlice::F32(&v), &IsoQuery::new(0.0, tol))
+            .unwrap();
+        for spike in spikes {
+            let p = DVec3::from(g.point(spike));
+            let d = s
+                .points
+                .iter()
+                .map(|&q| DVec3::from(q).distance(p))
+                .fold(f64::INFINITY, f64::min);
+            assert!(
+                d <= voxel,
+                "tol {tol}: spike {spike:?} is {d} from the surface"
+            );
+        }
+        assert_watertight(&s, &format!("spikes, tol {tol}"));
+        assert!(s.error_bound <= tol);
+    }
 }

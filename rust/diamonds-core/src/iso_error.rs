@@ -1,0 +1,629 @@
+//! The isosurface error of a diamond for given isovalues (Gregorski §6.2), measured at the samples that
+//! decide the full-resolution surface.
+//!
+//! Gregorski's isosurface error of a tetrahedron `T` is `ae / ‖∇T‖`: the approximation error `ae` over
+//! the magnitude of `T`'s linear gradient, i.e. how far the linear isosurface can move when the values
+//! move by `ae`. Samples far from every isovalue do not move the surface, so here `ae` is taken only at
+//! the *surface samples* of the query: the corners of the grid cells the isovalue crosses, which are
+//! what the full-resolution surface (Flying Edges, marching cubes or marching tetrahedra of the grid) is
+//! interpolated from. This needs no precomputation over the whole volume: the surface samples descend
+//! the hierarchy together from the root (one bisection test and a barycentric update per sample and
+//! level, [`crate::diamond::bisect`]'s vertex order), and the diamond of each tetrahedron they pass
+//! keeps the largest `|f(s) − L_T(s)|` of its surface samples. The descent stops at tetrahedra no
+//! larger than the tolerance: smaller diamonds' errors are bounded by their size anyway.
+//!
+//! A surface sample on the other side of the isovalue than `T`'s interpolant, in a tetrahedron whose
+//! vertices do not straddle the isovalue, is part of the surface that `T` *hides*: no triangle is drawn
+//! through `T`. The diamond is marked; the hidden pieces of the leaves of a refined mesh that lie far
+//! from the drawn surface are found by [`far_hidden_samples`] and forced in (see
+//! [`crate::isosurface`]).
+
+use crate::diamond::Diamond;
+use crate::hierarchy::{decode_error, encode_error};
+use crate::lattice::{Lattice, Placement, Tet};
+use crate::volume::{Sample, Volume};
+use crate::Hierarchy;
+use glam::{DMat3, DVec3, IVec3};
+use rayon::prelude::*;
+use rustc_hash::FxHashMap;
+use std::sync::atomic::{AtomicU16, AtomicU64, Ordering};
+
+/// Per-diamond approximation error at the surface samples of a set of isovalues.
+pub(crate) struct IsoErrors {
+    isovalues: Vec<f64>,
+    /// Tetrahedra no larger than this (world units) end the descent: diamonds below them are not
+    /// measured (their isosurface error is bounded by their size instead).
+    cutoff: f64,
+    /// By central vertex: 0 if no surface sample reached the diamond, else the bfloat16 code of `ae`
+    /// (at least [`VISITED`]; bit 15 clear), or, once computed, of the isosurface error (bit 15 set;
+    /// codes of non-negative numbers never use it).
+    codes: Vec<AtomicU16>,
+    /// By central vertex: the diamond hides part of the surface.
+    hidden: Vec<AtomicU64>,
+    /// Surface samples located (for reports and tests).
+    pub(crate) surface_samples: usize,
+}
+
+impl std::fmt::Debug for IsoErrors {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "IsoErrors({:?}, cutoff {}, {} surface samples)",
+            self.isovalues, self.cutoff, self.surface_samples
+        )
+    }
+}
+
+/// Marks a code that holds the isosurface error rather than `ae`.
+const FINAL: u16 = 0x8000;
+
+/// The code of a diamond some surface sample reached with `ae` = 0 (the smallest positive bfloat16).
+const VISITED: u16 = 1;
+
+impl IsoErrors {
+    /// Locates every surface sample of `isovalues` in the hierarchy, down to the tetrahedra no larger
+    /// than `cutoff` (world units); `cells_crossed` lists, per isovalue, the lower corners of the grid
+    /// cells it crosses.
+    pub(crate) fn new<T: Sample>(
+        lattice: &Lattice,
+        volume: &Volume<'_, T>,
+        isovalues: &[f64],
+        cutoff: f64,
+        cells_crossed: impl Fn(f64) -> Vec<u32> + Sync,
+    ) -> Self {
+        let grid = &volume.grid;
+        let codes: Vec<AtomicU16> = (0..grid.len()).map(|_| AtomicU16::new(0)).collect();
+        let hidden = bits(grid.len());
+        let roots = RootTets::new(lattice);
+        let mut surface_samples = 0;
+        for &v in isovalues {
+            let cells = cells_crossed(v);
+            let samples = corners_of(grid.dims, &cells);
+            surface_samples += samples.len();
+            let walk = Walk {
+                lattice,
+                volume,
+                v,
+                cutoff2: cutoff * cutoff,
+                codes: &codes,
+                hidden: &hidden,
+            };
+            // Each sample with its coordinates in the root tetrahedron holding it, bucketed by root.
+            let roots_n = roots.tets.len();
+            let chunks: Vec<Vec<Vec<Located>>> = samples
+                .par_chunks(1 << 16)
+                .map(|chunk| {
+                    let mut buckets = vec![Vec::new(); roots_n];
+                    for &i in chunk {
+                        let [x, y, z] = grid.ijk(i as usize);
+                        let (k, l) = roots.containing(IVec3::new(x as i32, y as i32, z as i32));
+                        let f = volume.samples[i as usize].to_f64();
+                        buckets[k].push(Located { l, f });
+                    }
+                    buckets
+                })
+                .collect();
+            let mut located: Vec<Vec<Located>> = (0..roots_n)
+                .map(|k| chunks.iter().flat_map(|c| c[k].iter().copied()).collect())
+                .collect();
+            drop(chunks);
+            located
+                .par_iter_mut()
+                .zip(&roots.tets)
+                .for_each(|(points, (t, _))| walk.descend(*t, None, points));
+        }
+        Self {
+            isovalues: isovalues.to_vec(),
+            cutoff,
+            codes,
+            hidden,
+            surface_samples,
+        }
+    }
+
+    /// Whether these errors serve queries for `isovalues` at `tolerance`.
+    pub(crate) fn serve(&self, isovalues: &[f64], tolerance: f64) -> bool {
+        self.isovalues == isovalues && self.cutoff <= tolerance
+    }
+
+    /// The isosurface error of `d` (central vertex in the domain), world units: the largest
+    /// `min(ae / ‖∇T‖, size(T))` over its inside tetrahedra (Gregorski §6.2, Eq. 5), 0 when no surface
+    /// sample lies in it, infinite when it hides part of the surface.
+    pub(crate) fn error<T: Sample>(
+        &self,
+        h: &Hierarchy,
+        volume: &Volume<'_, T>,
+        d: Diamond,
+    ) -> f64 {
+        let slot = &self.codes[h.lattice().index(d.center)];
+        let code = slot.load(Ordering::Relaxed);
+        if code & FINAL != 0 {
+            return decode_error(code & !FINAL);
+        }
+        let e = match code {
+            // Not reached: no surface sample in it, or below the cutoff (bounded by the size).
+            0 => {
+                let size = tet_size(volume, &d.tets(h.lattice())[0]);
+                if size <= self.cutoff {
+                    size
+                } else {
+                    0.0
+                }
+            }
+            _ => isosurface_error(h, volume, d, decode_error(code)),
+        };
+        let code = encode_error(e);
+        slot.store(code | FINAL, Ordering::Relaxed);
+        decode_error(code)
+    }
+}
+
+impl IsoErrors {
+    /// Does the diamond `d` (central vertex in the domain) hide part of the surface somewhere?
+    pub(crate) fn hides(&self, lattice: &Lattice, d: Diamond) -> bool {
+        let i = lattice.index(d.center);
+        self.hidden[i / 64].load(Ordering::Relaxed) & (1 << (i % 64)) != 0
+    }
+}
+
+/// Samples of hidden pieces of the surface that lie farther than `reach` (world units) from the
+/// surface drawn: in each leaf of `hiders` (leaves that carry no triangle of some isovalue, in diamonds
+/// that hide part of the surface), the samples on the other side of an isovalue the leaf does not
+/// carry than the leaf's interpolant, with no point of `drawn` (points on the surface, one per
+/// polygon) and no sample chosen before within `reach`.
+pub(crate) fn far_hidden_samples<T: Sample>(
+    volume: &Volume<'_, T>,
+    isovalues: &[f64],
+    hiders: &[Tet],
+    drawn: &[[f64; 3]],
+    reach: f64,
+) -> Vec<IVec3> {
+    let ball = |t: &Tet| {
+        let p = t.map(|q| world(volume, q));
+        let centre = (p[0] + p[1] + p[2] + p[3]) / 4.0;
+        (
+            centre,
+            p.iter().map(|q| q.distance(centre)).fold(0.0, f64::max),
+        )
+    };
+    let mut near = PointGrid::new(reach, drawn);
+    // Leaves entirely within `reach` of the surface need no look inside.
+    let open: Vec<(&Tet, Vec<f64>)> = hiders
+        .par_iter()
+        .filter_map(|t| {
+            let f = t.map(|p| value(volume, p));
+            let min = f[0].min(f[1]).min(f[2].min(f[3]));
+            let max = f[0].max(f[1]).max(f[2].max(f[3]));
+            let lost: Vec<f64> = isovalues
+                .iter()
+                .copied()
+                .filter(|&v| !(min < v && v <= max))
+                .collect();
+            let (centre, r) = ball(t);
+            (!(lost.is_empty() || r < reach && near.any_within(centre, reach - r)))
+                .then_some((t, lost))
+        })
+        .collect();
+    let mut out = Vec::new();
+    for (t, lost) in open {
+        let f = t.map(|p| value(volume, p));
+        let e = |i: usize| (t[i] - t[0]).as_dvec3();
+        let inverse = DMat3::from_cols(e(1), e(2), e(3)).inverse();
+        for s in crate::scan::brute_force_points(t) {
+            let l = inverse * (s - t[0]).as_dvec3();
+            let interpolated =
+                f[0] + l.x * (f[1] - f[0]) + l.y * (f[2] - f[0]) + l.z * (f[3] - f[0]);
+            let fs = value(volume, s);
+            if lost.iter().any(|&v| (fs >= v) != (interpolated >= v)) {
+                let p = world(volume, s);
+                if !near.any_within(p, reach) {
+                    near.insert(p);
+                    out.push(s);
+                }
+            }
+        }
+    }
+    out
+}
+
+/// The diamonds to split so that each of `samples` becomes a vertex of the mesh: those of the
+/// tetrahedra holding it, from the root down (central vertices in the domain only).
+pub(crate) fn paths_to(lattice: &Lattice, samples: &[IVec3]) -> Vec<Diamond> {
+    let roots = RootTets::new(lattice);
+    let mut out = Vec::new();
+    for &s in samples {
+        let (k, mut l) = roots.containing(s);
+        let mut t = roots.tets[k].0;
+        while l.iter().all(|&c| c < 1.0) && ((t[0] + t[1]) & IVec3::ONE) == IVec3::ZERO {
+            let m = (t[0] + t[1]) / 2;
+            if lattice.in_domain(m) {
+                out.push(Diamond::new(m));
+            }
+            let (first, nl) = child_coordinates(&t, l);
+            let k = usize::from(!first);
+            (t, l) = (child_of(&t, first, t, t[k], m), nl);
+        }
+    }
+    out
+}
+
+/// Points bucketed in cubes of side `side`, to ask whether any lies within a distance (at most the
+/// side) of a point.
+struct PointGrid {
+    side: f64,
+    cells: FxHashMap<[i64; 3], Vec<DVec3>>,
+}
+
+impl PointGrid {
+    fn new(side: f64, points: &[[f64; 3]]) -> Self {
+        let mut grid = Self {
+            side,
+            cells: FxHashMap::default(),
+        };
+        for &p in points {
+            grid.insert(DVec3::from(p));
+        }
+        grid
+    }
+
+    fn key(&self, p: DVec3) -> [i64; 3] {
+        (p / self.side).floor().as_i64vec3().to_array()
+    }
+
+    fn insert(&mut self, p: DVec3) {
+        self.cells.entry(self.key(p)).or_default().push(p);
+    }
+
+    /// Is a point within `distance` (at most the side) of `p`?
+    fn any_within(&self, p: DVec3, distance: f64) -> bool {
+        let [x, y, z] = self.key(p);
+        (-1..=1).any(|dz| {
+            (-1..=1).any(|dy| {
+                (-1..=1).any(|dx| {
+                    self.cells
+                        .get(&[x + dx, y + dy, z + dz])
+                        .is_some_and(|c| c.iter().any(|q| q.distance(p) <= distance))
+                })
+            })
+        })
+    }
+}
+
+/// Gregorski §6.2, Eq. (5): the largest `min(ae / ‖∇T‖, size(T))` over the diamond's inside
+/// tetrahedra, i.e. `min(ae / G, size)` with `G` the smallest gradient magnitude among them (the
+/// tetrahedra of a diamond are congruent) — `G` comes from the hierarchy's cache, the same for every
+/// isovalue.
+fn isosurface_error<T: Sample>(h: &Hierarchy, volume: &Volume<'_, T>, d: Diamond, ae: f64) -> f64 {
+    let size = tet_size(volume, &d.tets(h.lattice())[0]);
+    let g = h.smallest_gradient(volume, d);
+    if g > 0.0 {
+        (ae / g).min(size)
+    } else {
+        size
+    }
+}
+
+/// The smallest gradient magnitude (world units) among the inside tetrahedra of `d`.
+pub(crate) fn smallest_gradient<T: Sample>(
+    lattice: &Lattice,
+    volume: &Volume<'_, T>,
+    d: Diamond,
+) -> f64 {
+    d.tets(lattice)
+        .iter()
+        .filter(|t| lattice.place(t) == Placement::Inside)
+        .map(|t| tet_gradient(volume, t).length())
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// Encodes a non-negative number as a bfloat16, rounding down (toward zero).
+pub(crate) fn encode_down(x: f64) -> u16 {
+    let mut f = x as f32;
+    if f as f64 > x {
+        f = f.next_down();
+    }
+    (f.to_bits() >> 16) as u16
+}
+
+/// The longest edge of `t` in world units.
+fn tet_size<T: Sample>(volume: &Volume<'_, T>, t: &Tet) -> f64 {
+    tet_size2(&volume.grid.spacing, t).sqrt()
+}
+
+/// The squared longest edge of `t` in world units for a grid `spacing`.
+#[inline]
+fn tet_size2(spacing: &[f64; 3], t: &Tet) -> f64 {
+    let s = DVec3::from(*spacing);
+    [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)]
+        .iter()
+        .map(|&(a, b)| ((t[a] - t[b]).as_dvec3() * s).length_squared())
+        .fold(0.0, f64::max)
+}
+
+/// World position of a lattice point.
+#[inline]
+pub(crate) fn world<T: Sample>(volume: &Volume<'_, T>, p: IVec3) -> DVec3 {
+    DVec3::from(
+        volume
+            .grid
+            .point([p.x as usize, p.y as usize, p.z as usize]),
+    )
+}
+
+#[inline]
+fn value<T: Sample>(volume: &Volume<'_, T>, p: IVec3) -> f64 {
+    volume.at(p.x as usize, p.y as usize, p.z as usize)
+}
+
+/// Gradient (world units) of the linear interpolant on `t`.
+pub(crate) fn tet_gradient<T: Sample>(volume: &Volume<'_, T>, t: &Tet) -> DVec3 {
+    let p = t.map(|q| world(volume, q));
+    let f = t.map(|q| value(volume, q));
+    let m = DMat3::from_cols(p[1] - p[0], p[2] - p[0], p[3] - p[0]);
+    m.transpose().inverse() * DVec3::new(f[1] - f[0], f[2] - f[0], f[3] - f[0])
+}
+
+/// A bitset of `n` bits, all clear.
+fn bits(n: usize) -> Vec<AtomicU64> {
+    (0..n.div_ceil(64)).map(|_| AtomicU64::new(0)).collect()
+}
+
+/// Sets bit `i`; returns whether it was clear.
+#[inline]
+fn set_bit(bits: &[AtomicU64], i: usize) -> bool {
+    let bit = 1u64 << (i % 64);
+    bits[i / 64].fetch_or(bit, Ordering::Relaxed) & bit == 0
+}
+
+/// The distinct corners of the cells whose lower corners are `cells`, as point indices.
+fn corners_of(dims: [usize; 3], cells: &[u32]) -> Vec<u32> {
+    let seen = bits(dims[0] * dims[1] * dims[2]);
+    let (sx, sy) = (1, dims[0]);
+    let sz = dims[0] * dims[1];
+    cells
+        .par_chunks(4096)
+        .flat_map_iter(|chunk| {
+            let mut out = Vec::new();
+            for &c in chunk {
+                for k in 0..8 {
+                    let i = c as usize
+                        + if k & 1 != 0 { sx } else { 0 }
+                        + if k & 2 != 0 { sy } else { 0 }
+                        + if k & 4 != 0 { sz } else { 0 };
+                    if set_bit(&seen, i) {
+                        out.push(i as u32);
+                    }
+                }
+            }
+            out
+        })
+        .collect()
+}
+
+/// The six tetrahedra of the root diamond, `[0, (N, N, N), N e_i, N (e_i + e_j)]` (see
+/// [`Diamond::tets`]), with their axes `(i, j, k)`: each holds the points with `s_i ≥ s_j ≥ s_k`.
+struct RootTets {
+    tets: Vec<(Tet, [usize; 3])>,
+    n: f64,
+}
+
+impl RootTets {
+    fn new(lattice: &Lattice) -> Self {
+        let axis = |v: IVec3| (0..3).find(|&a| v[a] != 0).expect("an axis step");
+        let tets = Diamond::root(lattice)
+            .tets(lattice)
+            .into_iter()
+            .map(|t| {
+                debug_assert_eq!(t[0], IVec3::ZERO);
+                let (i, j) = (axis(t[2] - t[0]), axis(t[3] - t[2]));
+                (t, [i, j, 3 - i - j])
+            })
+            .collect();
+        Self {
+            tets,
+            n: lattice.size() as f64,
+        }
+    }
+
+    /// The first root tetrahedron holding `s` (its position in `tets`) and the barycentric
+    /// coordinates of `s` in it.
+    fn containing(&self, s: IVec3) -> (usize, [f64; 4]) {
+        self.tets
+            .iter()
+            .enumerate()
+            .find_map(|(k, (_, [i, j, kk]))| {
+                (s[*i] >= s[*j] && s[*j] >= s[*kk]).then(|| {
+                    let c = |a: usize| s[a] as f64 / self.n;
+                    (k, [1.0 - c(*i), c(*kk), c(*i) - c(*j), c(*j) - c(*kk)])
+                })
+            })
+            .expect("the root tetrahedra cover the root cube")
+    }
+}
+
+/// A surface sample on its way down: barycentric coordinates in the current tetrahedron and value.
+#[derive(Clone, Copy, Debug)]
+struct Located {
+    l: [f64; 4],
+    f: f64,
+}
+
+/// The descent of the surface samples of isovalue `v` through the hierarchy.
+struct Walk<'a, 'v, T> {
+    lattice: &'a Lattice,
+    volume: &'a Volume<'v, T>,
+    v: f64,
+    /// Squared [`IsoErrors::cutoff`].
+    cutoff2: f64,
+    codes: &'a [AtomicU16],
+    hidden: &'a [AtomicU64],
+}
+
+/// Below this many samples a subtree is walked on the current thread.
+const SEQUENTIAL: usize = 2048;
+
+impl<T: Sample> Walk<'_, '_, T> {
+    /// Visits the tetrahedron `t` (vertex values `f` once it lies inside the domain) holding the
+    /// surface samples `points`: records in its diamond the largest `|f(s) − L_T(s)|` and whether it
+    /// hides part of the surface (does not carry it, but interpolates a sample on the other side of
+    /// `v`); then bisects it and sends every sample to the child holding it (the first on a tie).
+    /// Samples that became vertices (interpolated exactly below), unit-cube tetrahedra (no sample but
+    /// their vertices) and tetrahedra no larger than the cutoff end the descent.
+    fn descend(&self, t: Tet, f: Option<[f64; 4]>, points: &mut [Located]) {
+        let twice = t[0] + t[1];
+        if points.is_empty() || twice & IVec3::ONE != IVec3::ZERO {
+            return;
+        }
+        let m = twice / 2;
+        let f = f.or_else(|| {
+            (self.lattice.place(&t) == Placement::Inside).then(|| t.map(|p| value(self.volume, p)))
+        });
+        if let Some(f) = f {
+            let v = self.v;
+            let carries = {
+                let min = f[0].min(f[1]).min(f[2].min(f[3]));
+                let max = f[0].max(f[1]).max(f[2].max(f[3]));
+                min < v && v <= max
+            };
+            let (mut e, mut hides) = (0.0f64, false);
+            for p in points.iter() {
+                let l = p.l;
+                let interpolated = l[0] * f[0] + l[1] * f[1] + l[2] * f[2] + l[3] * f[3];
+                e = e.max((p.f - interpolated).abs());
+                hides |= (p.f >= v) != (interpolated >= v);
+            }
+            let i = self.lattice.index(m);
+            let code = encode_error(e).max(VISITED);
+            if code > self.codes[i].load(Ordering::Relaxed) {
+                self.codes[i].fetch_max(code, Ordering::Relaxed);
+            }
+            if hides && !carries {
+                set_bit(self.hidden, i);
+            }
+        }
+        if tet_size2(&self.volume.grid.spacing, &t) <= self.cutoff2 {
+            return; // its diamond's children are not measured
+        }
+        // Bisect: child 0 keeps the samples with l0 ≥ l1, in front; samples now at a vertex leave.
+        let layouts = [child_layout(&t, true), child_layout(&t, false)];
+        let (mut front, mut back) = (0, points.len());
+        let mut k = 0;
+        while k < back {
+            let l = points[k].l;
+            let first = l[0] >= l[1];
+            let (kept, other) = if first { (0, 1) } else { (1, 0) };
+            let (lk, lm) = (l[kept] - l[other], 2.0 * l[other]);
+            if lm == 1.0 {
+                back -= 1; // at the midpoint: a vertex from here down (other weights stay < 1)
+                points.swap(k, back);
+                continue;
+            }
+            points[k].l = arrange(layouts[kept], l, lk, lm);
+            if first {
+                points.swap(k, front);
+                front += 1;
+            }
+            k += 1;
+        }
+        let fm = f.map(|_| value(self.volume, m));
+        let child = |kept: usize| {
+            (
+                arrange(layouts[kept], t, t[kept], m),
+                f.zip(fm)
+                    .map(|(f, fm)| arrange(layouts[kept], f, f[kept], fm)),
+            )
+        };
+        let ((c0, f0), (c1, f1)) = (child(0), child(1));
+        let (p0, rest) = points[..back].split_at_mut(front);
+        if back > SEQUENTIAL {
+            rayon::join(|| self.descend(c0, f0, p0), || self.descend(c1, f1, rest));
+        } else {
+            self.descend(c0, f0, p0);
+            self.descend(c1, f1, rest);
+        }
+    }
+}
+
+/// Where the vertices of `t`'s child (`first` or second, [`bisect`]'s order) come from: the child is
+/// `[t_k, t_a, t_b, t_b]` with the spine's midpoint at position `at_m` (`k` = 0 for the first child).
+/// Cube diagonal: `[t_k, t_3, t_2, m]` (first), `[t_k, t_2, t_3, m]`; face diagonal `[t_k, t_2, m, t_3]`;
+/// cube edge `[t_k, t_3, m, t_2]`.
+#[inline]
+fn child_layout(t: &Tet, first: bool) -> (usize, usize, usize) {
+    match (t[1] - t[0]).cmpne(IVec3::ZERO).bitmask().count_ones() {
+        3 if first => (3, 2, 3),
+        3 => (2, 3, 3),
+        2 => (2, 3, 2),
+        _ => (3, 2, 2),
+    }
+}
+
+/// The child's version of a per-vertex quantity `x` of its parent, for a child `layout`
+/// ([`child_layout`]): `kept` for the kept spine end, `mid` for the spine's midpoint.
+#[inline]
+fn arrange<X: Copy>(layout: (usize, usize, usize), x: [X; 4], kept: X, mid: X) -> [X; 4] {
+    let (a, b, at_m) = layout;
+    let mut out = [kept, x[a], x[b], x[b]];
+    out[at_m] = mid;
+    out
+}
+
+/// [`arrange`] for `t`'s first or second child.
+#[inline]
+fn child_of<X: Copy>(t: &Tet, first: bool, x: [X; 4], kept: X, mid: X) -> [X; 4] {
+    arrange(child_layout(t, first), x, kept, mid)
+}
+
+/// The child of `t` holding the point with barycentric coordinates `l` (the first on a tie) and the
+/// point's coordinates in it: `l_k t_k + l_o t_o` with `t_o = 2m − t_k` gives `t_k` the weight
+/// `l_k − l_o` and `m` the weight `2 l_o`.
+#[inline]
+fn child_coordinates(t: &Tet, l: [f64; 4]) -> (bool, [f64; 4]) {
+    let first = l[0] >= l[1];
+    let (k, o) = if first { (0, 1) } else { (1, 0) };
+    (first, child_of(t, first, l, l[k] - l[o], 2.0 * l[o]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::diamond::bisect;
+
+    #[test]
+    fn descent_follows_bisection_and_keeps_the_sample() {
+        // Every step of the descent is one of `bisect`'s children, holds s, and its barycentric
+        // coordinates and vertex values (here those of a linear field) reproduce s and f(s).
+        let lattice = Lattice::new([17, 17, 17]).unwrap();
+        let roots = RootTets::new(&lattice);
+        let field = |p: IVec3| 3.0 * p.x as f64 - 2.0 * p.y as f64 + 0.5 * p.z as f64;
+        for s in [
+            IVec3::new(3, 5, 7),
+            IVec3::new(16, 0, 9),
+            IVec3::new(8, 8, 8),
+            IVec3::new(1, 1, 2),
+            IVec3::new(15, 13, 1),
+        ] {
+            let (k, mut l) = roots.containing(s);
+            let mut t = roots.tets[k].0;
+            let mut f = t.map(field);
+            let mut steps = 0;
+            while l.iter().all(|&c| c < 1.0) && ((t[0] + t[1]) & IVec3::ONE) == IVec3::ZERO {
+                let p: DVec3 = (0..4).map(|i| t[i].as_dvec3() * l[i]).sum();
+                assert!(p.distance(s.as_dvec3()) < 1e-9, "{s:?} in {t:?} at {l:?}");
+                assert!(l.iter().all(|&c| c >= 0.0));
+                let fs: f64 = (0..4).map(|i| f[i] * l[i]).sum();
+                assert!((fs - field(s)).abs() < 1e-9);
+                let m = (t[0] + t[1]) / 2;
+                let (first, nl) = child_coordinates(&t, l);
+                let k = usize::from(!first);
+                let child = child_of(&t, first, t, t[k], m);
+                assert_eq!(child, bisect(&t)[k], "{t:?}");
+                f = child_of(&t, first, f, f[k], field(m));
+                assert_eq!(f, child.map(field));
+                (t, l) = (child, nl);
+                steps += 1;
+            }
+            assert!(steps > 0 && l.contains(&1.0), "{s:?} never became a vertex");
+        }
+    }
+}
