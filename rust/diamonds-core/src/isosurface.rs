@@ -621,10 +621,12 @@ pub fn marching_tetrahedra<T: Sample>(
             let (point, value, normal) = interpolate(volume, isovalues, key, compute_normals);
             // Where the gradients vanish: the gradient of the tetrahedron, toward increasing values.
             let normal = normal.unwrap_or_else(|| {
-                compute_normals
-                    .then(|| tet_gradient(volume, &tets[polygons[p as usize].tet as usize]))
-                    .unwrap_or_default()
-                    .normalize_or_zero()
+                if compute_normals {
+                    let t = &tets[polygons[p as usize].tet as usize];
+                    tet_gradient(volume, t).normalize_or_zero()
+                } else {
+                    DVec3::ZERO
+                }
             });
             (point, value, normal.as_vec3().to_array())
         })
