@@ -14,21 +14,26 @@
  * The algorithm (Gregorski et al. 2002, "Recursive Tetrahedral Meshes for Scientific
  * Visualization", §6, §6.1–6.2; Weiss & De Floriani, "Isodiamond Hierarchies", §2.1, §5.1):
  *
- * 1. Diamond hierarchy. The same hierarchy as vtkAdaptiveTetrahedra's (see that class for the
- *    lattice, the diamonds and the exact per-diamond approximation error): the image is embedded in
- *    a (2^L+1)^3 lattice, split into tetrahedra by longest-edge bisection, and tetrahedra sharing a
- *    split edge form diamonds that are always split together, so any refinement is a conforming
- *    tetrahedral mesh. Each diamond also stores the range (min, max) of the samples it covers.
- * 2. Culling of empty diamonds (Gregorski §6.1). A diamond whose value range does not contain any
- *    isovalue cannot hold the surface: it is never split (only as far as its neighbours' splits
- *    force it, for conformity). The refinement work therefore follows the surface, not the volume.
+ * 1. Diamond hierarchy. The lattice and diamonds of vtkAdaptiveTetrahedra's hierarchy (see that
+ *    class): the image is embedded in a (2^L+1)^3 lattice, split into tetrahedra by longest-edge
+ *    bisection, and tetrahedra sharing a split edge form diamonds that are always split together,
+ *    so any refinement is a conforming tetrahedral mesh. Unlike vtkAdaptiveTetrahedra, this filter
+ *    builds the isosurface-only hierarchy: no per-diamond records are precomputed (see Memory
+ *    below).
+ * 2. Culling of empty diamonds (Gregorski §6.1). A diamond that holds no sample deciding the
+ *    surface (no corner of a grid cell an isovalue crosses) cannot hold the surface: it is never
+ *    split (only as far as its neighbours' splits force it, for conformity). The refinement work
+ *    therefore follows the surface, not the volume.
  * 3. Isosurface error (Gregorski §6.2). A diamond's approximation error e (data units: the largest
- *    difference between a sample and the linear interpolation) moves the surface by about
- *    e / |gradient| in space; that distance, clamped to the size of the diamond's tetrahedra (the
- *    surface cannot move further than the cell that holds it), is the diamond's isosurface error,
- *    in world units. Diamonds containing an isovalue are split, their parents first (closure),
- *    while their isosurface error exceeds Tolerance; with MaximumNumberOfTriangles, the diamond of
- *    largest isosurface error goes first and refinement stops before the budget would be exceeded.
+ *    difference between the linear interpolation and a sample deciding the surface, measured by
+ *    each extraction for its isovalues) moves the surface by about e / |gradient| in space; that
+ *    distance, clamped to the size of the diamond's tetrahedra (the surface cannot move further
+ *    than the cell that holds it), is the diamond's isosurface error, in world units. Diamonds
+ *    containing an isovalue are split, their parents first (closure), while their isosurface error
+ *    exceeds Tolerance; with MaximumNumberOfTriangles, the diamond of largest isosurface error goes
+ *    first and refinement stops before the budget would be exceeded. Pieces of the surface that a
+ *    coarse tetrahedron hides (a speck, a thin branch) and that lie farther than Tolerance from the
+ *    surface drawn are refined back in.
  * 4. Marching tetrahedra on the resulting adaptive, conforming mesh: in each tetrahedron that
  *    straddles an isovalue, the surface is the linear interpolant's zero set (one or two
  *    triangles). Surface points live on mesh edges and are shared by edge (deduplicated through
@@ -37,8 +42,8 @@
  *    Triangles are consistently oriented: their normal (right-hand rule) points toward
  *    increasing values.
  *
- * Interaction. The hierarchy is built once per input array (one pass over the samples) and kept
- * between executions; changing the contour values, Tolerance, MaximumNumberOfTriangles or the
+ * Interaction. The hierarchy is built once per input array (in milliseconds: one pass over the
+ * samples to check them) and kept between executions; changing the contour values, Tolerance, MaximumNumberOfTriangles or the
  * region of interest re-runs only the extraction, which reads the samples again where the surface
  * passes (the filter keeps a reference to the input array for that, see Memory below).
  * GetNumberOfHierarchyBuilds() counts the builds. The hierarchy is rebuilt when the input array,
@@ -109,16 +114,17 @@
  * 8-, 16- and 32-bit integers, float and double are read in place; 64-bit integer arrays are
  * converted to double with a warning (refused beyond 2^53).
  *
- * Progress is reported through UpdateProgress (hierarchy build, then the extraction, then the
- * output); AbortExecute / CheckAbort interrupts the build and leaves the outputs empty.
+ * Progress is reported through UpdateProgress (after the hierarchy build, after the extraction,
+ * then the output); AbortExecute / CheckAbort, checked between these steps, leaves the outputs
+ * empty (a hierarchy already built is kept).
  *
  * The core is written in Rust (crate diamonds-core) and reached through one cxx bridge (crate
  * diamonds-bridge); it runs on a thread pool of its own, independent of VTK's SMP backend.
  *
  * @sa
  * vtkFlyingEdges3D, vtkContourFilter (full-resolution isosurfaces), vtkDecimatePro,
- * vtkQuadricDecimation (reducing them afterwards), vtkAdaptiveTetrahedra (the adaptive mesh of the
- * same hierarchy)
+ * vtkQuadricDecimation (reducing them afterwards), vtkAdaptiveTetrahedra (adaptive tetrahedral
+ * meshes of the same lattice, from the full hierarchy)
  */
 
 #ifndef vtkAdaptiveIsosurface_h
@@ -248,9 +254,10 @@ public:
   vtkGetMacro(NumberOfReusedMeshes, vtkIdType);
 
   /**
-   * Bytes of per-diamond data held by the cached hierarchy (0 when none is cached): 4 per input
-   * point, not counting the cached isosurface errors (2 per point) nor the input array it keeps a
-   * reference to.
+   * Bytes of per-diamond records held by the cached hierarchy: always 0, since the filter builds
+   * the isosurface-only hierarchy, which has none. Not counted: the isosurface errors of the last
+   * isovalues (2 bytes and 1 bit per input point, measured again when the isovalues change), the
+   * cached smallest gradients (2 bytes per point) and the input array it keeps a reference to.
    */
   vtkIdType GetHierarchyMemorySize();
 

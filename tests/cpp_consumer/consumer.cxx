@@ -132,6 +132,8 @@ int main()
   Check(count != nullptr && count->GetTuple1(0) == static_cast<double>(tets),
     "field data NumberOfTetrahedra");
   Check(filter->GetNumberOfHierarchyBuilds() == 1, "one hierarchy build");
+  Check(filter->GetHierarchyMemorySize() == 4 * 33 * 33 * 33,
+    "HierarchyMemorySize: 4 bytes per point (the full hierarchy)");
 
   // Only the query changes: re-executes, does not rebuild.
   filter->SetTolerance(16.0);
@@ -232,6 +234,21 @@ int main()
   vtkUnstructuredGrid* carriers = vtkUnstructuredGrid::SafeDownCast(iso->GetOutputDataObject(1));
   Check(carriers != nullptr && carriers->GetNumberOfCells() > 0 && OnlyTetra(carriers),
     "isosurface: carrier tetrahedra on port 1");
+  if (carriers != nullptr)
+  {
+    // The isosurface error of each carrier's diamond, world units: the largest is the surface's
+    // ErrorBound (within Tolerance).
+    vtkDataArray* isoError = carriers->GetCellData()->GetArray("IsosurfaceError");
+    vtkDataArray* surfaceBound = iso->GetOutput(0)->GetFieldData()->GetArray("ErrorBound");
+    Check(isoError != nullptr && surfaceBound != nullptr &&
+        isoError->GetNumberOfTuples() == carriers->GetNumberOfCells() &&
+        isoError->GetRange()[0] >= 0.0 && isoError->GetRange()[1] <= 0.5 &&
+        isoError->GetRange()[1] == surfaceBound->GetTuple1(0) &&
+        carriers->GetCellData()->GetArray("ApproximationError") == nullptr,
+      "isosurface: carrier cell data IsosurfaceError, largest = ErrorBound <= Tolerance");
+  }
+  Check(iso->GetNumberOfHierarchyBuilds() == 1 && iso->GetHierarchyMemorySize() == 0,
+    "isosurface: HierarchyMemorySize 0 (the isosurface-only hierarchy keeps no per-diamond records)");
   std::printf("(an error about a missing isovalue is expected next)\n");
   iso->SetNumberOfContours(0);
   iso->Update();

@@ -9,7 +9,9 @@ ParaView's own Contour is the reference surface):
   Tolerance + one voxel diagonal of ParaView's Contour of the same isovalue (and of the exact sphere);
 - two isovalues give two surfaces; ComputeScalars; the region of interest; the triangle budget; the
   carrier tetrahedra of port 1;
-- an isovalue or tolerance change does not rebuild the hierarchy and equals a fresh filter;
+- an isovalue or tolerance change does not rebuild the hierarchy and equals a fresh filter; the
+  hierarchy is the isosurface-only one (HierarchyMemorySize 0, where Adaptive Tetrahedra's is 4 bytes per
+  point);
 - toggling ComputeNormals, ComputeScalars or the carriers reuses the adaptive mesh (NumberOfReusedMeshes)
   and gives the same triangles; an isovalue change or a new input (rebuilt hierarchy) does not reuse it
   and equals a fresh filter;
@@ -80,6 +82,16 @@ print("Wavelet triangles at tolerance 0, 0.1, 0.3, 1, 3:", counts)
 dc.check(ball(a >= b for a, b in zip(counts, counts[1:])), "triangle count non-increasing as the tolerance grows")
 dc.check(counts[-1] < counts[0] / 4, "tolerance 3 (5 % of the diagonal) is visibly adaptive (< 1/4 of the full-resolution count)")
 dc.check(dc.hierarchy_builds(filt) == 1, f"five tolerances and an isovalue change, one hierarchy build (got {dc.hierarchy_builds(filt)})")
+# The isosurface-only hierarchy keeps no per-diamond records (Adaptive Tetrahedra's full one: 4 bytes
+# per point on the same image).
+filt.UpdatePropertyInformation()
+tetra_filter = simple.AdaptiveTetrahedra(Input=wavelet, Tolerance=4.0)
+tetra_filter.UpdatePipeline()
+tetra_filter.UpdatePropertyInformation()
+iso_bytes = int(filt.GetProperty("HierarchyMemorySize").GetElement(0))
+tetra_bytes = int(tetra_filter.GetProperty("HierarchyMemorySize").GetElement(0))
+dc.check(iso_bytes == 0 and tetra_bytes == 4 * image.GetNumberOfPoints(), f"HierarchyMemorySize: {iso_bytes} for the built isosurface-only hierarchy, {tetra_bytes} (4 per point) for Adaptive Tetrahedra's")
+simple.Delete(tetra_filter)
 
 # An isovalue change re-extracts without a rebuild and equals a fresh filter.
 filt.Tolerance = 0.5
@@ -246,6 +258,7 @@ if ctets is not None and len(ctets):
     dc.check(dc.field_value(carrier, "NumberOfTetrahedra") == carrier.GetNumberOfCells(), "carrier field data NumberOfTetrahedra")
     ie = vtk_to_numpy(carrier.GetCellData().GetArray("IsosurfaceError"))
     dc.check(ie.max() == dc.field_value(surface, "ErrorBound") and ie.max() <= carrier_filter.Tolerance, f"carrier IsosurfaceError: largest {ie.max()} = the surface's ErrorBound, within Tolerance {carrier_filter.Tolerance}")
+    dc.check(dc.field_value(carrier, "MaximumError") == ie.max() and carrier.GetCellData().GetArray("ApproximationError") is None, "carrier field data MaximumError = the largest IsosurfaceError; no data-unit ApproximationError")
     # Each surface triangle's centroid lies in the carriers' bounding region (cheap containment proxy).
     sp, st = surface_arrays(surface)
     cb = carrier.GetBounds()

@@ -122,8 +122,11 @@ mod ffi {
 
     extern "Rust" {
         /// The diamond hierarchy of one image; owns its metadata (does not borrow the samples).
+        /// Full (`build_hierarchy`: per-diamond records, serves `query` and `isosurface`) or
+        /// isosurface-only (`build_isosurface_hierarchy`: serves `isosurface` alone).
         type Hierarchy;
-        /// The adaptive tetrahedral mesh returned by one query.
+        /// The adaptive tetrahedral mesh returned by one query, or the tetrahedra carrying an
+        /// isosurface (`take_carrier`).
         type Mesh;
         /// The triangles of one isosurface query (and, when asked, the tetrahedra carrying them).
         type Surface;
@@ -132,7 +135,8 @@ mod ffi {
         /// hierarchy: [`isosurface`] forgets it when handed another one.
         type IsoState;
 
-        /// Builds the hierarchy of `samples` (raw bytes of `scalar_type` values, x fastest) on `grid`.
+        /// Builds the full hierarchy of `samples` (raw bytes of `scalar_type` values, x fastest) on
+        /// `grid`: per-diamond records (4 bytes per point) computed with progress and abort.
         fn build_hierarchy(
             grid: &GridSpec,
             scalar_type: ScalarType,
@@ -148,7 +152,7 @@ mod ffi {
         ) -> Result<Box<Hierarchy>>;
         /// Extracts the mesh for `query`; cheap compared with the build.
         fn query(self: &Hierarchy, query: &QuerySpec) -> Result<Box<Mesh>>;
-        /// Bytes of per-diamond metadata held by the hierarchy.
+        /// Bytes of per-diamond metadata held by the hierarchy (0 for an isosurface-only one).
         fn metadata_bytes(self: &Hierarchy) -> Result<usize>;
         /// Extracts the isosurfaces of `isovalues`. `samples` (of `scalar_type`) must be the very
         /// samples the hierarchy was built from: the caller keeps them alive and unchanged. `state`
@@ -171,9 +175,10 @@ mod ffi {
         fn tets(self: &Mesh) -> Result<&[u32]>;
         /// Bisection depth of each tetrahedron.
         fn levels(self: &Mesh) -> Result<&[u8]>;
-        /// Error bound of each tetrahedron, in data units.
+        /// The error of each tetrahedron's diamond: for a `query` mesh its approximation error
+        /// bound, in data units; for carrier tetrahedra its isosurface error, in world units.
         fn errors(self: &Mesh) -> Result<&[f32]>;
-        /// Largest error bound of the mesh.
+        /// Largest of `errors` (for carrier tetrahedra, the surface's `error_bound`).
         fn max_error(self: &Mesh) -> Result<f64>;
         /// Frees the tetrahedra once C++ has copied them, lowering the peak memory of large meshes;
         /// `tets()` is empty afterwards.
@@ -198,7 +203,8 @@ mod ffi {
         fn error_bound(self: &Surface) -> Result<f64>;
         /// Whether the carrier tetrahedra are there to take (asked for and not taken yet).
         fn has_carrier(self: &Surface) -> Result<bool>;
-        /// Moves the tetrahedra carrying the surface out; an error unless `carrier_tetrahedra` was
+        /// Moves the tetrahedra carrying the surface out (their `errors`: the isosurface error of
+        /// each tetrahedron's diamond, world units); an error unless `carrier_tetrahedra` was
         /// asked for, or when already taken.
         fn take_carrier(self: &mut Surface) -> Result<Box<Mesh>>;
     }
@@ -880,6 +886,22 @@ mod tests {
         (grid, values)
     }
 
+    /// Both kinds of hierarchy of the same `f32` samples, named: the full one ([`build_hierarchy`],
+    /// what Adaptive Tetrahedra builds) and the isosurface-only one ([`build_isosurface_hierarchy`],
+    /// what Adaptive Isosurface builds).
+    fn both_kinds(grid: &GridSpec, bytes: &[u8]) -> [(&'static str, Box<Hierarchy>); 2] {
+        [
+            (
+                "full",
+                Box::new(build_with(grid, ScalarType::F32, bytes, &mut |_| true).unwrap()),
+            ),
+            (
+                "isosurface-only",
+                build_isosurface_hierarchy(grid, ScalarType::F32, bytes).unwrap(),
+            ),
+        ]
+    }
+
     fn iso_spec(tolerance: f64) -> IsoSpec {
         IsoSpec {
             tolerance,
@@ -900,71 +922,96 @@ mod tests {
         a.points == b.points && a.triangles == b.triangles && a.values == b.values
     }
 
+    /// The carrier's per-tetrahedron errors: one per tetrahedron, finite, non-negative, and the
+    /// largest is both the mesh's `max_error` and the surface's `error_bound` (the isosurface error
+    /// of the diamonds carrying the surface, world units). Returns them.
+    fn carrier_errors(surface: &mut Surface, what: &str) -> Vec<f32> {
+        let bound = surface.error_bound().unwrap();
+        let carrier = surface.take_carrier().unwrap();
+        let errors = carrier.errors().unwrap().to_vec();
+        assert_eq!(errors.len(), carrier.tets().unwrap().len() / 4, "{what}");
+        assert!(!errors.is_empty(), "{what}: no carrier tetrahedra");
+        assert!(
+            errors.iter().all(|e| e.is_finite() && *e >= 0.0),
+            "{what}: {errors:?}"
+        );
+        let max = errors.iter().fold(0.0f64, |m, &e| m.max(e as f64));
+        assert_eq!(max, carrier.max_error().unwrap(), "{what}");
+        assert_eq!(max, bound, "{what}: largest carrier error = error bound");
+        errors
+    }
+
     #[test]
     fn isosurface_state_reuses_the_mesh_only_when_refinement_did_not_change() {
         let (grid, values) = sphere_volume();
         let bytes: &[u8] = bytemuck::cast_slice(&values);
-        let h = build_with(&grid, ScalarType::F32, bytes, &mut |_| true).unwrap();
-        let mut state = new_iso_state().unwrap();
-        assert!(
-            !state.reused().unwrap(),
-            "nothing to reuse before the first query"
-        );
-        let spec = iso_spec(0.25);
-        let first = h
-            .isosurface(&mut state, ScalarType::F32, bytes, &[2.5], &spec)
-            .unwrap();
-        assert!(!state.reused().unwrap());
-        // Normals and carrier off: same refinement, the mesh is reused, same triangles.
-        let bare = IsoSpec {
-            compute_normals: false,
-            carrier_tetrahedra: false,
-            ..spec
-        };
-        let again = h
-            .isosurface(&mut state, ScalarType::F32, bytes, &[2.5], &bare)
-            .unwrap();
-        assert!(state.reused().unwrap());
-        assert!(same(&first, &again) && again.normals().unwrap().is_empty());
-        // An isovalue change refines (from the root) and equals a fresh query.
-        let changed = h
-            .isosurface(&mut state, ScalarType::F32, bytes, &[3.0], &bare)
-            .unwrap();
-        assert!(!state.reused().unwrap());
-        let reference = h
-            .isosurface(&mut fresh(), ScalarType::F32, bytes, &[3.0], &bare)
-            .unwrap();
-        assert!(same(&changed, &reference));
-        // A tolerance change too.
-        let finer = IsoSpec {
-            tolerance: 0.1,
-            ..bare
-        };
-        h.isosurface(&mut state, ScalarType::F32, bytes, &[3.0], &finer)
-            .unwrap();
-        assert!(!state.reused().unwrap());
-        // A failed query clears the state: the next one refines again.
-        assert!(h
-            .isosurface(&mut state, ScalarType::F32, bytes, &[f64::NAN], &finer)
-            .is_err());
-        assert!(!state.reused().unwrap());
-        h.isosurface(&mut state, ScalarType::F32, bytes, &[3.0], &finer)
-            .unwrap();
-        assert!(!state.reused().unwrap());
-        h.isosurface(&mut state, ScalarType::F32, bytes, &[3.0], &finer)
-            .unwrap();
-        assert!(state.reused().unwrap());
+        for (kind, h) in both_kinds(&grid, bytes) {
+            let mut state = new_iso_state().unwrap();
+            assert!(
+                !state.reused().unwrap(),
+                "{kind}: nothing to reuse before the first query"
+            );
+            let spec = iso_spec(0.25);
+            let first = h
+                .isosurface(&mut state, ScalarType::F32, bytes, &[2.5], &spec)
+                .unwrap();
+            assert!(!state.reused().unwrap(), "{kind}");
+            // Normals and carrier off: same refinement, the mesh is reused, same triangles.
+            let bare = IsoSpec {
+                compute_normals: false,
+                carrier_tetrahedra: false,
+                ..spec
+            };
+            let again = h
+                .isosurface(&mut state, ScalarType::F32, bytes, &[2.5], &bare)
+                .unwrap();
+            assert!(state.reused().unwrap(), "{kind}");
+            assert!(
+                same(&first, &again) && again.normals().unwrap().is_empty(),
+                "{kind}"
+            );
+            // An isovalue change refines (from the root) and equals a fresh query.
+            let changed = h
+                .isosurface(&mut state, ScalarType::F32, bytes, &[3.0], &bare)
+                .unwrap();
+            assert!(!state.reused().unwrap(), "{kind}");
+            let reference = h
+                .isosurface(&mut fresh(), ScalarType::F32, bytes, &[3.0], &bare)
+                .unwrap();
+            assert!(same(&changed, &reference), "{kind}");
+            // A tolerance change too.
+            let finer = IsoSpec {
+                tolerance: 0.1,
+                ..bare
+            };
+            h.isosurface(&mut state, ScalarType::F32, bytes, &[3.0], &finer)
+                .unwrap();
+            assert!(!state.reused().unwrap(), "{kind}");
+            // A failed query clears the state: the next one refines again.
+            assert!(h
+                .isosurface(&mut state, ScalarType::F32, bytes, &[f64::NAN], &finer)
+                .is_err());
+            assert!(!state.reused().unwrap(), "{kind}");
+            h.isosurface(&mut state, ScalarType::F32, bytes, &[3.0], &finer)
+                .unwrap();
+            assert!(!state.reused().unwrap(), "{kind}");
+            h.isosurface(&mut state, ScalarType::F32, bytes, &[3.0], &finer)
+                .unwrap();
+            assert!(state.reused().unwrap(), "{kind}");
+        }
     }
 
     #[test]
     fn isosurface_only_hierarchy_serves_isosurfaces_and_refuses_meshes() {
         let (grid, values) = sphere_volume();
         let bytes: &[u8] = bytemuck::cast_slice(&values);
-        let full = build_with(&grid, ScalarType::F32, bytes, &mut |_| true).unwrap();
-        let iso = build_isosurface_hierarchy(&grid, ScalarType::F32, bytes).unwrap();
+        let [(_, full), (_, iso)] = both_kinds(&grid, bytes);
         assert_ne!(full.id, iso.id);
+        // Each build gets a new id, whatever its kind.
+        let again = build_isosurface_hierarchy(&grid, ScalarType::F32, bytes).unwrap();
+        assert!(again.id != iso.id && again.id != full.id);
         assert_eq!(iso.metadata_bytes().unwrap(), 0);
-        assert!(full.metadata_bytes().unwrap() > 0);
+        assert_eq!(full.metadata_bytes().unwrap(), 4 * values.len());
         let err = iso
             .query(&QuerySpec {
                 tolerance: 0.1,
@@ -975,94 +1022,194 @@ mod tests {
             .map(|_| ())
             .unwrap_err();
         assert!(err.contains("isosurfaces only"), "{err}");
-        // Tolerance 0: both give the full-resolution surface.
-        let spec = iso_spec(0.0);
-        let a = full
-            .isosurface(&mut fresh(), ScalarType::F32, bytes, &[2.5], &spec)
-            .unwrap();
-        let b = iso
-            .isosurface(&mut fresh(), ScalarType::F32, bytes, &[2.5], &spec)
-            .unwrap();
-        assert!(same(&a, &b) && !b.triangles().unwrap().is_empty());
+        // The same surfaces and carrier errors from both, at full resolution and adaptively.
+        for tolerance in [0.0, 0.25, 0.6] {
+            let spec = iso_spec(tolerance);
+            let mut a = full
+                .isosurface(&mut fresh(), ScalarType::F32, bytes, &[2.5], &spec)
+                .unwrap();
+            let mut b = iso
+                .isosurface(&mut fresh(), ScalarType::F32, bytes, &[2.5], &spec)
+                .unwrap();
+            assert!(
+                same(&a, &b) && !b.triangles().unwrap().is_empty(),
+                "tolerance {tolerance}"
+            );
+            assert_eq!(a.error_bound().unwrap(), b.error_bound().unwrap());
+            assert_eq!(
+                carrier_errors(&mut a, "full"),
+                carrier_errors(&mut b, "isosurface-only"),
+                "tolerance {tolerance}"
+            );
+        }
         // Bad input is an error, not a panic.
         assert!(build_isosurface_hierarchy(&grid, ScalarType::F32, &bytes[4..]).is_err());
+        let mut nan = values.clone();
+        nan[100] = f32::NAN;
+        assert!(
+            build_isosurface_hierarchy(&grid, ScalarType::F32, bytemuck::cast_slice(&nan)).is_err()
+        );
+        let flat = GridSpec {
+            dims: [17, 17, 1],
+            ..grid
+        };
+        assert!(build_isosurface_hierarchy(&flat, ScalarType::F32, &bytes[..4 * 17 * 17]).is_err());
+    }
+
+    #[test]
+    fn carrier_errors_are_isosurface_errors_in_world_units() {
+        // Unlike an approximation error (data units), the isosurface error ae / |grad| does not
+        // change when the data are scaled, and scales with the spacing. Powers of two keep every
+        // step exact, so the refinement and the errors compare exactly.
+        let (grid, values) = sphere_volume();
+        let bytes: &[u8] = bytemuck::cast_slice(&values);
+        let doubled: Vec<f32> = values.iter().map(|v| 2.0 * v).collect();
+        let doubled_bytes: &[u8] = bytemuck::cast_slice(&doubled);
+        let stretched = GridSpec {
+            origin: grid.origin.map(|o| 2.0 * o),
+            spacing: grid.spacing.map(|s| 2.0 * s),
+            ..grid
+        };
+        for (kind, h) in both_kinds(&grid, bytes) {
+            for tolerance in [0.25, 0.6] {
+                let what = format!("{kind}, tolerance {tolerance}");
+                let mut base = h
+                    .isosurface(
+                        &mut fresh(),
+                        ScalarType::F32,
+                        bytes,
+                        &[2.5],
+                        &iso_spec(tolerance),
+                    )
+                    .unwrap();
+                let errors = carrier_errors(&mut base, &what);
+                assert!(
+                    errors.iter().any(|&e| e > 0.0),
+                    "{what}: an adaptive surface has tetrahedra with an error"
+                );
+                assert!(base.error_bound().unwrap() <= tolerance, "{what}");
+
+                let scaled =
+                    build_isosurface_hierarchy(&grid, ScalarType::F32, doubled_bytes).unwrap();
+                let mut s = scaled
+                    .isosurface(
+                        &mut fresh(),
+                        ScalarType::F32,
+                        doubled_bytes,
+                        &[5.0],
+                        &iso_spec(tolerance),
+                    )
+                    .unwrap();
+                assert_eq!(
+                    carrier_errors(&mut s, &what),
+                    errors,
+                    "{what}: data scaled by 2, same errors"
+                );
+
+                let wide = build_isosurface_hierarchy(&stretched, ScalarType::F32, bytes).unwrap();
+                let mut w = wide
+                    .isosurface(
+                        &mut fresh(),
+                        ScalarType::F32,
+                        bytes,
+                        &[2.5],
+                        &iso_spec(2.0 * tolerance),
+                    )
+                    .unwrap();
+                let doubled_errors: Vec<f32> = errors.iter().map(|e| 2.0 * e).collect();
+                assert_eq!(
+                    carrier_errors(&mut w, &what),
+                    doubled_errors,
+                    "{what}: spacing scaled by 2, errors doubled"
+                );
+            }
+        }
     }
 
     #[test]
     fn isosurface_state_is_not_reused_on_another_hierarchy() {
         let (grid, values) = sphere_volume();
         let bytes: &[u8] = bytemuck::cast_slice(&values);
-        let h = build_with(&grid, ScalarType::F32, bytes, &mut |_| true).unwrap();
-        let mut state = fresh();
-        let spec = iso_spec(0.25);
-        h.isosurface(&mut state, ScalarType::F32, bytes, &[2.5], &spec)
-            .unwrap();
         // Same grid (same lattice), other samples: the split set of `h` must not be reused.
         let shifted: Vec<f32> = values.iter().map(|v| 2.0 * v).collect();
         let other_bytes: &[u8] = bytemuck::cast_slice(&shifted);
-        let other = build_with(&grid, ScalarType::F32, other_bytes, &mut |_| true).unwrap();
-        let s = other
-            .isosurface(&mut state, ScalarType::F32, other_bytes, &[2.5], &spec)
-            .unwrap();
-        assert!(
-            !state.reused().unwrap(),
-            "a state of another hierarchy is cleared"
-        );
-        let reference = other
-            .isosurface(&mut fresh(), ScalarType::F32, other_bytes, &[2.5], &spec)
-            .unwrap();
-        assert!(same(&s, &reference));
-        other
-            .isosurface(&mut state, ScalarType::F32, other_bytes, &[2.5], &spec)
-            .unwrap();
-        assert!(state.reused().unwrap());
+        for ((kind, h), (other_kind, other)) in both_kinds(&grid, bytes)
+            .into_iter()
+            .zip(both_kinds(&grid, other_bytes).into_iter().rev())
+        {
+            let what = format!("{kind}, then {other_kind}");
+            let mut state = fresh();
+            let spec = iso_spec(0.25);
+            h.isosurface(&mut state, ScalarType::F32, bytes, &[2.5], &spec)
+                .unwrap();
+            let s = other
+                .isosurface(&mut state, ScalarType::F32, other_bytes, &[2.5], &spec)
+                .unwrap();
+            assert!(
+                !state.reused().unwrap(),
+                "{what}: a state of another hierarchy is cleared"
+            );
+            let reference = other
+                .isosurface(&mut fresh(), ScalarType::F32, other_bytes, &[2.5], &spec)
+                .unwrap();
+            assert!(same(&s, &reference), "{what}");
+            other
+                .isosurface(&mut state, ScalarType::F32, other_bytes, &[2.5], &spec)
+                .unwrap();
+            assert!(state.reused().unwrap(), "{what}");
+        }
     }
 
     #[test]
     fn isosurface_through_the_bridge() {
         let (grid, values) = sphere_volume();
         let bytes: &[u8] = bytemuck::cast_slice(&values);
-        let h = build_with(&grid, ScalarType::F32, bytes, &mut |_| true).unwrap();
-        for tolerance in [0.0, 0.25] {
-            let s = h
-                .isosurface(
-                    &mut fresh(),
-                    ScalarType::F32,
-                    bytes,
-                    &[2.5],
-                    &iso_spec(tolerance),
-                )
-                .unwrap();
-            let points = s.points().unwrap();
-            let n = points.len() / 3;
-            let triangles = s.triangles().unwrap();
-            assert!(n > 0 && !triangles.is_empty());
-            assert!(triangles.chunks_exact(3).remainder().is_empty());
-            assert!(triangles.iter().all(|&c| (c as usize) < n));
-            assert_eq!(s.values().unwrap(), vec![2.5; n].as_slice());
-            let normals = s.normals().unwrap();
-            assert_eq!(normals.len(), 3 * n);
-            for v in normals.chunks(3) {
-                let len = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-                assert!((len - 1.0).abs() < 1e-3, "normal {v:?}");
+        for (kind, h) in both_kinds(&grid, bytes) {
+            for tolerance in [0.0, 0.25] {
+                let what = format!("{kind}, tolerance {tolerance}");
+                let s = h
+                    .isosurface(
+                        &mut fresh(),
+                        ScalarType::F32,
+                        bytes,
+                        &[2.5],
+                        &iso_spec(tolerance),
+                    )
+                    .unwrap();
+                let points = s.points().unwrap();
+                let n = points.len() / 3;
+                let triangles = s.triangles().unwrap();
+                assert!(n > 0 && !triangles.is_empty(), "{what}");
+                assert!(triangles.chunks_exact(3).remainder().is_empty());
+                assert!(triangles.iter().all(|&c| (c as usize) < n));
+                assert_eq!(s.values().unwrap(), vec![2.5; n].as_slice());
+                let normals = s.normals().unwrap();
+                assert_eq!(normals.len(), 3 * n);
+                for v in normals.chunks(3) {
+                    let len = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+                    assert!((len - 1.0).abs() < 1e-3, "{what}: normal {v:?}");
+                }
+                // Every vertex near the sphere of radius 2.5 around (0.3, -0.2, 0).
+                for p in points.chunks(3) {
+                    let r = ((p[0] - 0.3).powi(2) + (p[1] + 0.2).powi(2) + p[2].powi(2)).sqrt();
+                    assert!(
+                        (r - 2.5).abs() < tolerance + 0.5,
+                        "{what}: vertex {p:?} at r = {r}"
+                    );
+                }
+                assert!(s.error_bound().unwrap() <= tolerance + 1e-12, "{what}");
+                let mut s = s;
+                assert!(s.has_carrier().unwrap());
+                let carrier = s.take_carrier().unwrap();
+                assert!(!carrier.tets().unwrap().is_empty(), "{what}");
+                assert!(carrier
+                    .point_ids()
+                    .unwrap()
+                    .iter()
+                    .all(|&id| id < values.len()));
+                assert!(!s.has_carrier().unwrap());
+                assert!(s.take_carrier().err().unwrap().contains("already taken"));
             }
-            // Every vertex near the sphere of radius 2.5 around (0.3, -0.2, 0).
-            for p in points.chunks(3) {
-                let r = ((p[0] - 0.3).powi(2) + (p[1] + 0.2).powi(2) + p[2].powi(2)).sqrt();
-                assert!((r - 2.5).abs() < tolerance + 0.5, "vertex {p:?} at r = {r}");
-            }
-            assert!(s.error_bound().unwrap() <= tolerance + 1e-12);
-            let mut s = s;
-            assert!(s.has_carrier().unwrap());
-            let carrier = s.take_carrier().unwrap();
-            assert!(!carrier.tets().unwrap().is_empty());
-            assert!(carrier
-                .point_ids()
-                .unwrap()
-                .iter()
-                .all(|&id| id < values.len()));
-            assert!(!s.has_carrier().unwrap());
-            assert!(s.take_carrier().err().unwrap().contains("already taken"));
         }
     }
 
@@ -1070,52 +1217,54 @@ mod tests {
     fn isosurface_without_carrier_or_normals() {
         let (grid, values) = sphere_volume();
         let bytes: &[u8] = bytemuck::cast_slice(&values);
-        let h = build_with(&grid, ScalarType::F32, bytes, &mut |_| true).unwrap();
-        let spec = IsoSpec {
-            compute_normals: false,
-            carrier_tetrahedra: false,
-            ..iso_spec(0.1)
-        };
-        let mut s = h
-            .isosurface(&mut fresh(), ScalarType::F32, bytes, &[1.5, 3.0], &spec)
-            .unwrap();
-        assert!(s.normals().unwrap().is_empty());
-        assert!(!s.has_carrier().unwrap());
-        assert!(s.take_carrier().err().unwrap().contains("not asked for"));
-        let values_seen: std::collections::BTreeSet<u64> =
-            s.values().unwrap().iter().map(|v| v.to_bits()).collect();
-        assert_eq!(values_seen.len(), 2, "two isovalues, two surfaces");
+        for (kind, h) in both_kinds(&grid, bytes) {
+            let spec = IsoSpec {
+                compute_normals: false,
+                carrier_tetrahedra: false,
+                ..iso_spec(0.1)
+            };
+            let mut s = h
+                .isosurface(&mut fresh(), ScalarType::F32, bytes, &[1.5, 3.0], &spec)
+                .unwrap();
+            assert!(s.normals().unwrap().is_empty(), "{kind}");
+            assert!(!s.has_carrier().unwrap(), "{kind}");
+            assert!(s.take_carrier().err().unwrap().contains("not asked for"));
+            let values_seen: std::collections::BTreeSet<u64> =
+                s.values().unwrap().iter().map(|v| v.to_bits()).collect();
+            assert_eq!(values_seen.len(), 2, "{kind}: two isovalues, two surfaces");
+        }
     }
 
     #[test]
     fn isosurface_bad_inputs_are_errors() {
         let (grid, values) = sphere_volume();
         let bytes: &[u8] = bytemuck::cast_slice(&values);
-        let h = build_with(&grid, ScalarType::F32, bytes, &mut |_| true).unwrap();
-        let short = h.isosurface(
-            &mut fresh(),
-            ScalarType::F32,
-            &bytes[..4 * 100],
-            &[2.5],
-            &iso_spec(0.0),
-        );
-        assert!(short.err().unwrap().contains("100 values"));
-        let negative = h.isosurface(
-            &mut fresh(),
-            ScalarType::F32,
-            bytes,
-            &[2.5],
-            &iso_spec(-1.0),
-        );
-        assert!(negative.err().unwrap().contains("tolerance"));
-        let nan = h.isosurface(
-            &mut fresh(),
-            ScalarType::F32,
-            bytes,
-            &[f64::NAN],
-            &iso_spec(0.0),
-        );
-        assert!(nan.is_err());
+        for (kind, h) in both_kinds(&grid, bytes) {
+            let short = h.isosurface(
+                &mut fresh(),
+                ScalarType::F32,
+                &bytes[..4 * 100],
+                &[2.5],
+                &iso_spec(0.0),
+            );
+            assert!(short.err().unwrap().contains("100 values"), "{kind}");
+            let negative = h.isosurface(
+                &mut fresh(),
+                ScalarType::F32,
+                bytes,
+                &[2.5],
+                &iso_spec(-1.0),
+            );
+            assert!(negative.err().unwrap().contains("tolerance"), "{kind}");
+            let nan = h.isosurface(
+                &mut fresh(),
+                ScalarType::F32,
+                bytes,
+                &[f64::NAN],
+                &iso_spec(0.0),
+            );
+            assert!(nan.is_err(), "{kind}");
+        }
     }
 
     #[test]

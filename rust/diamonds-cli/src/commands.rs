@@ -367,10 +367,17 @@ pub fn iso(opts: &IsoOptions) -> Result<IsoSummary> {
     )?;
     let carrier_tets = match (&opts.carrier, &surface.carrier) {
         (Some(path), Some(mesh)) => {
-            // As `tetra` writes its meshes, but without the data-unit Tolerance of `tetra`.
+            // As `tetra` writes its meshes, but without the data-unit Tolerance of `tetra`, and the
+            // errors are the isosurface errors of the tetrahedra's diamonds, in world units (named
+            // as Adaptive Isosurface names them).
             let others = image.point_data.iter().filter(|a| !std::ptr::eq(*a, array));
             let mut data = mesh_arrays(std::iter::once(array).chain(others), mesh, 0.0);
             data.field_data.retain(|a| a.name != "Tolerance");
+            for a in &mut data.cell_data {
+                if a.name == "ApproximationError" {
+                    a.name = "IsosurfaceError".into();
+                }
+            }
             write_tets(
                 path,
                 TetGrid {

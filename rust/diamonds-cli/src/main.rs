@@ -117,7 +117,9 @@ enum Command {
         #[arg(long)]
         scalars: bool,
         /// Also write the tetrahedra that carry the surface to this unstructured grid (.vtu), with the
-        /// point and cell data of `tetra`'s output.
+        /// point data of `tetra`'s output, cell data Level and IsosurfaceError (the isosurface error
+        /// of each tetrahedron's diamond, world units) and field data NumberOfTetrahedra and
+        /// MaximumError (the largest IsosurfaceError).
         #[arg(long, value_name = "MESH")]
         carrier: Option<PathBuf>,
     },

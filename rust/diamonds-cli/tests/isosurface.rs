@@ -361,6 +361,28 @@ fn carrier_tetrahedra_region_of_interest_and_no_normals() {
         );
     }
     assert!(mesh.cell_data.iter().any(|a| a.name == "Level"));
+    // The isosurface error of each carrier's diamond, world units: within the tolerance, the
+    // largest is the surface's ErrorBound; no data-unit ApproximationError.
+    let errors = mesh
+        .cell_data
+        .iter()
+        .find(|a| a.name == "IsosurfaceError")
+        .expect("cell data IsosurfaceError");
+    assert_eq!(errors.tuples(), tets);
+    let largest = (0..tets).map(|k| errors.value(k)).fold(0.0, f64::max);
+    assert!(
+        largest > 0.0 && largest <= 0.05,
+        "largest IsosurfaceError {largest}"
+    );
+    assert_eq!(largest, field_value(&mesh.field_data, "MaximumError"));
+    assert_eq!(
+        largest,
+        field_value(&read_surface(&out).0.field_data, "ErrorBound")
+    );
+    assert!(!mesh
+        .cell_data
+        .iter()
+        .any(|a| a.name == "ApproximationError"));
 
     // Full resolution inside the region of interest only.
     let full = dir.join("full.vtp");

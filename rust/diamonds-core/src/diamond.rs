@@ -304,12 +304,45 @@ impl Diamond {
 /// 2 → 0 of the next level: `[p, c, m, f]`, `[q, c, m, f]`.
 pub fn bisect(t: &Tet) -> [Tet; 2] {
     let m = (t[0] + t[1]) / 2;
-    let spine = t[1] - t[0];
-    match spine.cmpne(IVec3::ZERO).bitmask().count_ones() {
-        3 => [[t[0], t[3], t[2], m], [t[1], t[2], t[3], m]],
-        2 => [[t[0], t[2], m, t[3]], [t[1], t[2], m, t[3]]],
-        _ => [[t[0], t[3], m, t[2]], [t[1], t[3], m, t[2]]],
+    [
+        child_of(t, true, *t, t[0], m),
+        child_of(t, false, *t, t[1], m),
+    ]
+}
+
+/// Where the vertices of `t`'s child (`first` or second, [`bisect`]'s order) come from: the child is
+/// `[t_k, t_a, t_b, t_b]` with the spine's midpoint at position `at_m` (`k` = 0 for the first child).
+/// Cube diagonal: `[t_k, t_3, t_2, m]` (first), `[t_k, t_2, t_3, m]`; face diagonal `[t_k, t_2, m, t_3]`;
+/// cube edge `[t_k, t_3, m, t_2]`.
+#[inline]
+pub(crate) fn child_layout(t: &Tet, first: bool) -> (usize, usize, usize) {
+    match (t[1] - t[0]).cmpne(IVec3::ZERO).bitmask().count_ones() {
+        3 if first => (3, 2, 3),
+        3 => (2, 3, 3),
+        2 => (2, 3, 2),
+        _ => (3, 2, 2),
     }
+}
+
+/// The child's version of a per-vertex quantity `x` of its parent, for a child `layout`
+/// ([`child_layout`]): `kept` for the kept spine end, `mid` for the spine's midpoint.
+#[inline]
+pub(crate) fn arrange<X: Copy>(
+    layout: (usize, usize, usize),
+    x: [X; 4],
+    kept: X,
+    mid: X,
+) -> [X; 4] {
+    let (a, b, at_m) = layout;
+    let mut out = [kept, x[a], x[b], x[b]];
+    out[at_m] = mid;
+    out
+}
+
+/// [`arrange`] for `t`'s first or second child.
+#[inline]
+pub(crate) fn child_of<X: Copy>(t: &Tet, first: bool, x: [X; 4], kept: X, mid: X) -> [X; 4] {
+    arrange(child_layout(t, first), x, kept, mid)
 }
 
 /// Six times the signed volume of `t` (exact).

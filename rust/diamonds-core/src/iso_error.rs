@@ -18,7 +18,7 @@
 //! from the drawn surface are found by [`far_hidden_samples`] and forced in (see
 //! [`crate::isosurface`]).
 
-use crate::diamond::Diamond;
+use crate::diamond::{arrange, child_layout, child_of, Diamond};
 use crate::hierarchy::{decode_error, encode_error};
 use crate::lattice::{Lattice, Placement, Tet};
 use crate::volume::{Sample, Volume};
@@ -501,8 +501,10 @@ impl<T: Sample> Walk<'_, '_, T> {
                 set_bit(self.hidden, i);
             }
         }
-        if tet_size2(&self.volume.grid.spacing, &t) <= self.cutoff2 {
-            return; // its diamond's children are not measured
+        if f.is_some() && tet_size2(&self.volume.grid.spacing, &t) <= self.cutoff2 {
+            // Its diamond's children are not measured. (A tetrahedron straddling a far face records
+            // nothing, so the descent goes on to its inside descendants, which can be leaves.)
+            return;
         }
         // Bisect: child 0 keeps the samples with l0 ≥ l1, in front; samples now at a vertex leave.
         let layouts = [child_layout(&t, true), child_layout(&t, false)];
@@ -542,36 +544,6 @@ impl<T: Sample> Walk<'_, '_, T> {
             self.descend(c1, f1, rest);
         }
     }
-}
-
-/// Where the vertices of `t`'s child (`first` or second, [`bisect`]'s order) come from: the child is
-/// `[t_k, t_a, t_b, t_b]` with the spine's midpoint at position `at_m` (`k` = 0 for the first child).
-/// Cube diagonal: `[t_k, t_3, t_2, m]` (first), `[t_k, t_2, t_3, m]`; face diagonal `[t_k, t_2, m, t_3]`;
-/// cube edge `[t_k, t_3, m, t_2]`.
-#[inline]
-fn child_layout(t: &Tet, first: bool) -> (usize, usize, usize) {
-    match (t[1] - t[0]).cmpne(IVec3::ZERO).bitmask().count_ones() {
-        3 if first => (3, 2, 3),
-        3 => (2, 3, 3),
-        2 => (2, 3, 2),
-        _ => (3, 2, 2),
-    }
-}
-
-/// The child's version of a per-vertex quantity `x` of its parent, for a child `layout`
-/// ([`child_layout`]): `kept` for the kept spine end, `mid` for the spine's midpoint.
-#[inline]
-fn arrange<X: Copy>(layout: (usize, usize, usize), x: [X; 4], kept: X, mid: X) -> [X; 4] {
-    let (a, b, at_m) = layout;
-    let mut out = [kept, x[a], x[b], x[b]];
-    out[at_m] = mid;
-    out
-}
-
-/// [`arrange`] for `t`'s first or second child.
-#[inline]
-fn child_of<X: Copy>(t: &Tet, first: bool, x: [X; 4], kept: X, mid: X) -> [X; 4] {
-    arrange(child_layout(t, first), x, kept, mid)
 }
 
 /// The child of `t` holding the point with barycentric coordinates `l` (the first on a tie) and the
