@@ -291,6 +291,47 @@ impl Diamond {
         let s = IVec3::splat(self.scale());
         (self.center - s, self.center + s)
     }
+
+    /// The bounding boxes of the diamond's tetrahedra inside the root cube, each with the number of
+    /// tetrahedra it bounds, without building them: a 0-diamond's six span its cube; a 1-diamond's
+    /// span the face along its spine and one half of the cube across it (two per half); a
+    /// 2-diamond's span the edge along its spine and one quarter of the cube around it (two per
+    /// quarter). Each is exactly the box of its tetrahedra: they hold the spine and a vertex at the
+    /// far side of their half or quarter ([`Diamond::tets`]).
+    pub fn tet_boxes(self, lattice: &Lattice) -> ArrayVec<(IVec3, IVec3, usize), 4> {
+        let (lo, hi) = self.bounds();
+        let c = self.center;
+        let mut out = ArrayVec::new();
+        match self.class() {
+            Class::Cube => out.push((lo, hi, 6)),
+            Class::Face => {
+                let (_, _, k) = self.face_axes();
+                let (mut below, mut above) = (hi, lo);
+                below[k] = c[k];
+                above[k] = c[k];
+                out.push((lo, below, 2));
+                out.push((above, hi, 2));
+            }
+            Class::Edge => {
+                let (_, j, k) = self.edge_axes();
+                for low_j in [true, false] {
+                    for low_k in [true, false] {
+                        let (mut a, mut b) = (lo, hi);
+                        for (axis, low) in [(j, low_j), (k, low_k)] {
+                            if low {
+                                b[axis] = c[axis];
+                            } else {
+                                a[axis] = c[axis];
+                            }
+                        }
+                        out.push((a, b, 2));
+                    }
+                }
+            }
+        }
+        out.retain(|(a, b, _)| lattice.in_root(*a) && lattice.in_root(*b));
+        out
+    }
 }
 
 /// Bisects `t` at the midpoint `m` of its spine.
@@ -368,6 +409,7 @@ pub(crate) fn all_diamonds(lattice: &Lattice) -> Vec<Diamond> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::lattice::Placement;
     use std::collections::{HashMap, HashSet};
 
     fn lattice(n: usize) -> Lattice {
@@ -399,6 +441,56 @@ mod tests {
             let l = lattice(n);
             let ds = all_diamonds(&l);
             assert_eq!(ds.len(), (n + 1).pow(3) - 8, "N = {n}");
+        }
+    }
+
+    #[test]
+    fn tet_boxes_bound_the_tetrahedra_exactly() {
+        // Every tetrahedron's bounding box is one of the boxes, which count them, and placements
+        // from the boxes equal those from the tetrahedra on domains with straddling far faces.
+        let l = lattice(16);
+        for d in all_diamonds(&l) {
+            let mut boxes: Vec<_> = d
+                .tets(&l)
+                .iter()
+                .map(|t| {
+                    let lo = t[0].min(t[1]).min(t[2].min(t[3]));
+                    let hi = t[0].max(t[1]).max(t[2].max(t[3]));
+                    (lo.to_array(), hi.to_array())
+                })
+                .collect();
+            let mut expected: Vec<_> = d
+                .tet_boxes(&l)
+                .iter()
+                .flat_map(|&(lo, hi, n)| std::iter::repeat_n((lo.to_array(), hi.to_array()), n))
+                .collect();
+            boxes.sort();
+            expected.sort();
+            assert_eq!(boxes, expected, "{d:?}");
+            for dims in [[17, 17, 17], [12, 17, 9], [10, 6, 15], [16, 16, 16]] {
+                let domain = Lattice::new(dims).unwrap();
+                let by_tets = d
+                    .tets(&l)
+                    .iter()
+                    .map(|t| domain.place(t))
+                    .collect::<Vec<_>>();
+                let by_boxes = d
+                    .tet_boxes(&l)
+                    .iter()
+                    .map(|&(lo, hi, _)| domain.place_box(lo, hi))
+                    .collect::<Vec<_>>();
+                for p in [Placement::Inside, Placement::Outside, Placement::Straddling] {
+                    let n_tets = by_tets.iter().filter(|&&q| q == p).count();
+                    let n_boxes: usize = d
+                        .tet_boxes(&l)
+                        .iter()
+                        .zip(&by_boxes)
+                        .filter(|(_, &q)| q == p)
+                        .map(|(b, _)| b.2)
+                        .sum();
+                    assert_eq!(n_tets, n_boxes, "{d:?} in {dims:?}, {p:?}");
+                }
+            }
         }
     }
 

@@ -298,8 +298,8 @@ impl Hierarchy {
 /// Where a diamond lies relative to the domain box: the worst placement of its tetrahedra.
 pub fn place_diamond(lattice: &Lattice, d: Diamond) -> Placement {
     let mut any_inside = false;
-    for t in d.tets(lattice) {
-        match lattice.place(&t) {
+    for (lo, hi, _) in d.tet_boxes(lattice) {
+        match lattice.place_box(lo, hi) {
             Placement::Straddling => return Placement::Straddling,
             Placement::Inside => any_inside = true,
             Placement::Outside => {}

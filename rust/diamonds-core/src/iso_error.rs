@@ -98,7 +98,10 @@ impl IsoErrors {
                         let [x, y, z] = grid.ijk(i as usize);
                         let (k, l) = roots.containing(IVec3::new(x as i32, y as i32, z as i32));
                         let f = volume.samples[i as usize].to_f64();
-                        buckets[k].push(Located { l, f });
+                        buckets[k].push(Located {
+                            l: l.map(|c| c as f32),
+                            f,
+                        });
                     }
                     buckets
                 })
@@ -159,6 +162,44 @@ impl IsoErrors {
 }
 
 impl IsoErrors {
+    /// Computes, in parallel, the isosurface error of every diamond a surface sample reached.
+    pub(crate) fn finalize<T: Sample>(&self, h: &Hierarchy, volume: &Volume<'_, T>) {
+        let d = h.lattice().hi + IVec3::ONE;
+        let (nx, ny) = (d.x as usize, d.y as usize);
+        self.codes
+            .par_iter()
+            .enumerate()
+            .with_min_len(1 << 12)
+            .for_each(|(i, slot)| {
+                let code = slot.load(Ordering::Relaxed);
+                if code != 0 && code & FINAL == 0 {
+                    let c = IVec3::new(
+                        (i % nx) as i32,
+                        (i / nx % ny) as i32,
+                        (i / (nx * ny)) as i32,
+                    );
+                    let e = isosurface_error(h, volume, Diamond::new(c), decode_error(code));
+                    slot.store(encode_error(e) | FINAL, Ordering::Relaxed);
+                }
+            });
+    }
+
+    /// The error refinement compares with a tolerance at least the cutoff: [`IsoErrors::error`] where a
+    /// surface sample reached the diamond, else 0 (its error is at most the cutoff).
+    pub(crate) fn refinement_error<T: Sample>(
+        &self,
+        h: &Hierarchy,
+        volume: &Volume<'_, T>,
+        d: Diamond,
+    ) -> f64 {
+        let code = self.codes[h.lattice().index(d.center)].load(Ordering::Relaxed);
+        match code {
+            0 => 0.0,
+            _ if code & FINAL != 0 => decode_error(code & !FINAL),
+            _ => self.error(h, volume, d),
+        }
+    }
+
     /// Does the diamond `d` (central vertex in the domain) hide part of the surface somewhere?
     pub(crate) fn hides(&self, lattice: &Lattice, d: Diamond) -> bool {
         let i = lattice.index(d.center);
@@ -444,7 +485,8 @@ impl RootTets {
 /// A surface sample on its way down: barycentric coordinates in the current tetrahedron and value.
 #[derive(Clone, Copy, Debug)]
 struct Located {
-    l: [f64; 4],
+    /// Exact: the coordinates of a lattice point are multiples of `1 / N`, `N ≤ 2^24`.
+    l: [f32; 4],
     f: f64,
 }
 
@@ -487,7 +529,7 @@ impl<T: Sample> Walk<'_, '_, T> {
             };
             let (mut e, mut hides) = (0.0f64, false);
             for p in points.iter() {
-                let l = p.l;
+                let l = p.l.map(f64::from);
                 let interpolated = l[0] * f[0] + l[1] * f[1] + l[2] * f[2] + l[3] * f[3];
                 e = e.max((p.f - interpolated).abs());
                 hides |= (p.f >= v) != (interpolated >= v);
@@ -515,6 +557,7 @@ impl<T: Sample> Walk<'_, '_, T> {
             let first = l[0] >= l[1];
             let (kept, other) = if first { (0, 1) } else { (1, 0) };
             let (lk, lm) = (l[kept] - l[other], 2.0 * l[other]);
+            // Exact in f32: differences and doubles of multiples of 1 / N.
             if lm == 1.0 {
                 back -= 1; // at the midpoint: a vertex from here down (other weights stay < 1)
                 points.swap(k, back);

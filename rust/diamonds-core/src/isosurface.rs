@@ -210,16 +210,21 @@ impl Hierarchy {
         }
         let errors = self.iso_errors(volume, isovalues, tolerance);
         let lattice = *self.lattice();
-        let (carriers, hiders): (Vec<Tet>, Vec<Tet>) = self
-            .leaves_of(volume, isovalues, &split, |t, f| {
-                isovalues.iter().any(|&v| crosses(f, v))
-                    || Diamond::of_tet(t).is_some_and(|d| errors.hides(&lattice, d))
+        // The leaves that carry the surface and those that hide part of it.
+        let empty = |t: &Tet| self.misses(volume, isovalues, t);
+        let (carriers, hiders): (Vec<_>, Vec<_>) =
+            crate::mesh::leaves_where(&lattice, &split, empty, |t| {
+                if carries(volume, isovalues, t) {
+                    Some((*t, true))
+                } else {
+                    let hides = Diamond::of_tet(t).is_some_and(|d| errors.hides(&lattice, d));
+                    hides.then_some((*t, false))
+                }
             })
             .into_iter()
-            .partition(|t| {
-                let f = t.map(|p| volume.at(p.x as usize, p.y as usize, p.z as usize));
-                isovalues.iter().any(|&v| crosses(&f, v))
-            });
+            .partition(|l| l.1);
+        let carriers: Vec<Tet> = carriers.into_iter().map(|l| l.0).collect();
+        let hiders: Vec<Tet> = hiders.into_iter().map(|l| l.0).collect();
         if hiders.is_empty() {
             return Ok((split, carriers));
         }
@@ -249,8 +254,31 @@ impl Hierarchy {
                 criterion(d)
             }
         };
-        let (split, _) = Refiner::new(lattice, split, 0, &criterion).refine_with(tolerance, &paths);
-        let carriers = self.carriers_of(volume, isovalues, &split);
+        let (split, newly) =
+            Refiner::new(lattice, split, 0, &criterion).refine_logged(tolerance, &paths);
+        // The carriers now: those still leaves, then the carriers below the leaves just split (the
+        // tetrahedra of the newly split diamonds made by splitting a diamond split before), in
+        // split order. A tetrahedron's parent diamond is centred at its vertex 2 or 3 (the
+        // midpoint of the parent's spine, `diamond::bisect`).
+        let newly_split: rustc_hash::FxHashSet<Diamond> = newly.iter().copied().collect();
+        let was_leaf = |d: &Diamond, t: &Tet| {
+            !d.parents(&lattice)
+                .iter()
+                .any(|p| (p.center == t[2] || p.center == t[3]) && newly_split.contains(p))
+        };
+        let mut carriers: Vec<Tet> = carriers
+            .into_iter()
+            .filter(|t| !Diamond::of_tet(t).is_some_and(|d| newly_split.contains(&d)))
+            .collect();
+        let empty = |t: &Tet| self.misses(volume, isovalues, t);
+        let keep = |t: &Tet| carries(volume, isovalues, t).then_some(*t);
+        for d in &newly {
+            for t in d.tets(&lattice).into_iter().filter(|t| was_leaf(d, t)) {
+                carriers.extend(crate::mesh::leaves_below(
+                    &lattice, &split, t, &empty, &keep,
+                ));
+            }
+        }
         Ok((split, carriers))
     }
 
@@ -287,7 +315,7 @@ impl Hierarchy {
             }
             match &errors {
                 _ if !lattice.in_domain(d.center) => 0.0, // outside the domain
-                Some(errors) => errors.error(self, volume, d),
+                Some(errors) => errors.refinement_error(self, volume, d),
                 None => non_empty(d), // tolerance 0
             }
         }
@@ -300,30 +328,24 @@ impl Hierarchy {
         isovalues: &[f64],
         split: &SplitSet,
     ) -> Vec<Tet> {
-        self.leaves_of(volume, isovalues, split, |_, f| {
-            isovalues.iter().any(|&v| crosses(f, v))
+        let empty = |t: &Tet| self.misses(volume, isovalues, t);
+        crate::mesh::leaves_where(self.lattice(), split, empty, |t| {
+            carries(volume, isovalues, t).then_some(*t)
         })
     }
 
-    /// The leaves of the mesh of `split` whose range may hold an isovalue and for which `keep` holds
-    /// (given the leaf and its vertex values).
-    fn leaves_of<T: Sample>(
-        &self,
-        volume: &Volume<'_, T>,
-        isovalues: &[f64],
-        split: &SplitSet,
-        keep: impl Fn(&Tet, &[f64; 4]) -> bool + Sync,
-    ) -> Vec<Tet> {
-        // Walk only below tetrahedra whose sample range holds an isovalue.
-        let empty = |t: &Tet| {
-            let (lo, hi) = self.tet_range(volume, t);
-            !isovalues.iter().any(|&v| lo <= v && v <= hi)
-        };
-        crate::mesh::leaves_where(self.lattice(), split, empty, |t| {
-            let f = t.map(|p| volume.at(p.x as usize, p.y as usize, p.z as usize));
-            keep(t, &f)
-        })
+    /// Does the sample range of `t` (a superset, from the bricks) miss every isovalue? Then so do
+    /// those of all its descendants.
+    fn misses<T: Sample>(&self, volume: &Volume<'_, T>, isovalues: &[f64], t: &Tet) -> bool {
+        let (lo, hi) = self.tet_range(volume, t);
+        !isovalues.iter().any(|&v| lo <= v && v <= hi)
     }
+}
+
+/// Does the tetrahedron `t` carry the surface of some isovalue?
+fn carries<T: Sample>(volume: &Volume<'_, T>, isovalues: &[f64], t: &Tet) -> bool {
+    let f = t.map(|p| volume.at(p.x as usize, p.y as usize, p.z as usize));
+    isovalues.iter().any(|&v| crosses(&f, v))
 }
 
 /// A refinement (from the root or from a current mesh) with a given diamond error.
@@ -518,6 +540,7 @@ impl Hierarchy {
             tolerance,
             |v| cache.bricks.cells_crossed(volume, v),
         ));
+        errors.finalize(self, volume);
         *kept = Some(errors.clone());
         errors
     }
@@ -808,6 +831,48 @@ fn carrier_mesh(h: &Hierarchy, tets: &[Tet], error_of: impl Fn(&Tet) -> f64) -> 
 mod tests {
     use super::*;
     use crate::Grid;
+
+    #[test]
+    fn carriers_after_forcing_hidden_pieces_are_the_leaves_that_carry() {
+        // Single-sample spikes far from a sphere make the hidden-piece pass split more; the
+        // carriers it patches in below the leaves it split are the carrying leaves of its mesh.
+        let grid = Grid::new([40, 37, 33]);
+        let centre = DVec3::new(20.0, 18.0, 16.0);
+        let mut v: Vec<f32> = (0..grid.len())
+            .map(|i| {
+                let [x, y, z] = grid.ijk(i);
+                (DVec3::new(x as f64, y as f64, z as f64).distance(centre) - 8.0) as f32
+            })
+            .collect();
+        for [x, y, z] in [
+            [3, 4, 30],
+            [36, 3, 5],
+            [35, 33, 29],
+            [4, 34, 6],
+            [38, 20, 31],
+        ] {
+            v[grid.index(x, y, z)] = -0.5;
+        }
+        let h = Hierarchy::build_for_isosurfaces(grid, ScalarSlice::F32(&v)).unwrap();
+        let volume = Volume::new(grid, &v[..]).unwrap();
+        let sorted = |ts: &[Tet]| {
+            let mut k: Vec<_> = ts.iter().map(|t| t.map(|p| p.to_array())).collect();
+            k.sort();
+            k
+        };
+        for tol in [3.0, 6.0, 10.0] {
+            let query = IsoQuery::new(0.0, tol);
+            let refine = refine_query(&query, tol);
+            let criterion = h.iso_criterion(&volume, &query.isovalues, tol);
+            let plain = Refiner::run(&h, &refine, &criterion).unwrap();
+            let (split, carriers) = h
+                .refine_iso(&volume, &query, tol, &mut |c| Refiner::run(&h, &refine, c))
+                .unwrap();
+            assert!(split.len() > plain.len(), "nothing forced at {tol}");
+            let fresh = h.carriers_of(&volume, &query.isovalues, &split);
+            assert_eq!(sorted(&carriers), sorted(&fresh), "tolerance {tol}");
+        }
+    }
 
     #[test]
     fn brick_ranges_hold_every_box() {

@@ -90,12 +90,18 @@ impl Lattice {
     /// in rare corner configurations, only touch the box; refining it is harmless.
     #[inline]
     pub fn place(&self, t: &Tet) -> Placement {
-        let max = t[0].max(t[1]).max(t[2].max(t[3]));
-        if max.cmple(self.hi).all() {
-            return Placement::Inside;
-        }
         let min = t[0].min(t[1]).min(t[2].min(t[3]));
-        if min.cmpge(self.hi).any() {
+        let max = t[0].max(t[1]).max(t[2].max(t[3]));
+        self.place_box(min, max)
+    }
+
+    /// Where a tetrahedron with bounding box `[min, max]` lies relative to the domain box (as
+    /// [`Lattice::place`]).
+    #[inline]
+    pub fn place_box(&self, min: IVec3, max: IVec3) -> Placement {
+        if max.cmple(self.hi).all() {
+            Placement::Inside
+        } else if min.cmpge(self.hi).any() {
             Placement::Outside
         } else {
             Placement::Straddling

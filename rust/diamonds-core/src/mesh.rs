@@ -77,26 +77,33 @@ fn subtrees(lattice: &Lattice, split: &SplitSet) -> Vec<Tet> {
     leaves
 }
 
-/// The inside leaves of the split set for which `keep` holds, in a deterministic order; subtrees of
-/// tetrahedra for which `prune` holds are skipped.
-pub(crate) fn leaves_where(
+/// What `keep` makes of the inside leaves of the split set (those it keeps), in a deterministic
+/// order (depth first); subtrees of tetrahedra for which `prune` holds are skipped.
+pub(crate) fn leaves_where<X: Send>(
     lattice: &Lattice,
     split: &SplitSet,
     prune: impl Fn(&Tet) -> bool + Sync,
-    keep: impl Fn(&Tet) -> bool + Sync,
-) -> Vec<Tet> {
+    keep: impl Fn(&Tet) -> Option<X> + Sync,
+) -> Vec<X> {
     subtrees(lattice, split)
         .into_par_iter()
-        .flat_map_iter(|t| {
-            let mut out = Vec::new();
-            walk_pruned(lattice, split, t, &prune, &mut |t| {
-                if keep(t) {
-                    out.push(*t)
-                }
-            });
-            out
-        })
+        .flat_map_iter(|t| leaves_below(lattice, split, t, &prune, &keep))
         .collect()
+}
+
+/// [`leaves_where`] below the tetrahedron `t` of the hierarchy (`t` itself when it is a leaf), on
+/// the current thread. Replacing a leaf of a coarser split set by its leaves here keeps the order
+/// of [`leaves_where`].
+pub(crate) fn leaves_below<X>(
+    lattice: &Lattice,
+    split: &SplitSet,
+    t: Tet,
+    prune: &dyn Fn(&Tet) -> bool,
+    keep: &dyn Fn(&Tet) -> Option<X>,
+) -> Vec<X> {
+    let mut out = Vec::new();
+    walk_pruned(lattice, split, t, prune, &mut |t| out.extend(keep(t)));
+    out
 }
 
 /// Number of inside leaves of the split set.

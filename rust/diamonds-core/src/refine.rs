@@ -73,14 +73,17 @@ impl SplitSet {
         }
     }
 
-    /// Marks `d` split.
+    /// Marks `d` split; returns whether it was not split before.
     #[inline]
-    pub fn insert(&mut self, d: Diamond) {
+    pub fn insert(&mut self, d: Diamond) -> bool {
         if self.lattice.in_domain(d.center) {
             let i = self.lattice.index(d.center);
-            self.bits[i / 64] |= 1 << (i % 64);
+            let bit = 1 << (i % 64);
+            let new = self.bits[i / 64] & bit == 0;
+            self.bits[i / 64] |= bit;
+            new
         } else {
-            self.outside.insert(d.center);
+            self.outside.insert(d.center)
         }
     }
 
@@ -166,6 +169,10 @@ impl SplitQueue {
 pub(crate) struct Refiner<'h> {
     lattice: Lattice,
     split: SplitSet,
+    /// Diamonds whose error was compared with the tolerance already (it does not change).
+    considered: SplitSet,
+    /// The diamonds split, in order, when asked for.
+    log: Option<Vec<Diamond>>,
     queue: SplitQueue,
     tets: usize,
     /// Region of interest in lattice coordinates (closed box).
@@ -186,6 +193,8 @@ impl<'h> Refiner<'h> {
         Self {
             lattice,
             split,
+            considered: SplitSet::new(&lattice),
+            log: None,
             queue: SplitQueue::Unordered(Vec::new()),
             tets,
             roi: None,
@@ -354,6 +363,18 @@ impl<'h> Refiner<'h> {
         (self.split, self.tets)
     }
 
+    /// [`Refiner::refine_with`], returning the split set and the diamonds split here, in order.
+    pub(crate) fn refine_logged(
+        mut self,
+        tolerance: f64,
+        candidates: &[Diamond],
+    ) -> (SplitSet, Vec<Diamond>) {
+        self.log = Some(Vec::new());
+        self.tolerance = tolerance;
+        self.refine(candidates, 0);
+        (self.split, self.log.unwrap_or_default())
+    }
+
     /// Queues `candidates` and splits until the queue is empty or, with `budget > 0`, until the next
     /// split (largest error first) would exceed `budget` tetrahedra.
     fn refine(&mut self, candidates: &[Diamond], budget: usize) {
@@ -382,6 +403,9 @@ impl<'h> Refiner<'h> {
     /// Splits `d` (its parents must be split) and queues its children.
     fn split(&mut self, d: Diamond) {
         self.split.insert(d);
+        if let Some(log) = &mut self.log {
+            log.push(d);
+        }
         self.tets += self.inside_tets(d);
         for c in d.children(&self.lattice) {
             self.consider(c);
@@ -390,7 +414,7 @@ impl<'h> Refiner<'h> {
 
     /// Queues `d` if it is unsplit, relevant and above the tolerance.
     fn consider(&mut self, d: Diamond) {
-        if self.split.contains(d) {
+        if self.split.contains(d) || !self.considered.insert(d) {
             return;
         }
         let e = self.error(d);
@@ -419,10 +443,11 @@ impl<'h> Refiner<'h> {
         if self.lattice.in_domain(lo) && self.lattice.in_domain(hi) {
             return [6, 4, 8][d.class() as usize];
         }
-        d.tets(&self.lattice)
+        d.tet_boxes(&self.lattice)
             .iter()
-            .filter(|t| self.lattice.place(t) == Placement::Inside)
-            .count()
+            .filter(|(lo, hi, _)| self.lattice.place_box(*lo, *hi) == Placement::Inside)
+            .map(|(_, _, n)| n)
+            .sum()
     }
 
     /// `d` and its unsplit ancestors that touch the domain, parents before children, into `order`.

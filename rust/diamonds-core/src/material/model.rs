@@ -679,7 +679,7 @@ impl MaterialModel {
     /// The leaves of `split` with their vertex records and errors.
     fn extract(&self, split: &SplitSet, ghost_values: bool) -> MaterialMesh {
         let lattice = &self.lattice;
-        let mut leaves = crate::mesh::leaves_where(lattice, split, |_| false, |_| true);
+        let mut leaves = crate::mesh::leaves_where(lattice, split, |_| false, |t| Some(*t));
         for t in &mut leaves {
             if signed_volume6(t) < 0 {
                 t.swap(2, 3);
