@@ -292,6 +292,20 @@ impl Diamond {
         (self.center - s, self.center + s)
     }
 
+    /// The longest edge of the diamond's tetrahedra, the same for all of them, for a grid `spacing`:
+    /// the spine, or the edge from a spine end to the cube centre `c ± s` (a 1- or 2-diamond's
+    /// tetrahedra have one, the other edges are shorter than either).
+    pub fn tet_size(self, spacing: [f64; 3]) -> f64 {
+        let s = self.scale() as f64;
+        let w = glam::DVec3::from(spacing);
+        let [a, b] = self.spine();
+        let spine = ((b - a).as_dvec3() * w).length();
+        match self.class() {
+            Class::Cube => spine,
+            Class::Face | Class::Edge => spine.max(s * w.length()),
+        }
+    }
+
     /// The bounding boxes of the diamond's tetrahedra inside the root cube, each with the number of
     /// tetrahedra it bounds, without building them: a 0-diamond's six span its cube; a 1-diamond's
     /// span the face along its spine and one half of the cube across it (two per half); a
@@ -441,6 +455,32 @@ mod tests {
             let l = lattice(n);
             let ds = all_diamonds(&l);
             assert_eq!(ds.len(), (n + 1).pow(3) - 8, "N = {n}");
+        }
+    }
+
+    #[test]
+    fn tet_size_is_the_longest_edge_of_every_tetrahedron() {
+        let l = lattice(16);
+        for spacing in [
+            [1.0, 1.0, 1.0],
+            [0.5, 2.0, 3.5],
+            [4.0, 0.25, 1.0],
+            [1.0, 1.0, 9.0],
+        ] {
+            let w = glam::DVec3::from(spacing);
+            for d in all_diamonds(&l) {
+                for t in d.tets(&l) {
+                    let longest = (0..4)
+                        .flat_map(|i| (i + 1..4).map(move |j| (i, j)))
+                        .map(|(i, j)| ((t[i] - t[j]).as_dvec3() * w).length())
+                        .fold(0.0, f64::max);
+                    let size = d.tet_size(spacing);
+                    assert!(
+                        (size - longest).abs() <= 1e-12 * longest,
+                        "{d:?} {t:?} {spacing:?}"
+                    );
+                }
+            }
         }
     }
 

@@ -63,17 +63,35 @@ const VISITED: u16 = 1;
 impl IsoErrors {
     /// Locates every surface sample of `isovalues` in the hierarchy, down to the tetrahedra no larger
     /// than `cutoff` (world units); `cells_crossed` lists, per isovalue, the lower corners of the grid
-    /// cells it crosses.
+    /// cells it crosses. The tables of `recycled` (errors of the same grid no longer used) are
+    /// cleared and reused.
     pub(crate) fn new<T: Sample>(
         lattice: &Lattice,
         volume: &Volume<'_, T>,
         isovalues: &[f64],
         cutoff: f64,
         cells_crossed: impl Fn(f64) -> Vec<u32> + Sync,
+        recycled: Option<IsoErrors>,
     ) -> Self {
         let grid = &volume.grid;
-        let codes: Vec<AtomicU16> = (0..grid.len()).map(|_| AtomicU16::new(0)).collect();
-        let hidden = bits(grid.len());
+        let (codes, hidden) = match recycled {
+            Some(old) if old.codes.len() == grid.len() => {
+                old.codes
+                    .par_iter()
+                    .for_each(|c| c.store(0, Ordering::Relaxed));
+                old.hidden
+                    .par_iter()
+                    .for_each(|c| c.store(0, Ordering::Relaxed));
+                (old.codes, old.hidden)
+            }
+            _ => (
+                (0..grid.len())
+                    .into_par_iter()
+                    .map(|_| AtomicU16::new(0))
+                    .collect(),
+                bits(grid.len()),
+            ),
+        };
         let roots = RootTets::new(lattice);
         let mut surface_samples = 0;
         for &v in isovalues {
@@ -146,7 +164,7 @@ impl IsoErrors {
         let e = match code {
             // Not reached: no surface sample in it, or below the cutoff (bounded by the size).
             0 => {
-                let size = tet_size(volume, &d.tets(h.lattice())[0]);
+                let size = d.tet_size(volume.grid.spacing);
                 if size <= self.cutoff {
                     size
                 } else {
@@ -335,7 +353,7 @@ impl PointGrid {
 /// tetrahedra of a diamond are congruent) — `G` comes from the hierarchy's cache, the same for every
 /// isovalue.
 fn isosurface_error<T: Sample>(h: &Hierarchy, volume: &Volume<'_, T>, d: Diamond, ae: f64) -> f64 {
-    let size = tet_size(volume, &d.tets(h.lattice())[0]);
+    let size = d.tet_size(volume.grid.spacing);
     let g = h.smallest_gradient(volume, d);
     if g > 0.0 {
         (ae / g).min(size)
@@ -364,11 +382,6 @@ pub(crate) fn encode_down(x: f64) -> u16 {
         f = f.next_down();
     }
     (f.to_bits() >> 16) as u16
-}
-
-/// The longest edge of `t` in world units.
-fn tet_size<T: Sample>(volume: &Volume<'_, T>, t: &Tet) -> f64 {
-    tet_size2(&volume.grid.spacing, t).sqrt()
 }
 
 /// The squared longest edge of `t` in world units for a grid `spacing`.

@@ -296,8 +296,7 @@ impl Hierarchy {
         // Infinite where the diamond's sample range may hold an isovalue, else 0 (empty, §6.1).
         let non_empty = move |d: Diamond| {
             let (lo, hi) = d.bounds();
-            let (lo, hi) = self.box_range(volume, lo.max(IVec3::ZERO), hi.min(lattice.hi));
-            if isovalues.iter().any(|&v| lo <= v && v <= hi) {
+            if self.may_hold(volume, isovalues, lo, hi) {
                 f64::INFINITY
             } else {
                 0.0
@@ -334,11 +333,35 @@ impl Hierarchy {
         })
     }
 
-    /// Does the sample range of `t` (a superset, from the bricks) miss every isovalue? Then so do
-    /// those of all its descendants.
+    /// Does the sample range of `t` miss every isovalue? Then so do those of all its descendants.
+    /// From the bricks, and for a tetrahedron straddling a far face as [`Hierarchy::may_hold`] (so
+    /// that the walk prunes every unsplit one).
     fn misses<T: Sample>(&self, volume: &Volume<'_, T>, isovalues: &[f64], t: &Tet) -> bool {
-        let (lo, hi) = self.tet_range(volume, t);
-        !isovalues.iter().any(|&v| lo <= v && v <= hi)
+        let lo = t[0].min(t[1]).min(t[2].min(t[3]));
+        let hi = t[0].max(t[1]).max(t[2].max(t[3]));
+        if self.lattice().place_box(lo, hi) == Placement::Inside {
+            let (a, b) = self.box_range(volume, lo, hi);
+            !isovalues.iter().any(|&v| a <= v && v <= b)
+        } else {
+            !self.may_hold(volume, isovalues, lo, hi)
+        }
+    }
+
+    /// May the samples in the box `[lo, hi]` (clipped to the grid) hold an isovalue? From the
+    /// bricks' range, a superset; for a small box (the fine diamonds along a far face) from the
+    /// samples, which spares splits there.
+    fn may_hold<T: Sample>(
+        &self,
+        volume: &Volume<'_, T>,
+        isovalues: &[f64],
+        lo: IVec3,
+        hi: IVec3,
+    ) -> bool {
+        let (lo, hi) = (lo.max(IVec3::ZERO), hi.min(self.lattice().hi));
+        let holds = |(a, b): (f64, f64)| isovalues.iter().any(|&v| a <= v && v <= b);
+        holds(self.box_range(volume, lo, hi))
+            && ((hi - lo + IVec3::ONE).element_product() > SMALL_BOX
+                || holds(volume.box_range(lo, hi)))
     }
 }
 
@@ -532,13 +555,15 @@ impl Hierarchy {
         if let Some(e) = kept.as_ref().filter(|e| e.serve(isovalues, tolerance)) {
             return e.clone();
         }
-        *kept = None; // free the old table first
+        // Reuse the old tables unless a caller still holds them.
+        let recycled = kept.take().and_then(|e| Arc::try_unwrap(e).ok());
         let errors = Arc::new(IsoErrors::new(
             self.lattice(),
             volume,
             isovalues,
             tolerance,
             |v| cache.bricks.cells_crossed(volume, v),
+            recycled,
         ));
         errors.finalize(self, volume);
         *kept = Some(errors.clone());
@@ -549,14 +574,10 @@ impl Hierarchy {
     fn box_range<T: Sample>(&self, volume: &Volume<'_, T>, lo: IVec3, hi: IVec3) -> (f64, f64) {
         self.iso_cache(volume).bricks.range(lo, hi)
     }
-
-    /// A superset of the sample range of the tetrahedron `t` (inside or straddling the domain).
-    fn tet_range<T: Sample>(&self, volume: &Volume<'_, T>, t: &Tet) -> (f64, f64) {
-        let lo = t[0].min(t[1]).min(t[2].min(t[3])).max(IVec3::ZERO);
-        let hi = t[0].max(t[1]).max(t[2].max(t[3])).min(self.lattice().hi);
-        self.box_range(volume, lo, hi)
-    }
 }
+
+/// Boxes of at most this many samples get their exact range where it decides a split.
+const SMALL_BOX: i32 = 64;
 
 /// Does the tetrahedron with vertex values `f` carry the isosurface of `v`? (Vertices at `v` count as above.)
 #[inline]

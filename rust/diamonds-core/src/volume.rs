@@ -270,6 +270,22 @@ impl<'a, T: Sample> Volume<'a, T> {
         self.samples[self.grid.index(i, j, k)].to_f64()
     }
 
+    /// Smallest and largest sample in the box `[lo, hi]` of lattice points (inside the grid).
+    pub fn box_range(&self, lo: glam::IVec3, hi: glam::IVec3) -> (f64, f64) {
+        let (mut a, mut b) = (f64::INFINITY, f64::NEG_INFINITY);
+        for z in lo.z..=hi.z {
+            for y in lo.y..=hi.y {
+                let row = self.grid.index(0, y as usize, z as usize);
+                for s in &self.samples[row + lo.x as usize..=row + hi.x as usize] {
+                    let v = s.to_f64();
+                    a = a.min(v);
+                    b = b.max(v);
+                }
+            }
+        }
+        (a, b)
+    }
+
     /// Smallest and largest sample.
     pub fn range(&self) -> (f64, f64) {
         self.samples
