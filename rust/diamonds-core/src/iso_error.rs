@@ -533,20 +533,62 @@ impl<T: Sample> Walk<'_, '_, T> {
         let f = f.or_else(|| {
             (self.lattice.place(&t) == Placement::Inside).then(|| t.map(|p| value(self.volume, p)))
         });
-        if let Some(f) = f {
-            let v = self.v;
-            let carries = {
-                let min = f[0].min(f[1]).min(f[2].min(f[3]));
-                let max = f[0].max(f[1]).max(f[2].max(f[3]));
-                min < v && v <= max
-            };
-            let (mut e, mut hides) = (0.0f64, false);
-            for p in points.iter() {
+        // A tetrahedron no larger than the cutoff ends the descent: its diamond's children are not
+        // measured. (One straddling a far face records nothing, so the descent goes on to its
+        // inside descendants, which can be leaves.)
+        let last = f.is_some() && tet_size2(&self.volume.grid.spacing, &t) <= self.cutoff2;
+        let v = self.v;
+        let (mut e, mut hides) = (0.0f64, false);
+        let mut measure = |p: &Located| {
+            if let Some(f) = f {
                 let l = p.l.map(f64::from);
                 let interpolated = l[0] * f[0] + l[1] * f[1] + l[2] * f[2] + l[3] * f[3];
                 e = e.max((p.f - interpolated).abs());
                 hides |= (p.f >= v) != (interpolated >= v);
             }
+        };
+        // Bisect: child 0 keeps the samples with l0 ≥ l1, in front; samples now at a vertex leave.
+        // (Measured in the same pass.)
+        let layouts = [child_layout(&t, true), child_layout(&t, false)];
+        let (mut front, mut back) = (0, points.len());
+        if last {
+            points.iter().for_each(&mut measure);
+        } else {
+            let mut k = 0;
+            while k < back {
+                let p = points[k];
+                measure(&p);
+                let l = p.l;
+                let first = l[0] >= l[1];
+                let (kept, other) = if first { (0, 1) } else { (1, 0) };
+                // Exact in f32: differences and doubles of multiples of 1 / N.
+                let (lk, lm) = (l[kept] - l[other], 2.0 * l[other]);
+                if lm == 1.0 {
+                    back -= 1; // at the midpoint: a vertex from here down (other weights stay < 1)
+                    points[k] = points[back];
+                    points[back] = p;
+                    continue;
+                }
+                let moved = Located {
+                    l: arrange(layouts[kept], l, lk, lm),
+                    f: p.f,
+                };
+                if first {
+                    points[k] = points[front];
+                    points[front] = moved;
+                    front += 1;
+                } else {
+                    points[k] = moved;
+                }
+                k += 1;
+            }
+        }
+        if let Some(f) = f {
+            let carries = {
+                let min = f[0].min(f[1]).min(f[2].min(f[3]));
+                let max = f[0].max(f[1]).max(f[2].max(f[3]));
+                min < v && v <= max
+            };
             let i = self.lattice.index(m);
             let code = encode_error(e).max(VISITED);
             if code > self.codes[i].load(Ordering::Relaxed) {
@@ -556,32 +598,8 @@ impl<T: Sample> Walk<'_, '_, T> {
                 set_bit(self.hidden, i);
             }
         }
-        if f.is_some() && tet_size2(&self.volume.grid.spacing, &t) <= self.cutoff2 {
-            // Its diamond's children are not measured. (A tetrahedron straddling a far face records
-            // nothing, so the descent goes on to its inside descendants, which can be leaves.)
+        if last {
             return;
-        }
-        // Bisect: child 0 keeps the samples with l0 ≥ l1, in front; samples now at a vertex leave.
-        let layouts = [child_layout(&t, true), child_layout(&t, false)];
-        let (mut front, mut back) = (0, points.len());
-        let mut k = 0;
-        while k < back {
-            let l = points[k].l;
-            let first = l[0] >= l[1];
-            let (kept, other) = if first { (0, 1) } else { (1, 0) };
-            let (lk, lm) = (l[kept] - l[other], 2.0 * l[other]);
-            // Exact in f32: differences and doubles of multiples of 1 / N.
-            if lm == 1.0 {
-                back -= 1; // at the midpoint: a vertex from here down (other weights stay < 1)
-                points.swap(k, back);
-                continue;
-            }
-            points[k].l = arrange(layouts[kept], l, lk, lm);
-            if first {
-                points.swap(k, front);
-                front += 1;
-            }
-            k += 1;
         }
         let fm = f.map(|_| value(self.volume, m));
         let child = |kept: usize| {
