@@ -245,7 +245,7 @@ pub(crate) fn far_hidden_samples<T: Sample>(
             p.iter().map(|q| q.distance(centre)).fold(0.0, f64::max),
         )
     };
-    let mut near = PointGrid::new(reach, drawn);
+    let near = PointGrid::new(reach, drawn);
     // Leaves entirely within `reach` of the surface need no look inside.
     let open: Vec<(&Tet, Vec<f64>)> = hiders
         .par_iter()
@@ -263,23 +263,34 @@ pub(crate) fn far_hidden_samples<T: Sample>(
                 .then_some((t, lost))
         })
         .collect();
+    // The hidden samples far from the drawn surface (in parallel), then those far from the ones
+    // chosen before them too.
+    let candidates: Vec<(IVec3, DVec3)> = open
+        .par_iter()
+        .flat_map_iter(|(t, lost)| {
+            let f = t.map(|p| value(volume, p));
+            let e = |i: usize| (t[i] - t[0]).as_dvec3();
+            let inverse = DMat3::from_cols(e(1), e(2), e(3)).inverse();
+            let near = &near;
+            crate::scan::brute_force_points(t)
+                .into_iter()
+                .filter_map(move |s| {
+                    let l = inverse * (s - t[0]).as_dvec3();
+                    let interpolated =
+                        f[0] + l.x * (f[1] - f[0]) + l.y * (f[2] - f[0]) + l.z * (f[3] - f[0]);
+                    let fs = value(volume, s);
+                    let hidden = lost.iter().any(|&v| (fs >= v) != (interpolated >= v));
+                    let p = world(volume, s);
+                    (hidden && !near.any_within(p, reach)).then_some((s, p))
+                })
+        })
+        .collect();
+    let mut chosen = PointGrid::new(reach, &[]);
     let mut out = Vec::new();
-    for (t, lost) in open {
-        let f = t.map(|p| value(volume, p));
-        let e = |i: usize| (t[i] - t[0]).as_dvec3();
-        let inverse = DMat3::from_cols(e(1), e(2), e(3)).inverse();
-        for s in crate::scan::brute_force_points(t) {
-            let l = inverse * (s - t[0]).as_dvec3();
-            let interpolated =
-                f[0] + l.x * (f[1] - f[0]) + l.y * (f[2] - f[0]) + l.z * (f[3] - f[0]);
-            let fs = value(volume, s);
-            if lost.iter().any(|&v| (fs >= v) != (interpolated >= v)) {
-                let p = world(volume, s);
-                if !near.any_within(p, reach) {
-                    near.insert(p);
-                    out.push(s);
-                }
-            }
+    for (s, p) in candidates {
+        if !chosen.any_within(p, reach) {
+            chosen.insert(p);
+            out.push(s);
         }
     }
     out
