@@ -40,6 +40,8 @@ pub(crate) struct IsoErrors {
     codes: Vec<AtomicU16>,
     /// By central vertex: the diamond hides part of the surface.
     hidden: Vec<AtomicU64>,
+    /// The central vertices (indices) of the diamonds some surface sample reached, each once.
+    reached: Vec<u32>,
     /// Surface samples located (for reports and tests).
     pub(crate) surface_samples: usize,
 }
@@ -76,12 +78,11 @@ impl IsoErrors {
         let grid = &volume.grid;
         let (codes, hidden) = match recycled {
             Some(old) if old.codes.len() == grid.len() => {
-                old.codes
-                    .par_iter()
-                    .for_each(|c| c.store(0, Ordering::Relaxed));
-                old.hidden
-                    .par_iter()
-                    .for_each(|c| c.store(0, Ordering::Relaxed));
+                // Only the diamonds reached have a code or a bit.
+                for &i in &old.reached {
+                    old.codes[i as usize].store(0, Ordering::Relaxed);
+                    old.hidden[i as usize / 64].store(0, Ordering::Relaxed);
+                }
                 (old.codes, old.hidden)
             }
             _ => (
@@ -94,6 +95,7 @@ impl IsoErrors {
         };
         let roots = RootTets::new(lattice);
         let mut surface_samples = 0;
+        let mut reached = Vec::new();
         for &v in isovalues {
             let samples = samples_of(v);
             surface_samples += samples.len();
@@ -127,16 +129,24 @@ impl IsoErrors {
                 .map(|k| chunks.iter().flat_map(|c| c[k].iter().copied()).collect())
                 .collect();
             drop(chunks);
-            located
-                .par_iter_mut()
-                .zip(&roots.tets)
-                .for_each(|(points, (t, _))| walk.descend(*t, None, points));
+            reached.extend(
+                located
+                    .par_iter_mut()
+                    .zip(&roots.tets)
+                    .flat_map_iter(|(points, (t, _))| {
+                        let mut reached = Vec::new();
+                        walk.descend(*t, None, points, &mut reached);
+                        reached
+                    })
+                    .collect::<Vec<u32>>(),
+            );
         }
         Self {
             isovalues: isovalues.to_vec(),
             cutoff,
             codes,
             hidden,
+            reached,
             surface_samples,
         }
     }
@@ -155,12 +165,8 @@ impl IsoErrors {
         volume: &Volume<'_, T>,
         d: Diamond,
     ) -> f64 {
-        let slot = &self.codes[h.lattice().index(d.center)];
-        let code = slot.load(Ordering::Relaxed);
-        if code & FINAL != 0 {
-            return decode_error(code & !FINAL);
-        }
-        let e = match code {
+        let code = self.codes[h.lattice().index(d.center)].load(Ordering::Relaxed);
+        match code {
             // Not reached: no surface sample in it, or below the cutoff (bounded by the size).
             0 => {
                 let size = d.tet_size(volume.grid.spacing);
@@ -170,11 +176,14 @@ impl IsoErrors {
                     0.0
                 }
             }
-            _ => isosurface_error(h, volume, d, decode_error(code)),
-        };
-        let code = encode_error(e);
-        slot.store(code | FINAL, Ordering::Relaxed);
-        decode_error(code)
+            _ if code & FINAL != 0 => decode_error(code & !FINAL),
+            _ => decode_error(encode_error(isosurface_error(
+                h,
+                volume,
+                d,
+                decode_error(code),
+            ))),
+        }
     }
 }
 
@@ -183,13 +192,14 @@ impl IsoErrors {
     pub(crate) fn finalize<T: Sample>(&self, h: &Hierarchy, volume: &Volume<'_, T>) {
         let d = h.lattice().hi + IVec3::ONE;
         let (nx, ny) = (d.x as usize, d.y as usize);
-        self.codes
+        self.reached
             .par_iter()
-            .enumerate()
-            .with_min_len(1 << 12)
-            .for_each(|(i, slot)| {
+            .with_min_len(1 << 10)
+            .for_each(|&i| {
+                let i = i as usize;
+                let slot = &self.codes[i];
                 let code = slot.load(Ordering::Relaxed);
-                if code != 0 && code & FINAL == 0 {
+                if code & FINAL == 0 {
                     let c = IVec3::new(
                         (i % nx) as i32,
                         (i / nx % ny) as i32,
@@ -209,10 +219,8 @@ impl IsoErrors {
         volume: &Volume<'_, T>,
         d: Diamond,
     ) -> f64 {
-        let code = self.codes[h.lattice().index(d.center)].load(Ordering::Relaxed);
-        match code {
+        match self.codes[h.lattice().index(d.center)].load(Ordering::Relaxed) {
             0 => 0.0,
-            _ if code & FINAL != 0 => decode_error(code & !FINAL),
             _ => self.error(h, volume, d),
         }
     }
@@ -509,7 +517,8 @@ impl<T: Sample> Walk<'_, '_, T> {
     /// `v`); then bisects it and sends every sample to the child holding it (the first on a tie).
     /// Samples that became vertices (interpolated exactly below), unit-cube tetrahedra (no sample but
     /// their vertices) and tetrahedra no larger than the cutoff end the descent.
-    fn descend(&self, t: Tet, f: Option<[f64; 4]>, points: &mut [Located]) {
+    /// The central vertices of the diamonds reached for the first time are added to `reached`.
+    fn descend(&self, t: Tet, f: Option<[f64; 4]>, points: &mut [Located], reached: &mut Vec<u32>) {
         let twice = t[0] + t[1];
         if points.is_empty() || twice & IVec3::ONE != IVec3::ZERO {
             return;
@@ -576,8 +585,10 @@ impl<T: Sample> Walk<'_, '_, T> {
             };
             let i = self.lattice.index(m);
             let code = encode_error(e).max(VISITED);
-            if code > self.codes[i].load(Ordering::Relaxed) {
-                self.codes[i].fetch_max(code, Ordering::Relaxed);
+            if code > self.codes[i].load(Ordering::Relaxed)
+                && self.codes[i].fetch_max(code, Ordering::Relaxed) == 0
+            {
+                reached.push(i as u32);
             }
             if hides && !carries {
                 set_bit(self.hidden, i);
@@ -597,10 +608,15 @@ impl<T: Sample> Walk<'_, '_, T> {
         let ((c0, f0), (c1, f1)) = (child(0), child(1));
         let (p0, rest) = points[..back].split_at_mut(front);
         if back > SEQUENTIAL {
-            rayon::join(|| self.descend(c0, f0, p0), || self.descend(c1, f1, rest));
+            let mut other = Vec::new();
+            rayon::join(
+                || self.descend(c0, f0, p0, reached),
+                || self.descend(c1, f1, rest, &mut other),
+            );
+            reached.append(&mut other);
         } else {
-            self.descend(c0, f0, p0);
-            self.descend(c1, f1, rest);
+            self.descend(c0, f0, p0, reached);
+            self.descend(c1, f1, rest, reached);
         }
     }
 }
