@@ -7,7 +7,8 @@
 //! `cargo run --release -p diamonds-core --example probe -- file.u8 nx ny nz isochange ISO1,ISO2,... TOL[%]...`
 //!
 //! `isochange` builds the isosurface-only hierarchy and times the first extraction at ISO1 (build
-//! included) and then each change to the next isovalue (minimum over `REPEAT` rounds).
+//! included) and then each change to the next isovalue (minimum over `REPEAT` rounds); with
+//! `START=current`, changes refine from the current mesh instead of the root.
 //! `isoseq` times each isovalue change of the sequence from the root and from the current mesh
 //! (minimum over `REPEAT` runs, default 5; the isosurface-error cache is warmed first). A tolerance
 //! ending in `%` is a percentage of the data diagonal.
@@ -187,7 +188,11 @@ fn iso_change(data: &[u8], dims: [usize; 3], isovalues: &str, tolerances: &[Stri
             let mut t = Instant::now();
             let mut c = cpu_seconds();
             let h = Hierarchy::build_for_isosurfaces(grid, scalars).expect("build");
-            let mut state = IsoState::new();
+            // START=current refines isovalue changes from the current mesh instead of the root.
+            let mut state = match std::env::var("START").as_deref() {
+                Ok("current") => IsoState::with_start(IsoStart::Current),
+                _ => IsoState::new(),
+            };
             for (i, &iso) in isovalues.iter().enumerate() {
                 let s = h
                     .isosurface_from(&mut state, scalars, &IsoQuery::new(iso, tol))

@@ -649,9 +649,9 @@ pub fn marching_tetrahedra<T: Sample>(
     let polygons = polygons(volume, tets, isovalues);
     // Every polygon corner with its slot, sorted by edge: equal edges are neighbours.
     let mut corners: Vec<(EdgeKey, u32)> = polygons
-        .iter()
+        .par_iter()
         .enumerate()
-        .flat_map(|(p, poly)| (0..poly.n).map(move |i| (poly.keys[i], (4 * p + i) as u32)))
+        .flat_map_iter(|(p, poly)| (0..poly.n).map(move |i| (poly.keys[i], (4 * p + i) as u32)))
         .collect();
     corners.par_sort_unstable();
     // The distinct edges, with the polygon of their first corner.
@@ -681,22 +681,22 @@ pub fn marching_tetrahedra<T: Sample>(
         })
         .collect();
     IsoSurface {
-        points: interpolated.iter().map(|p| p.0.to_array()).collect(),
-        values: interpolated.iter().map(|p| p.1).collect(),
+        points: interpolated.par_iter().map(|p| p.0.to_array()).collect(),
+        values: interpolated.par_iter().map(|p| p.1).collect(),
         normals: if compute_normals {
-            interpolated.iter().map(|p| p.2).collect()
+            interpolated.par_iter().map(|p| p.2).collect()
         } else {
             Vec::new()
         },
         triangles: polygons
-            .iter()
+            .par_iter()
             .enumerate()
-            .map(|(p, poly)| (p, poly.n, &slot_ids))
-            .flat_map(|(p, n, slot_ids)| {
+            .flat_map_iter(|(p, poly)| {
+                let slot_ids = &slot_ids;
                 let id = move |i: usize| slot_ids[4 * p + i];
                 [[0, 1, 2], [0, 2, 3]]
                     .into_iter()
-                    .take(n - 2)
+                    .take(poly.n - 2)
                     .map(move |tri| tri.map(id))
             })
             .collect(),
