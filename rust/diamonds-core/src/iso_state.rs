@@ -131,6 +131,13 @@ impl Hierarchy {
     /// when only normals or carrier output change saves the refinement and the leaf walk (numbers of
     /// the same set-up): 166 → 119 ms (bonsai 256³, 1 %),
     /// 84 → 66 ms (2 %), 16 → 11 ms and 10 → 6 ms (neghip 64³, 1 % and 2 %).
+    ///
+    /// Measured again with errors measured per query (the isosurface-only hierarchy,
+    /// `examples/probe.rs isochange` with and without `START=current`, bonsai 256³ at 1 % of the
+    /// diagonal, medians of 5 alternating single runs, whole query): 40.5 → 53.25 0.267 s from the
+    /// root, 0.264 s from the current mesh; 40.5 → 41 0.495 s / 0.468 s; 40.5 → 45 0.424 s /
+    /// 0.452 s — equal within the machine's noise (±15 %): the merge pass costs what it saves. The
+    /// default stays the root.
     pub fn isosurface_from(
         &self,
         state: &mut IsoState,
