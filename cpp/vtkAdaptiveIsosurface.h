@@ -89,7 +89,7 @@
  *
  * Memory and time. The filter builds the isosurface-only hierarchy: no per-diamond records (the
  * build takes milliseconds; HierarchyMemorySize is 0). Each extraction measures the isosurface
- * errors at the samples that decide its surface (the endpoints of the grid edges its isovalues cross)
+ * errors at the samples that decide its surface (the corners of the grid cells its isovalues cross)
  * and keeps them, 2 bytes and 1 bit per input point, while only Tolerance (not below the one they
  * were measured for), the region, the budget or the outputs change; new isovalues measure them
  * again. The smallest gradient of each diamond's tetrahedra is cached too (2 bytes per point, for

@@ -4,9 +4,9 @@
 //! Gregorski's isosurface error of a tetrahedron `T` is `ae / ‖∇T‖`: the approximation error `ae` over
 //! the magnitude of `T`'s linear gradient, i.e. how far the linear isosurface can move when the values
 //! move by `ae`. Samples far from every isovalue do not move the surface, so here `ae` is taken only at
-//! the *surface samples* of the query: the endpoints of the grid edges the isovalue crosses, which are
-//! what the full-resolution surface of Flying Edges or marching cubes is interpolated from (an
-//! isolated sample on the other side counts with its six neighbours). This needs no precomputation over the whole volume: the surface samples descend
+//! the *surface samples* of the query: the corners of the grid cells the isovalue crosses, which are
+//! what the full-resolution surface (Flying Edges, marching cubes or marching tetrahedra of the grid) is
+//! interpolated from. This needs no precomputation over the whole volume: the surface samples descend
 //! the hierarchy together from the root (one bisection test and a barycentric update per sample and
 //! level, [`crate::diamond::bisect`]'s vertex order), and the diamond of each tetrahedron they pass
 //! keeps the largest `|f(s) − L_T(s)|` of its surface samples. The descent stops at tetrahedra no
@@ -64,15 +64,15 @@ const VISITED: u16 = 1;
 
 impl IsoErrors {
     /// Locates every surface sample of `isovalues` in the hierarchy, down to the tetrahedra no larger
-    /// than `cutoff` (world units); `samples_of` lists, per isovalue, its surface samples (point
-    /// indices). The tables of `recycled` (errors of the same grid no longer used) are
+    /// than `cutoff` (world units); `cells_crossed` lists, per isovalue, the lower corners of the grid
+    /// cells it crosses. The tables of `recycled` (errors of the same grid no longer used) are
     /// cleared and reused.
     pub(crate) fn new<T: Sample>(
         lattice: &Lattice,
         volume: &Volume<'_, T>,
         isovalues: &[f64],
         cutoff: f64,
-        samples_of: impl Fn(f64) -> Vec<u32> + Sync,
+        cells_crossed: impl Fn(f64) -> Vec<u32> + Sync,
         recycled: Option<IsoErrors>,
     ) -> Self {
         let grid = &volume.grid;
@@ -97,7 +97,8 @@ impl IsoErrors {
         let mut surface_samples = 0;
         let mut reached = Vec::new();
         for &v in isovalues {
-            let samples = samples_of(v);
+            let cells = cells_crossed(v);
+            let samples = corners_of(grid.dims, &cells);
             surface_samples += samples.len();
             let walk = Walk {
                 lattice,
@@ -436,15 +437,40 @@ pub(crate) fn tet_gradient<T: Sample>(volume: &Volume<'_, T>, t: &Tet) -> DVec3 
 }
 
 /// A bitset of `n` bits, all clear.
-pub(crate) fn bits(n: usize) -> Vec<AtomicU64> {
+fn bits(n: usize) -> Vec<AtomicU64> {
     (0..n.div_ceil(64)).map(|_| AtomicU64::new(0)).collect()
 }
 
 /// Sets bit `i`; returns whether it was clear.
 #[inline]
-pub(crate) fn set_bit(bits: &[AtomicU64], i: usize) -> bool {
+fn set_bit(bits: &[AtomicU64], i: usize) -> bool {
     let bit = 1u64 << (i % 64);
     bits[i / 64].fetch_or(bit, Ordering::Relaxed) & bit == 0
+}
+
+/// The distinct corners of the cells whose lower corners are `cells`, as point indices.
+fn corners_of(dims: [usize; 3], cells: &[u32]) -> Vec<u32> {
+    let seen = bits(dims[0] * dims[1] * dims[2]);
+    let (sx, sy) = (1, dims[0]);
+    let sz = dims[0] * dims[1];
+    cells
+        .par_chunks(4096)
+        .flat_map_iter(|chunk| {
+            let mut out = Vec::new();
+            for &c in chunk {
+                for k in 0..8 {
+                    let i = c as usize
+                        + if k & 1 != 0 { sx } else { 0 }
+                        + if k & 2 != 0 { sy } else { 0 }
+                        + if k & 4 != 0 { sz } else { 0 };
+                    if set_bit(&seen, i) {
+                        out.push(i as u32);
+                    }
+                }
+            }
+            out
+        })
+        .collect()
 }
 
 /// The six tetrahedra of the root diamond, `[0, (N, N, N), N e_i, N (e_i + e_j)]` (see

@@ -25,8 +25,7 @@
 use crate::diamond::{signed_volume6, Diamond};
 use crate::hierarchy::{decode_error, place_diamond};
 use crate::iso_error::{
-    bits, encode_down, far_hidden_samples, paths_to, set_bit, smallest_gradient, tet_gradient,
-    world, IsoErrors,
+    encode_down, far_hidden_samples, paths_to, smallest_gradient, tet_gradient, world, IsoErrors,
 };
 use crate::lattice::{Lattice, Placement, Tet};
 use crate::refine::{Query, Refiner, SplitSet};
@@ -460,40 +459,36 @@ impl Bricks {
         Self { dims, min, max }
     }
 
-    /// The endpoints (point indices, each once, in no particular order) of the grid edges that
-    /// `v` crosses (one end below `v`, the other not, as [`crosses`]), found in the bricks whose
-    /// range allows it (every grid edge lies in a brick).
-    fn edge_ends<T: Sample>(&self, volume: &Volume<'_, T>, v: f64) -> Vec<u32> {
+    /// Lower corners (point indices) of the grid cells that `v` crosses (min < v ≤ max over the
+    /// corners, as [`crosses`]), found in the bricks whose range allows it.
+    fn cells_crossed<T: Sample>(&self, volume: &Volume<'_, T>, v: f64) -> Vec<u32> {
         let g = &volume.grid;
-        let seen = bits(g.len());
-        let steps = [1, g.dims[0], g.dims[0] * g.dims[1]];
+        let [nx, ny, nz] = g.dims;
+        let (sy, sz) = (nx, nx * ny);
         (0..self.min.len())
             .into_par_iter()
             .filter(|&b| self.min[b] < v && v <= self.max[b])
             .flat_map_iter(|b| {
-                let c = [
+                let (bx, by, bz) = (
                     b % self.dims[0],
                     b / self.dims[0] % self.dims[1],
                     b / (self.dims[0] * self.dims[1]),
-                ];
-                let start = c.map(|c| BRICK * c);
-                let end = [0, 1, 2].map(|a| (BRICK * (c[a] + 1)).min(g.dims[a] - 1));
+                );
                 let mut out = Vec::new();
-                for z in start[2]..=end[2] {
-                    for y in start[1]..=end[1] {
-                        for x in start[0]..=end[0] {
-                            let p = [x, y, z];
+                for z in BRICK * bz..(BRICK * (bz + 1)).min(nz - 1) {
+                    for y in BRICK * by..(BRICK * (by + 1)).min(ny - 1) {
+                        for x in BRICK * bx..(BRICK * (bx + 1)).min(nx - 1) {
                             let i = g.index(x, y, z);
-                            let above = volume.samples[i].to_f64() >= v;
-                            for a in 0..3 {
-                                let j = i + steps[a];
-                                if p[a] < end[a] && (volume.samples[j].to_f64() >= v) != above {
-                                    for k in [i, j] {
-                                        if set_bit(&seen, k) {
-                                            out.push(k as u32);
-                                        }
-                                    }
+                            let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+                            for c in [i, i + 1, i + sy, i + sy + 1] {
+                                for c in [c, c + sz] {
+                                    let f = volume.samples[c].to_f64();
+                                    lo = lo.min(f);
+                                    hi = hi.max(f);
                                 }
+                            }
+                            if lo < v && v <= hi {
+                                out.push(i as u32);
                             }
                         }
                     }
@@ -567,7 +562,7 @@ impl Hierarchy {
             volume,
             isovalues,
             tolerance,
-            |v| cache.bricks.edge_ends(volume, v),
+            |v| cache.bricks.cells_crossed(volume, v),
             recycled,
         ));
         errors.finalize(self, volume);
