@@ -134,7 +134,8 @@ impl Hierarchy {
     ///
     /// Measured again with errors measured per query (the isosurface-only hierarchy,
     /// `examples/probe.rs isochange` with and without `START=current`, bonsai 256³ at 1 % of the
-    /// diagonal, medians of 5 alternating single runs, whole query): 40.5 → 53.25 0.267 s from the
+    /// diagonal, medians of 5 alternating single runs, whole query; at commit 5225897, whose surface
+    /// samples were the crossed edges' endpoints): 40.5 → 53.25 0.267 s from the
     /// root, 0.264 s from the current mesh; 40.5 → 41 0.495 s / 0.468 s; 40.5 → 45 0.424 s /
     /// 0.452 s — equal within the machine's noise (±15 %): the merge pass costs what it saves. The
     /// default stays the root.
