@@ -191,8 +191,6 @@ impl IsoErrors {
 impl IsoErrors {
     /// Computes, in parallel, the isosurface error of every diamond a surface sample reached.
     pub(crate) fn finalize<T: Sample>(&self, h: &Hierarchy, volume: &Volume<'_, T>) {
-        let d = h.lattice().hi + IVec3::ONE;
-        let (nx, ny) = (d.x as usize, d.y as usize);
         self.reached
             .par_iter()
             .with_min_len(1 << 10)
@@ -201,11 +199,8 @@ impl IsoErrors {
                 let slot = &self.codes[i];
                 let code = slot.load(Ordering::Relaxed);
                 if code & FINAL == 0 {
-                    let c = IVec3::new(
-                        (i % nx) as i32,
-                        (i / nx % ny) as i32,
-                        (i / (nx * ny)) as i32,
-                    );
+                    // The lattice index of a domain point is its grid index.
+                    let c = IVec3::from(volume.grid.ijk(i).map(|x| x as i32));
                     let e = isosurface_error(h, volume, Diamond::new(c), decode_error(code));
                     slot.store(encode_error(e) | FINAL, Ordering::Relaxed);
                 }

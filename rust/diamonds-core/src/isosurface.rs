@@ -441,19 +441,9 @@ impl Bricks {
             .into_par_iter()
             .map(|b| {
                 let c = [b % dims[0], b / dims[0] % dims[1], b / (dims[0] * dims[1])];
-                let span = |a: usize| BRICK * c[a]..=(BRICK * (c[a] + 1)).min(g.dims[a] - 1);
-                let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-                for z in span(2) {
-                    for y in span(1) {
-                        let row = g.index(0, y, z);
-                        for s in &volume.samples[row + BRICK * c[0]..=row + *span(0).end()] {
-                            let v = s.to_f64();
-                            lo = lo.min(v);
-                            hi = hi.max(v);
-                        }
-                    }
-                }
-                (lo, hi)
+                let lo = c.map(|c| (BRICK * c) as i32);
+                let hi = [0, 1, 2].map(|a| (BRICK * (c[a] + 1)).min(g.dims[a] - 1) as i32);
+                volume.box_range(IVec3::from(lo), IVec3::from(hi))
             })
             .unzip();
         Self { dims, min, max }
