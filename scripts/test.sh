@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Runs every test: formatting and lints, the Rust unit/property/integration tests (core, bridge, CLI;
-# the ../shared datasets are used when present and skipped with a message otherwise), the external C++
+# the ../shared datasets are used when present and skipped with a message otherwise — a failure instead
+# under CI=true or DIAMONDS_REQUIRE_SHARED=1, as .ci/run sets), the external C++
 # consumer against the installed package, and the pvpython/pvbatch tests (including MPI).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."

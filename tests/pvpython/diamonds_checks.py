@@ -307,6 +307,23 @@ def programmable_image(simple, dims, script_body, origin=(0.0, 0.0, 0.0), spacin
     return src
 
 
+def shared_path(relative):
+    """`relative` under `../shared` beside the checkout, or None when absent: then the test is skipped
+    with a message, or fails when the shared data is required (CI=true, as `.ci/run` sets, or
+    DIAMONDS_REQUIRE_SHARED=1)."""
+    root = os.path.abspath(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", ".."))
+    path = os.path.abspath(os.path.join(root, "..", "shared", relative))
+    if os.path.exists(path):
+        return path
+    required = os.environ.get("CI") in ("true", "1") or os.environ.get("DIAMONDS_REQUIRE_SHARED") == "1"
+    why = f"../shared/{relative} not found (looked for {path})"
+    if required:
+        check(False, f"{why}, and the shared data is required here (CI=true or DIAMONDS_REQUIRE_SHARED=1)")
+    else:
+        print(f"skipped: {why}")
+    return None
+
+
 def diamonds_binary():
     """The CLI (target/release/diamonds), brought up to date with cargo when cargo is there (a no-op
     when it is fresh)."""

@@ -490,11 +490,9 @@ undocumented = [n for n in ("VolumeFractionArrays", "FieldArrays", "MaterialFiel
 dc.check(not undocumented, f"every property documented ({undocumented})")
 
 # ---- The CTH armor impact data of ../shared (non-uniform along x and z: resampled first).
-cth_path = os.path.join(ROOT, "..", "shared", "data", "multimaterial", "cth_armor_impact.vtr")
-if not os.path.exists(cth_path):
-    print(f"skipped: ../shared/data/multimaterial/cth_armor_impact.vtr not found (looked for {os.path.abspath(cth_path)})")
-else:
-    cth = simple.XMLRectilinearGridReader(FileName=[os.path.abspath(cth_path)])
+cth_path = dc.shared_path("data/multimaterial/cth_armor_impact.vtr")
+if cth_path is not None:
+    cth = simple.XMLRectilinearGridReader(FileName=[cth_path])
     cth_fractions = ["Void Volume Fraction", "Volume Fraction for Armor Plate", "Volume Fraction for Body, Nose"]
     expect_error(M(Input=cth, VolumeFractionArrays=cth_fractions), "not uniformly spaced", "CTH as is (non-uniform)")
     resampled = simple.ResampleToImage(Input=cth, SamplingDimensions=[129, 65, 65])

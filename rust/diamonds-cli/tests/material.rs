@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{diamonds, field_value, s, TempDir};
+use common::{diamonds, field_value, s, shared_file, TempDir};
 use diamonds_cli::read::{read_polydata, read_structured, read_unstructured, Unstructured};
 use diamonds_cli::write::write_image;
 use diamonds_cli::Array;
@@ -502,15 +502,9 @@ fn bad_inputs_are_clear_errors() {
 /// is, approximated after resampling. Skipped with a message when `../shared` is absent.
 #[test]
 fn cth_armor_impact_when_present() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/data/multimaterial/cth_armor_impact.vtr");
-    if !path.exists() {
-        println!(
-            "skipped: ../shared/data/multimaterial/cth_armor_impact.vtr not found (looked for {})",
-            path.display()
-        );
+    let Some(path) = shared_file("data/multimaterial/cth_armor_impact.vtr") else {
         return;
-    }
+    };
     let data = read_structured(&path).unwrap();
     assert_eq!(data.dims, [129, 65, 65]);
     for name in [

@@ -7,7 +7,8 @@
 //! (a debug build takes minutes: the tests are ignored there); its lossless brute-force check takes
 //! several minutes even in release and is ignored, run it with
 //! `cargo test --release -p diamonds-cli --test shared_volumes -- --ignored`.
-//! Without `../shared` every test passes after printing "skipped: ../shared/data/volumes not found".
+//! Without `../shared` every test passes after printing "skipped: ../shared/data/volumes not found",
+//! except under `CI=true` or `DIAMONDS_REQUIRE_SHARED=1` (as `.ci/run` sets), where they fail.
 
 mod common;
 

@@ -12,7 +12,8 @@
 //! covers files added later. Bonsai (256³) runs at 1 % in release builds only (about 5 s); its
 //! full-resolution surface (2 M triangles, about 10 s more) is ignored, run it with
 //! `cargo test --release -p diamonds-cli --test shared_volumes_isosurface -- --ignored`.
-//! Without `../shared` every test passes after printing "skipped: ../shared/data/volumes not found".
+//! Without `../shared` every test passes after printing "skipped: ../shared/data/volumes not found",
+//! except under `CI=true` or `DIAMONDS_REQUIRE_SHARED=1` (as `.ci/run` sets), where they fail.
 
 mod common;
 

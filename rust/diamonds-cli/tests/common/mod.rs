@@ -101,39 +101,65 @@ pub fn field_value(field_data: &[Array], name: &str) -> f64 {
     a.value(0)
 }
 
-/// `../shared/data/volumes` beside the checkout.
-pub fn volumes_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/volumes")
+/// `../shared` beside the checkout.
+pub fn shared_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared")
 }
 
-/// The `.vti` files of the shared volumes, or `None` (with the skip message printed) when absent.
+/// Whether a missing `../shared` must fail the tests instead of skipping them: under CI (`CI=true`,
+/// as `.ci/run` sets) or with `DIAMONDS_REQUIRE_SHARED=1`.
+fn shared_required() -> bool {
+    std::env::var("CI").is_ok_and(|v| v == "true" || v == "1")
+        || std::env::var("DIAMONDS_REQUIRE_SHARED").is_ok_and(|v| v == "1")
+}
+
+/// Prints "skipped: {why}", or panics with it when the shared data is required ([`shared_required`]).
+fn skip(why: String) {
+    assert!(
+        !shared_required(),
+        "{why}, and the shared data is required here (CI=true or DIAMONDS_REQUIRE_SHARED=1)"
+    );
+    println!("skipped: {why}");
+}
+
+/// `relative` under `../shared`, or `None` (with the skip message printed, or a failure when the
+/// shared data is required) when absent.
+pub fn shared_file(relative: &str) -> Option<PathBuf> {
+    let path = shared_dir().join(relative);
+    if path.exists() {
+        return Some(path);
+    }
+    skip(format!(
+        "../shared/{relative} not found (looked for {})",
+        path.display()
+    ));
+    None
+}
+
+/// The `.vti` files of the shared volumes, or `None` (with the skip message printed, or a failure
+/// when the shared data is required) when absent.
 pub fn shared_volumes() -> Option<Vec<PathBuf>> {
-    let dir = volumes_dir();
-    let Ok(entries) = std::fs::read_dir(&dir) else {
-        println!(
-            "skipped: ../shared/data/volumes not found (looked in {})",
-            dir.display()
-        );
-        return None;
-    };
-    let mut files: Vec<PathBuf> = entries
+    let dir = shared_file("data/volumes")?;
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .expect("read ../shared/data/volumes")
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.extension().is_some_and(|e| e == "vti"))
         .collect();
     files.sort();
     if files.is_empty() {
-        println!("skipped: no .vti in {}", dir.display());
+        skip(format!("no .vti in {}", dir.display()));
         return None;
     }
     Some(files)
 }
 
-/// `name` in the shared volumes, or `None` (with the skip message printed) when absent.
+/// `name` in the shared volumes, or `None` (with the skip message printed, or a failure when the
+/// shared data is required) when absent.
 pub fn shared_volume(name: &str) -> Option<PathBuf> {
     let files = shared_volumes()?;
     let found = files.into_iter().find(|p| p.ends_with(name));
     if found.is_none() {
-        println!("skipped: {name} not found in ../shared/data/volumes");
+        skip(format!("{name} not found in ../shared/data/volumes"));
     }
     found
 }
