@@ -79,10 +79,11 @@ where
     }
 }
 
-/// A reader fixture (written by VTK itself, see tests/fixtures/make_fixtures.py).
+/// A reader fixture of the vtkxml crate (written by VTK itself, see
+/// ../vtkxml/tests/fixtures/make_fixtures.py).
 pub fn fixture(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/fixtures")
+        .join("../vtkxml/tests/fixtures")
         .join(name)
 }
 
