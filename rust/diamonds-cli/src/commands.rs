@@ -5,7 +5,7 @@ use crate::read::{read_image, read_polydata, read_unstructured};
 use crate::write::{
     checked_extension, write_image, write_tets, write_triangles, TetGrid, Triangles,
 };
-use crate::{bail, Array, Result};
+use crate::{bail, Array, AsScalarSlice, Result};
 use diamonds::validate::{check_mesh, check_tolerance};
 use diamonds::{fields, with_volume, Grid, Hierarchy, IsoQuery, Query, TetMesh};
 use rayon::prelude::*;
@@ -83,7 +83,7 @@ pub fn mesh_arrays<'a>(
 ) -> TetGridData {
     let point_data = point_arrays
         .into_iter()
-        .filter_map(|a| a.gather(&mesh.point_ids))
+        .map(|a| a.gather(&mesh.point_ids))
         .collect();
     let cell_data = vec![
         Array::scalars("Level", mesh.levels.clone()),

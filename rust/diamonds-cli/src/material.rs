@@ -14,7 +14,7 @@
 //! Output, with the array names of the ParaView filter: `OUT.vtu` (the tetrahedra), `OUT-interfaces.vtp`
 //! (the approximated interfaces) and `OUT-slice.vtp` (a plane cut).
 
-use crate::read::{read_structured, Geometry, Structured};
+use crate::read::{read_structured, Geometry, Structured, StructuredGrid};
 use crate::write::{write_image, write_polygons, write_tets, Polygons, TetGrid};
 use crate::{bail, Array, Result};
 use diamonds::fields::impact_case;
@@ -28,7 +28,6 @@ use diamonds::Grid;
 use std::fmt;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
-use vtkio::model::IOBuffer;
 
 /// The grid of the paper's impact data set (§5.5): 32 × 32 × 52 points.
 pub const IMPACT_DIMS: [usize; 3] = [32, 32, 52];
@@ -285,9 +284,6 @@ fn point_values(data: &Structured, name: &str, what: &str) -> Result<Vec<f32>> {
             "array '{name}' ({what}) has {} components; one value per point or cell is needed",
             array.components
         );
-    }
-    if matches!(array.data, IOBuffer::Bit(_)) {
-        bail!("array '{name}' ({what}) is a bit array");
     }
     let values: Vec<f32> = (0..array.data.len())
         .map(|k| array.value(k) as f32)
@@ -647,7 +643,7 @@ fn write_polygon_mesh(
     cell_data: Vec<Array>,
     field_data: Vec<Array>,
 ) -> Result<()> {
-    write_polygons(
+    Ok(write_polygons(
         path,
         Polygons {
             points: &polygons.points,
@@ -661,7 +657,7 @@ fn write_polygon_mesh(
             cell_data,
             field_data,
         },
-    )
+    )?)
 }
 
 #[cfg(test)]

@@ -122,7 +122,7 @@ fn the_default_volume_is_marschner_lobb_65_u8() {
     let a = image.scalars(None).unwrap();
     assert_eq!(a.name, "marschner_lobb");
     let diamonds_cli::Array {
-        data: vtkio::model::IOBuffer::U8(v),
+        data: diamonds_cli::Values::U8(v),
         ..
     } = a
     else {

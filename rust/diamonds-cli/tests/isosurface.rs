@@ -488,7 +488,7 @@ fn verify_surface_catches_holes_flips_degenerate_triangles_and_bad_normals() {
     degenerate[3][2] = degenerate[3][0];
     write(&degenerate, normals.clone());
     fails("triangles");
-    let vtkio::model::IOBuffer::F32(mut v) = normals.data.clone() else {
+    let diamonds_cli::Values::F32(mut v) = normals.data.clone() else {
         panic!("Float32 normals")
     };
     v[4] *= 1.5;

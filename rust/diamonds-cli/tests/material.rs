@@ -6,7 +6,9 @@
 mod common;
 
 use common::{diamonds, field_value, s, shared_file, TempDir};
-use diamonds_cli::read::{read_polydata, read_structured, read_unstructured, Unstructured};
+use diamonds_cli::read::{
+    read_polydata, read_structured, read_unstructured, StructuredGrid, Unstructured,
+};
 use diamonds_cli::write::write_image;
 use diamonds_cli::Array;
 use std::collections::HashMap;

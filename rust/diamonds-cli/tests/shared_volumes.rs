@@ -16,6 +16,7 @@ use common::{shared_volume, shared_volumes};
 use diamonds::validate::{check_mesh, check_tolerance};
 use diamonds::{with_volume, Hierarchy, Query};
 use diamonds_cli::read::read_image;
+use diamonds_cli::AsScalarSlice;
 use std::path::Path;
 use std::time::Instant;
 
