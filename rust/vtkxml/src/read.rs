@@ -868,23 +868,23 @@ fn extent_dims(e: [i64; 6]) -> Result<[usize; 3]> {
     Ok(dims)
 }
 
-fn xml_image(bytes: &[u8]) -> Result<Image> {
-    let doc = XmlDoc::parse(bytes)?;
-    if doc.kind != "ImageData" {
-        bail!("holds VTK {} data, not ImageData", doc.kind);
+/// The extent of `piece`: its `Extent`, else the data set's `WholeExtent`.
+fn piece_extent(doc: &XmlDoc<'_>, piece: &XmlPiece) -> Result<[i64; 6]> {
+    match extent(&piece.attrs, "Extent")? {
+        Some(e) => Ok(e),
+        None => extent(&doc.dataset, "WholeExtent")?
+            .ok_or_else(|| Error(format!("the {} has no WholeExtent", doc.kind))),
     }
+}
+
+/// The grid of image data on extent `ext`, its origin moved to the extent's start; refuses a
+/// non-identity `Direction`.
+fn uniform_grid(doc: &XmlDoc<'_>, ext: [i64; 6]) -> Result<UniformGrid> {
     if let Some(d) = doc.dataset.numbers::<f64, 9>("Direction")? {
         if d != [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0] {
             bail!("the image has a non-identity Direction matrix {d:?}; only axis-aligned images are supported");
         }
     }
-    let piece = doc.piece()?;
-    let ext = match extent(&piece.attrs, "Extent")? {
-        Some(e) => e,
-        None => extent(&doc.dataset, "WholeExtent")?
-            .ok_or_else(|| Error("the image has no WholeExtent".into()))?,
-    };
-    let dims = extent_dims(ext)?;
     let mut origin = doc.dataset.numbers::<f64, 3>("Origin")?.unwrap_or([0.0; 3]);
     let spacing = doc
         .dataset
@@ -893,16 +893,26 @@ fn xml_image(bytes: &[u8]) -> Result<Image> {
     for a in 0..3 {
         origin[a] += spacing[a] * ext[2 * a] as f64;
     }
-    let n = point_count(dims)?;
+    Ok(UniformGrid {
+        dims: extent_dims(ext)?,
+        origin,
+        spacing,
+    })
+}
+
+fn xml_image(bytes: &[u8]) -> Result<Image> {
+    let doc = XmlDoc::parse(bytes)?;
+    if doc.kind != "ImageData" {
+        bail!("holds VTK {} data, not ImageData", doc.kind);
+    }
+    let piece = doc.piece()?;
+    let grid = uniform_grid(&doc, piece_extent(&doc, piece)?)?;
+    let n = point_count(grid.dims)?;
     let point_section = piece.section("PointData");
     let mut warnings = Vec::new();
     let point_data = doc.decode_section(point_section, n, &mut warnings)?;
     Ok(Image {
-        grid: UniformGrid {
-            dims,
-            origin,
-            spacing,
-        },
+        grid,
         point_data,
         cell_arrays: piece
             .section("CellData")
@@ -927,31 +937,10 @@ fn xml_structured(bytes: &[u8]) -> Result<Structured> {
         );
     }
     let piece = doc.piece()?;
-    let ext = match extent(&piece.attrs, "Extent")? {
-        Some(e) => e,
-        None => extent(&doc.dataset, "WholeExtent")?
-            .ok_or_else(|| Error(format!("the {} has no WholeExtent", doc.kind)))?,
-    };
+    let ext = piece_extent(&doc, piece)?;
     let dims = extent_dims(ext)?;
     let geometry = if doc.kind == "ImageData" {
-        if let Some(d) = doc.dataset.numbers::<f64, 9>("Direction")? {
-            if d != [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0] {
-                bail!("the image has a non-identity Direction matrix {d:?}; only axis-aligned images are supported");
-            }
-        }
-        let mut origin = doc.dataset.numbers::<f64, 3>("Origin")?.unwrap_or([0.0; 3]);
-        let spacing = doc
-            .dataset
-            .numbers::<f64, 3>("Spacing")?
-            .unwrap_or([1.0; 3]);
-        for a in 0..3 {
-            origin[a] += spacing[a] * ext[2 * a] as f64;
-        }
-        Geometry::Uniform(UniformGrid {
-            dims,
-            origin,
-            spacing,
-        })
+        Geometry::Uniform(uniform_grid(&doc, ext)?)
     } else {
         let section = piece
             .section("Coordinates")
