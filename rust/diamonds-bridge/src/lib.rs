@@ -158,7 +158,7 @@ mod ffi {
         /// samples the hierarchy was built from: the caller keeps them alive and unchanged. `state`
         /// carries the adaptive mesh from one query to the next: reused as is when only
         /// `compute_normals` or `carrier_tetrahedra` changed, refined from the root otherwise (the
-        /// measured default, `IsoStart::Auto`). The surface is the same whatever `state` holds; a
+        /// measured default, `IsoStart::Root`). The surface is the same whatever `state` holds; a
         /// state last used with another hierarchy is cleared first, and a failed query clears it.
         fn isosurface(
             self: &Hierarchy,

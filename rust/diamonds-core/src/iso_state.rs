@@ -10,7 +10,7 @@
 //! the root.
 //!
 //! Which start is faster was measured (see [`Hierarchy::isosurface_from`]): from the root, so
-//! [`IsoStart::Auto`] starts there; [`IsoStart::Current`] remains for callers and probes.
+//! [`IsoStart::Root`] is the default; [`IsoStart::Current`] remains for callers and probes.
 
 use crate::isosurface::refine_query;
 use crate::lattice::Tet;
@@ -22,10 +22,9 @@ use std::time::Instant;
 /// Where an isovalue change starts refining.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum IsoStart {
-    /// The measured default (see [`Hierarchy::isosurface_from`]): from the root.
+    /// From the base mesh, as [`Hierarchy::isosurface`]: the measured default (see
+    /// [`Hierarchy::isosurface_from`]).
     #[default]
-    Auto,
-    /// From the base mesh, as [`Hierarchy::isosurface`].
     Root,
     /// From the current mesh whenever only the isovalues changed.
     Current,
@@ -107,8 +106,8 @@ impl Hierarchy {
     /// same points, same order). When nothing that drives refinement changed since the previous query
     /// in `state` (same isovalues, tolerance and region; only normals or carrier output), the mesh is
     /// reused without refining. When only the isovalues changed, [`IsoStart::Current`] starts from the
-    /// previous mesh (merge pass, then split pass: `Refiner::rerun`); [`IsoStart::Auto`] (the default)
-    /// and [`IsoStart::Root`] start from the root. Budget queries (`max_triangles > 0`) and tolerance or
+    /// previous mesh (merge pass, then split pass: `Refiner::rerun`); [`IsoStart::Root`] (the default)
+    /// starts from the root. Budget queries (`max_triangles > 0`) and tolerance or
     /// region changes start from the root; a budget query keeps no mesh.
     ///
     /// Measured when the isosurface errors were precomputed for every diamond (the full
@@ -174,12 +173,7 @@ impl Hierarchy {
                 let carriers = c.carriers;
                 (c.split, carriers)
             }
-            Some(c)
-                if match state.start {
-                    IsoStart::Auto | IsoStart::Root => false,
-                    IsoStart::Current => true,
-                } =>
-            {
+            Some(c) if state.start == IsoStart::Current => {
                 stats.from_current = true;
                 self.refine_iso(volume, query, query.tolerance, &mut |criterion| {
                     Refiner::rerun(self, &refine, criterion, &c.split)
@@ -412,15 +406,14 @@ mod tests {
             Some((false, true)),
         ];
         assert_eq!(log, expected);
-        // The default start and an explicit root start give the same surfaces.
-        for start in [IsoStart::Auto, IsoStart::Root] {
-            let mut state = IsoState::with_start(start);
-            for q in &qs {
-                let s = h
-                    .isosurface_from(&mut state, ScalarSlice::F32(&v), q)
-                    .unwrap();
-                assert_eq!(s, h.isosurface(ScalarSlice::F32(&v), q).unwrap());
-            }
+        // The default start is the root and gives the same surfaces.
+        let mut state = IsoState::new();
+        assert_eq!(state.start, IsoStart::Root);
+        for q in &qs {
+            let s = h
+                .isosurface_from(&mut state, ScalarSlice::F32(&v), q)
+                .unwrap();
+            assert_eq!(s, h.isosurface(ScalarSlice::F32(&v), q).unwrap());
         }
     }
 
