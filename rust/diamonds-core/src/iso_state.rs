@@ -110,34 +110,7 @@ impl Hierarchy {
     /// starts from the root. Budget queries (`max_triangles > 0`) and tolerance or
     /// region changes start from the root; a budget query keeps no mesh.
     ///
-    /// Measured when the isosurface errors were precomputed for every diamond (the full
-    /// [`Hierarchy::build`]; `examples/probe.rs isoseq`, 2 cores, minimum of 5 runs, cache warm;
-    /// isovalue changes 40.5 → ±0.5, ±2, ±10 → 40.5), from-root vs from-current, per query:
-    ///
-    /// | volume, tolerance | refine, from root | refine, from current | whole query, current vs root |
-    /// |---|---|---|---|
-    /// | bonsai 256³, 1 % of diagonal | 37–61 ms | 42–64 ms (+4–14 %) | 110–200 ms, −1 to +10 % |
-    /// | bonsai 256³, 2 % | 16–20 ms | 17–22 ms (+7–18 %) | 48–84 ms, −1 to +3 % |
-    /// | bonsai 257³ (no far-face band), 1 % | 37–60 ms | 41–66 ms (+3–20 %) | 114–215 ms |
-    /// | fuel / neghip 64³, 1–2 % | 0.7–4.8 ms | 0.8–5.1 ms (+0–14 %) | 1.8–17 ms, −7 to +8 % (noise) |
-    ///
-    /// From the current mesh is never faster, whatever the size of the change: keeping exactly the
-    /// from-root mesh needs the merge pass to find, top-down from the base mesh, which split diamonds
-    /// are still required (a bottom-up merge queue alone keeps unreachable diamonds — tested), and that
-    /// pass visits the same diamonds and evaluates the same criterion as a refinement from the root;
-    /// the split set costs about a quarter of a query, the leaf walk and marching tetrahedra the rest,
-    /// which both starts share. So isovalue changes start from the root by default. Reusing the mesh
-    /// when only normals or carrier output change saves the refinement and the leaf walk (numbers of
-    /// the same set-up): 166 → 119 ms (bonsai 256³, 1 %),
-    /// 84 → 66 ms (2 %), 16 → 11 ms and 10 → 6 ms (neghip 64³, 1 % and 2 %).
-    ///
-    /// Measured again with errors measured per query (the isosurface-only hierarchy,
-    /// `examples/probe.rs isochange` with and without `START=current`, bonsai 256³ at 1 % of the
-    /// diagonal, medians of 5 alternating single runs, whole query; at commit 5225897, whose surface
-    /// samples were the crossed edges' endpoints): 40.5 → 53.25 0.267 s from the
-    /// root, 0.264 s from the current mesh; 40.5 → 41 0.495 s / 0.468 s; 40.5 → 45 0.424 s /
-    /// 0.452 s — equal within the machine's noise (±15 %): the merge pass costs what it saves. The
-    /// default stays the root.
+    /// Measured: see "Isovalue change" in `docs/benchmarks.md`.
     pub fn isosurface_from(
         &self,
         state: &mut IsoState,
