@@ -24,7 +24,7 @@
 //!
 //! Diamonds touching the root cube's boundary keep only their tetrahedra, parents and children inside it.
 
-use crate::lattice::{Lattice, Tet};
+use crate::lattice::{Lattice, Placement, Tet};
 use arrayvec::ArrayVec;
 use glam::IVec3;
 
@@ -346,6 +346,24 @@ impl Diamond {
         out.retain(|(a, b, _)| lattice.in_root(*a) && lattice.in_root(*b));
         out
     }
+
+    /// Where the diamond lies relative to the domain box (Gregorski §7, "virtual grid"): the worst
+    /// placement of its tetrahedra ([`Lattice::place_box`] of each of [`Diamond::tet_boxes`]).
+    pub fn placement(self, lattice: &Lattice) -> Placement {
+        let mut any_inside = false;
+        for (lo, hi, _) in self.tet_boxes(lattice) {
+            match lattice.place_box(lo, hi) {
+                Placement::Straddling => return Placement::Straddling,
+                Placement::Inside => any_inside = true,
+                Placement::Outside => {}
+            }
+        }
+        if any_inside {
+            Placement::Inside
+        } else {
+            Placement::Outside
+        }
+    }
 }
 
 /// Bisects `t` at the midpoint `m` of its spine.
@@ -423,7 +441,6 @@ pub(crate) fn all_diamonds(lattice: &Lattice) -> Vec<Diamond> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::lattice::Placement;
     use std::collections::{HashMap, HashSet};
 
     fn lattice(n: usize) -> Lattice {

@@ -295,23 +295,6 @@ impl Hierarchy {
     }
 }
 
-/// Where a diamond lies relative to the domain box: the worst placement of its tetrahedra.
-pub fn place_diamond(lattice: &Lattice, d: Diamond) -> Placement {
-    let mut any_inside = false;
-    for (lo, hi, _) in d.tet_boxes(lattice) {
-        match lattice.place_box(lo, hi) {
-            Placement::Straddling => return Placement::Straddling,
-            Placement::Inside => any_inside = true,
-            Placement::Outside => {}
-        }
-    }
-    if any_inside {
-        Placement::Inside
-    } else {
-        Placement::Outside
-    }
-}
-
 /// Scans the inside tetrahedra of `d` and packs the result.
 fn diamond_record<T: Sample>(
     volume: &Volume<'_, T>,

@@ -23,7 +23,7 @@
 //! full-resolution one is.
 
 use crate::diamond::{signed_volume6, Diamond};
-use crate::hierarchy::{decode_error, place_diamond};
+use crate::hierarchy::decode_error;
 use crate::iso_error::{
     encode_down, far_hidden_samples, paths_to, smallest_gradient, tet_gradient, world, IsoErrors,
 };
@@ -306,7 +306,7 @@ impl Hierarchy {
             if !d.bounds().1.cmple(lattice.hi).all() {
                 // Near a far face: a diamond straddling it must be split wherever the surface may
                 // pass (its tetrahedra have vertices without samples); one outside is never split.
-                match place_diamond(&lattice, d) {
+                match d.placement(&lattice) {
                     Placement::Straddling => return non_empty(d),
                     Placement::Outside => return 0.0,
                     Placement::Inside => {}

@@ -11,7 +11,7 @@
 //! a budget needs *largest error first*, so our split queue is a binary heap.
 
 use crate::diamond::Diamond;
-use crate::hierarchy::{place_diamond, Hierarchy};
+use crate::hierarchy::Hierarchy;
 use crate::lattice::{Lattice, Placement};
 use crate::{Error, Result};
 use glam::IVec3;
@@ -210,7 +210,7 @@ impl<'h> Refiner<'h> {
         let mut r = Self::new(lattice, SplitSet::new(&lattice), 0, &|_| 0.0);
         let mut stack = vec![Diamond::root(&lattice)];
         while let Some(d) = stack.pop() {
-            if r.split.contains(d) || place_diamond(&lattice, d) != Placement::Straddling {
+            if r.split.contains(d) || d.placement(&lattice) != Placement::Straddling {
                 continue;
             }
             let mut closure = Vec::new();
@@ -236,7 +236,7 @@ impl<'h> Refiner<'h> {
             }
             if split.contains(d) {
                 stack.extend(d.children(lattice));
-            } else if place_diamond(lattice, d) != Placement::Outside {
+            } else if d.placement(lattice) != Placement::Outside {
                 out.push(d);
             }
         }
@@ -429,7 +429,7 @@ impl<'h> Refiner<'h> {
         if let Some((lo, hi)) = self.roi {
             let (dlo, dhi) = d.bounds();
             if (dlo.as_dvec3().cmpgt(hi).any() || dhi.as_dvec3().cmplt(lo).any())
-                && place_diamond(&self.lattice, d) != Placement::Straddling
+                && d.placement(&self.lattice) != Placement::Straddling
             {
                 return 0.0;
             }
@@ -473,7 +473,7 @@ impl<'h> Refiner<'h> {
             for p in x.parents(&self.lattice) {
                 if !self.split.contains(p)
                     && !visited.contains(&p)
-                    && place_diamond(&self.lattice, p) != Placement::Outside
+                    && p.placement(&self.lattice) != Placement::Outside
                 {
                     stack.push((p, false));
                 }
