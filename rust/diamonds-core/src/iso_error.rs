@@ -19,7 +19,7 @@
 //! [`crate::isosurface`]).
 
 use crate::diamond::{arrange, child_layout, child_of, Diamond};
-use crate::hierarchy::{decode_error, encode_error};
+use crate::hierarchy::record::{decode_error, encode_error};
 use crate::lattice::{Lattice, Placement, Tet};
 use crate::volume::{Sample, Volume};
 use crate::Hierarchy;
@@ -387,15 +387,6 @@ pub(crate) fn smallest_gradient<T: Sample>(
         .filter(|t| lattice.place(t) == Placement::Inside)
         .map(|t| tet_gradient(volume, t).length())
         .fold(f64::INFINITY, f64::min)
-}
-
-/// Encodes a non-negative number as a bfloat16, rounding down (toward zero).
-pub(crate) fn encode_down(x: f64) -> u16 {
-    let mut f = x as f32;
-    if f as f64 > x {
-        f = f.next_down();
-    }
-    (f.to_bits() >> 16) as u16
 }
 
 /// The squared longest edge of `t` in world units for a grid `spacing`.

@@ -23,9 +23,9 @@
 //! full-resolution one is.
 
 use crate::diamond::{signed_volume6, Diamond};
-use crate::hierarchy::decode_error;
+use crate::hierarchy::record::{decode_error, encode_down};
 use crate::iso_error::{
-    encode_down, far_hidden_samples, paths_to, smallest_gradient, tet_gradient, world, IsoErrors,
+    far_hidden_samples, paths_to, smallest_gradient, tet_gradient, world, IsoErrors,
 };
 use crate::lattice::{Lattice, Placement, Tet};
 use crate::refine::{Query, Refiner, SplitSet};

@@ -314,7 +314,7 @@ fn both_hierarchies_give_the_same_surfaces() {
         let (g, v) = sphere(dims, 0.7);
         let full = Hierarchy::build(g, ScalarSlice::F32(&v), &mut |_| true).unwrap();
         let iso = build(g, &v);
-        assert!(full.has_errors() && !iso.has_errors() && iso.metadata_bytes() == 0);
+        assert!(full.has_records() && !iso.has_records() && iso.metadata_bytes() == 0);
         assert!(iso.query(&diamonds::Query::tolerance(0.1)).is_err());
         for &tol in tolerances {
             let q = IsoQuery::new(0.0, tol);

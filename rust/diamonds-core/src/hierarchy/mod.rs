@@ -4,7 +4,7 @@
 //! Every lattice point of the domain is the central vertex of exactly one diamond, so the per-diamond data
 //! is a 3-D array parallel to the samples ("a hierarchy of diamonds built on a regular volume data set can be
 //! efficiently encoded as a three-dimensional array", Weiss & De Floriani §4). Each [`Record`] holds, in
-//! 4 bytes:
+//! 4 bytes ([`record`]):
 //! - the diamond's **exact** maximum interpolation error over every sample inside its tetrahedra
 //!   (Marchesin's enumeration, [`crate::scan`]), rounded *up* to a bfloat16 — an upper bound within 0.8 %
 //!   that is 0 exactly when the error is 0, so tolerance 0 stays lossless;
@@ -14,6 +14,8 @@
 //! Diamonds with a tetrahedron straddling a far face of the domain are split unconditionally (see
 //! [`crate::lattice`]); their closure is the *base mesh*, computed once here.
 
+pub mod record;
+
 use crate::diamond::Diamond;
 use crate::isosurface::IsoCache;
 use crate::lattice::{Lattice, Placement};
@@ -22,51 +24,11 @@ use crate::scan::{scan_finest_diamond, scan_tet, Stencils, TetStats};
 use crate::volume::{Sample, Volume};
 use crate::{with_volume, Error, Grid, Result, ScalarSlice, TetMesh};
 use rayon::prelude::*;
+use record::{decode_error, Quantiser, Record};
 use std::sync::OnceLock;
 
 /// Progress callback: called on the calling thread with a fraction in `[0, 1]`; return `false` to abort.
 pub type Progress<'a> = &'a mut dyn FnMut(f64) -> bool;
-
-/// Per-diamond data, 4 bytes, indexed by the central vertex's point index.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Record {
-    /// Upper bound of the exact error, as the high half of an `f32` rounded up (bfloat16).
-    error: u16,
-    /// Sample range, quantised outwards over the volume's range.
-    min: u8,
-    max: u8,
-}
-
-impl Record {
-    /// A diamond split in the base mesh: error 0 and the whole value range, so that no query culls it.
-    const UNKNOWN_RANGE: Self = Self {
-        error: 0,
-        min: 0,
-        max: u8::MAX,
-    };
-}
-
-/// Encodes a non-negative error as a bfloat16, rounding up.
-pub fn encode_error(e: f64) -> u16 {
-    debug_assert!(e >= 0.0);
-    let mut f = e as f32;
-    if (f as f64) < e {
-        f = f.next_up();
-    }
-    let bits = f.to_bits();
-    let high = (bits >> 16) as u16;
-    if bits & 0xFFFF != 0 {
-        high + 1
-    } else {
-        high
-    }
-}
-
-/// Decodes [`encode_error`].
-#[inline]
-pub fn decode_error(code: u16) -> f64 {
-    f32::from_bits((code as u32) << 16) as f64
-}
 
 /// Bytes the hierarchy needs for a grid of `points` points (records, split set, queue headroom).
 pub fn bytes_needed(points: usize) -> u64 {
@@ -170,7 +132,7 @@ impl Hierarchy {
             base_candidates: Vec::new(),
             iso_cache: OnceLock::new(),
         };
-        if hierarchy.has_errors() {
+        if hierarchy.has_records() {
             let (base, base_tets) = Refiner::base_mesh(&hierarchy);
             hierarchy.base_candidates = Refiner::candidates(&lattice, &base);
             hierarchy.base = base;
@@ -227,7 +189,7 @@ impl Hierarchy {
 
     /// Extracts the adaptive mesh for `query` (Gregorski §4 selective refinement with closure).
     pub fn query(&self, query: &Query) -> Result<TetMesh> {
-        if !self.has_errors() {
+        if !self.has_records() {
             return Err(Error::Parameter(
                 "this hierarchy was built for isosurfaces only: it holds no per-diamond errors"
                     .into(),
@@ -254,7 +216,7 @@ impl Hierarchy {
 
     /// Whether the hierarchy holds the per-diamond records ([`Hierarchy::build`]) that tetrahedral
     /// queries need.
-    pub fn has_errors(&self) -> bool {
+    pub fn has_records(&self) -> bool {
         !self.records.is_empty()
     }
 
@@ -330,55 +292,9 @@ fn diamond_record<T: Sample>(
     quantise.record(stats)
 }
 
-/// Outward 8-bit quantisation of values over the volume's range.
-struct Quantiser {
-    lo: f64,
-    step: f64,
-}
-
-impl Quantiser {
-    fn new((lo, hi): (f64, f64)) -> Self {
-        let step = if hi > lo { (hi - lo) / 255.0 } else { 1.0 };
-        Self { lo, step }
-    }
-    fn floor(&self, v: f64) -> u8 {
-        ((v - self.lo) / self.step).floor().clamp(0.0, 255.0) as u8
-    }
-    fn ceil(&self, v: f64) -> u8 {
-        ((v - self.lo) / self.step).ceil().clamp(0.0, 255.0) as u8
-    }
-    fn record(&self, stats: TetStats) -> Record {
-        Record {
-            error: encode_error(stats.error),
-            min: self.floor(stats.min),
-            max: self.ceil(stats.max),
-        }
-    }
-    fn decode(&self, q: u8) -> f64 {
-        self.lo + q as f64 * self.step
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn error_code_rounds_up_and_keeps_zero() {
-        assert_eq!(encode_error(0.0), 0);
-        assert_eq!(decode_error(encode_error(0.0)), 0.0);
-        for e in [1e-12, 0.3, 0.5, 1.0, 2.0, 3.7, 255.0, 1234.5678, 6.02e23] {
-            let d = decode_error(encode_error(e));
-            assert!(d >= e && d <= e * (1.0 + 1.0 / 128.0), "{e} -> {d}");
-        }
-        // Monotone.
-        let mut last = 0;
-        for i in 0..10_000 {
-            let c = encode_error(i as f64 * 0.37);
-            assert!(c >= last);
-            last = c;
-        }
-    }
 
     #[test]
     fn refuses_before_allocating_when_too_large() {

@@ -1,0 +1,115 @@
+//! The per-diamond record and its codecs (Weiss & De Floriani §4: "a three-dimensional array" of
+//! diamond data; Marchesin §4.1 for the error it bounds; Gregorski §6.1 for the range).
+//!
+//! A [`Record`] holds, in 4 bytes:
+//! - the diamond's **exact** maximum interpolation error, rounded *up* to a bfloat16
+//!   ([`encode_error`]) — an upper bound within 0.8 % that is 0 exactly when the error is 0, so
+//!   tolerance 0 stays lossless;
+//! - the diamond's sample range, quantised outwards to 8 bits over the volume's range
+//!   ([`Quantiser`]; exact for u8 data), for the isosurface culling of Gregorski §6.1.
+//!
+//! The same bfloat16 code, rounded down ([`encode_down`]), stores the gradient magnitudes the
+//! isosurface error divides by (Gregorski §6.2).
+
+use crate::scan::TetStats;
+
+/// Per-diamond data, 4 bytes, indexed by the central vertex's point index.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Record {
+    /// Upper bound of the exact error, as the high half of an `f32` rounded up (bfloat16).
+    pub(super) error: u16,
+    /// Sample range, quantised outwards over the volume's range.
+    pub(super) min: u8,
+    pub(super) max: u8,
+}
+
+impl Record {
+    /// A diamond split in the base mesh: error 0 and the whole value range, so that no query culls it.
+    pub(super) const UNKNOWN_RANGE: Self = Self {
+        error: 0,
+        min: 0,
+        max: u8::MAX,
+    };
+}
+
+/// Encodes a non-negative error as a bfloat16, rounding up.
+pub fn encode_error(e: f64) -> u16 {
+    debug_assert!(e >= 0.0);
+    let mut f = e as f32;
+    if (f as f64) < e {
+        f = f.next_up();
+    }
+    let bits = f.to_bits();
+    let high = (bits >> 16) as u16;
+    if bits & 0xFFFF != 0 {
+        high + 1
+    } else {
+        high
+    }
+}
+
+/// Encodes a non-negative number as a bfloat16, rounding down (toward zero).
+pub fn encode_down(x: f64) -> u16 {
+    let mut f = x as f32;
+    if f as f64 > x {
+        f = f.next_down();
+    }
+    (f.to_bits() >> 16) as u16
+}
+
+/// Decodes [`encode_error`] and [`encode_down`].
+#[inline]
+pub fn decode_error(code: u16) -> f64 {
+    f32::from_bits((code as u32) << 16) as f64
+}
+
+/// Outward 8-bit quantisation of values over the volume's range.
+pub(super) struct Quantiser {
+    lo: f64,
+    step: f64,
+}
+
+impl Quantiser {
+    pub(super) fn new((lo, hi): (f64, f64)) -> Self {
+        let step = if hi > lo { (hi - lo) / 255.0 } else { 1.0 };
+        Self { lo, step }
+    }
+    fn floor(&self, v: f64) -> u8 {
+        ((v - self.lo) / self.step).floor().clamp(0.0, 255.0) as u8
+    }
+    fn ceil(&self, v: f64) -> u8 {
+        ((v - self.lo) / self.step).ceil().clamp(0.0, 255.0) as u8
+    }
+    pub(super) fn record(&self, stats: TetStats) -> Record {
+        Record {
+            error: encode_error(stats.error),
+            min: self.floor(stats.min),
+            max: self.ceil(stats.max),
+        }
+    }
+    pub(super) fn decode(&self, q: u8) -> f64 {
+        self.lo + q as f64 * self.step
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn error_code_rounds_up_and_keeps_zero() {
+        assert_eq!(encode_error(0.0), 0);
+        assert_eq!(decode_error(encode_error(0.0)), 0.0);
+        for e in [1e-12, 0.3, 0.5, 1.0, 2.0, 3.7, 255.0, 1234.5678, 6.02e23] {
+            let d = decode_error(encode_error(e));
+            assert!(d >= e && d <= e * (1.0 + 1.0 / 128.0), "{e} -> {d}");
+        }
+        // Monotone.
+        let mut last = 0;
+        for i in 0..10_000 {
+            let c = encode_error(i as f64 * 0.37);
+            assert!(c >= last);
+            last = c;
+        }
+    }
+}
