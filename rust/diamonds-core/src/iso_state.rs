@@ -149,11 +149,11 @@ impl Hierarchy {
             Some(c) if state.start == IsoStart::Current => {
                 stats.from_current = true;
                 self.refine_iso(volume, query, query.tolerance, &mut |criterion| {
-                    Refiner::rerun(self, &refine, criterion, &c.split)
+                    Refiner::rerun(self.grid(), self.base(), &refine, criterion, &c.split)
                 })?
             }
             _ => self.refine_iso(volume, query, query.tolerance, &mut |criterion| {
-                Refiner::run(self, &refine, criterion)
+                Refiner::run(self.grid(), self.base(), &refine, criterion)
             })?,
         };
         stats.refine_seconds = t.elapsed().as_secs_f64();
@@ -207,7 +207,7 @@ mod tests {
         let volume = Volume::new(*h.grid(), values).unwrap();
         let refine = refine_query(query, query.tolerance);
         h.refine_iso(&volume, query, query.tolerance, &mut |criterion| {
-            Refiner::run(h, &refine, criterion)
+            Refiner::run(h.grid(), h.base(), &refine, criterion)
         })
         .unwrap()
         .0
@@ -217,7 +217,13 @@ mod tests {
     fn criterion_split(h: &Hierarchy, values: &[f32], query: &IsoQuery) -> SplitSet {
         let volume = Volume::new(*h.grid(), values).unwrap();
         let criterion = h.iso_criterion(&volume, &query.isovalues, query.tolerance);
-        Refiner::run(h, &refine_query(query, query.tolerance), &criterion).unwrap()
+        Refiner::run(
+            h.grid(),
+            h.base(),
+            &refine_query(query, query.tolerance),
+            &criterion,
+        )
+        .unwrap()
     }
 
     /// Runs `sequence` through one state starting from the current mesh and checks every surface and
@@ -437,7 +443,7 @@ mod tests {
             .collect();
         while let Some(d) = merge.pop() {
             let leaf = d.children(&lattice).iter().all(|&c| !split.contains(c));
-            if !split.contains(d) || h.base().contains(d) || !leaf {
+            if !split.contains(d) || h.base().split.contains(d) || !leaf {
                 continue;
             }
             if criterion(d) <= query.tolerance {

@@ -182,7 +182,7 @@ impl Hierarchy {
     ) -> Result<Vec<Tet>> {
         let refine = refine_query(query, tolerance);
         let (_, carriers) = self.refine_iso(volume, query, tolerance, &mut |criterion| {
-            Refiner::run(self, &refine, criterion)
+            Refiner::run(self.grid(), self.base(), &refine, criterion)
         })?;
         Ok(carriers)
     }
@@ -875,9 +875,11 @@ mod tests {
             let query = IsoQuery::new(0.0, tol);
             let refine = refine_query(&query, tol);
             let criterion = h.iso_criterion(&volume, &query.isovalues, tol);
-            let plain = Refiner::run(&h, &refine, &criterion).unwrap();
+            let plain = Refiner::run(h.grid(), h.base(), &refine, &criterion).unwrap();
             let (split, carriers) = h
-                .refine_iso(&volume, &query, tol, &mut |c| Refiner::run(&h, &refine, c))
+                .refine_iso(&volume, &query, tol, &mut |c| {
+                    Refiner::run(h.grid(), h.base(), &refine, c)
+                })
                 .unwrap();
             assert!(split.len() > plain.len(), "nothing forced at {tol}");
             let fresh = h.carriers_of(&volume, &query.isovalues, &split);

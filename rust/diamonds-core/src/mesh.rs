@@ -2,9 +2,9 @@
 //! deduplicated by lattice index (every output point is an input sample).
 
 use crate::diamond::{bisect, signed_volume6, Diamond};
-use crate::hierarchy::Hierarchy;
 use crate::lattice::{Lattice, Placement, Tet};
 use crate::refine::SplitSet;
+use crate::volume::Grid;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -107,23 +107,27 @@ pub(crate) fn leaves_below<X>(
 }
 
 /// Number of inside leaves of the split set.
-pub(crate) fn count_tets(h: &Hierarchy, split: &SplitSet) -> usize {
-    subtrees(h.lattice(), split)
+pub(crate) fn count_tets(lattice: &Lattice, split: &SplitSet) -> usize {
+    subtrees(lattice, split)
         .into_par_iter()
         .map(|t| {
             let mut n = 0;
-            walk(h.lattice(), split, t, &mut |_| n += 1);
+            walk(lattice, split, t, &mut |_| n += 1);
             n
         })
         .sum()
 }
 
-/// Builds the output mesh of the split set in two parallel walks, with no intermediate copy of the
-/// tetrahedra: the first counts each subtree's leaves and marks the points they use, the second
-/// writes each subtree's leaves into its own slice of the output.
-pub(crate) fn extract(h: &Hierarchy, split: &SplitSet) -> TetMesh {
-    let lattice = h.lattice();
-    let grid = h.grid();
+/// Builds the output mesh of the split set on `grid`, each tetrahedron with the `error` of its
+/// diamond, in two parallel walks, with no intermediate copy of the tetrahedra: the first counts
+/// each subtree's leaves and marks the points they use, the second writes each subtree's leaves
+/// into its own slice of the output.
+pub(crate) fn extract(
+    lattice: &Lattice,
+    grid: &Grid,
+    split: &SplitSet,
+    error: impl Fn(Diamond) -> f64 + Sync,
+) -> TetMesh {
     let roots = subtrees(lattice, split);
     // Pass 1: counts, and used points as a bitset over the input points.
     let used: Vec<AtomicU64> = (0..grid.len().div_ceil(64))
@@ -188,7 +192,7 @@ pub(crate) fn extract(h: &Hierarchy, split: &SplitSet) -> TetMesh {
             // A unit-cube tetrahedron is one bisection below the finest diamonds and reproduces
             // its samples.
             let (depth, error) = match Diamond::of_tet(&leaf) {
-                Some(d) => (d.depth(lattice), h.error(d) as f32),
+                Some(d) => (d.depth(lattice), error(d) as f32),
                 None => (3 * lattice.levels, 0.0),
             };
             t[k] = leaf.map(|p| id(lattice.index(p)));

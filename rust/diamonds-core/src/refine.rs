@@ -11,8 +11,8 @@
 //! a budget needs *largest error first*, so our split queue is a binary heap.
 
 use crate::diamond::Diamond;
-use crate::hierarchy::Hierarchy;
 use crate::lattice::{Lattice, Placement};
+use crate::volume::Grid;
 use crate::{Error, Result};
 use glam::IVec3;
 use rustc_hash::FxHashSet;
@@ -118,6 +118,19 @@ impl SplitSet {
     }
 }
 
+/// The mesh every query of a hierarchy starts from (Gregorski §4): for a hierarchy with records, the
+/// diamonds straddling a far face of the domain with their closure ([`Refiner::base_mesh`]); for an
+/// isosurface-only one, the root.
+#[derive(Clone, Debug)]
+pub(crate) struct BaseMesh {
+    /// Its split diamonds.
+    pub(crate) split: SplitSet,
+    /// Its tetrahedra inside the domain.
+    pub(crate) tets: usize,
+    /// The unsplit diamonds with tetrahedra in it, where refinement starts.
+    pub(crate) candidates: Vec<Diamond>,
+}
+
 /// An entry of the ordered split queue: a diamond and its error.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Candidate {
@@ -203,10 +216,9 @@ impl<'h> Refiner<'h> {
         }
     }
 
-    /// The base mesh: every diamond with a tetrahedron straddling a far face of the domain, with its closure.
-    /// Returns the split set and the number of tetrahedra inside the domain.
-    pub(crate) fn base_mesh(hierarchy: &'h Hierarchy) -> (SplitSet, usize) {
-        let lattice = *hierarchy.lattice();
+    /// The split set of the base mesh: every diamond with a tetrahedron straddling a far face of the
+    /// domain, with its closure.
+    pub(crate) fn base_mesh(lattice: Lattice) -> SplitSet {
         let mut r = Self::new(lattice, SplitSet::new(&lattice), 0, &|_| 0.0);
         let mut stack = vec![Diamond::root(&lattice)];
         while let Some(d) = stack.pop() {
@@ -220,8 +232,7 @@ impl<'h> Refiner<'h> {
                 stack.extend(a.children(&lattice));
             }
         }
-        let tets = crate::mesh::count_tets(hierarchy, &r.split);
-        (r.split, tets)
+        r.split
     }
 
     /// The unsplit diamonds with tetrahedra in the mesh of `split`: the root when unsplit, and the
@@ -243,20 +254,23 @@ impl<'h> Refiner<'h> {
         out
     }
 
-    /// Runs `query` from the base mesh with `criterion` as the diamond error and returns the split set.
+    /// Runs `query` on `grid` from `base` with `criterion` as the diamond error and returns the split
+    /// set.
     pub(crate) fn run(
-        hierarchy: &'h Hierarchy,
+        grid: &Grid,
+        base: &BaseMesh,
         query: &Query,
         criterion: &'h dyn Fn(Diamond) -> f64,
     ) -> Result<SplitSet> {
-        let mut r = Self::start(hierarchy, query, criterion)?;
-        r.refine(hierarchy.base_candidates(), query.max_tetrahedra);
+        let mut r = Self::start(grid, base, query, criterion)?;
+        r.refine(&base.candidates, query.max_tetrahedra);
         Ok(r.split)
     }
 
-    /// A refiner of `hierarchy` at the base mesh, set up for `query` (queue, tolerance, region).
+    /// A refiner of `grid` at `base`, set up for `query` (queue, tolerance, region).
     fn start(
-        hierarchy: &'h Hierarchy,
+        grid: &Grid,
+        base: &BaseMesh,
         query: &Query,
         criterion: &'h dyn Fn(Diamond) -> f64,
     ) -> Result<Self> {
@@ -267,9 +281,9 @@ impl<'h> Refiner<'h> {
             )));
         }
         let mut r = Self::new(
-            *hierarchy.lattice(),
-            hierarchy.base().clone(),
-            hierarchy.base_tetrahedra(),
+            *base.split.lattice(),
+            base.split.clone(),
+            base.tets,
             criterion,
         );
         r.tolerance = query.tolerance;
@@ -277,13 +291,13 @@ impl<'h> Refiner<'h> {
             r.queue = SplitQueue::Ordered(BinaryHeap::new());
         }
         if let Some(roi) = query.region_of_interest {
-            r.roi = Some(lattice_box(hierarchy, roi)?);
+            r.roi = Some(lattice_box(grid, roi)?);
         }
         Ok(r)
     }
 
     /// Runs `query` (no budget) "from the current mesh" `current` (Gregorski §6.1), the split set of an
-    /// earlier query on the same hierarchy, and returns the same split set as [`Refiner::run`].
+    /// earlier query from the same `base`, and returns the same split set as [`Refiner::run`].
     ///
     /// Merge pass: of the diamonds split in `current`, only those the new criterion still requires are
     /// kept — the least set that holds the base mesh, is closed under parents and holds every diamond
@@ -297,7 +311,8 @@ impl<'h> Refiner<'h> {
     /// result is closed with every reachable diamond meeting the tolerance: the least such set, i.e.
     /// from-root's.
     pub(crate) fn rerun(
-        hierarchy: &'h Hierarchy,
+        grid: &Grid,
+        base: &BaseMesh,
         query: &Query,
         criterion: &'h dyn Fn(Diamond) -> f64,
         current: &SplitSet,
@@ -307,12 +322,12 @@ impl<'h> Refiner<'h> {
                 "refinement from the current mesh takes no tetrahedron budget".into(),
             ));
         }
-        if current.lattice != *hierarchy.lattice() {
+        if current.lattice != *base.split.lattice() {
             return Err(Error::Parameter(
                 "the current mesh belongs to another hierarchy".into(),
             ));
         }
-        let mut r = Self::start(hierarchy, query, criterion)?;
+        let mut r = Self::start(grid, base, query, criterion)?;
         // Merge pass: keep what is still required among the split diamonds of `current`.
         let mut split_queue = Vec::new();
         let within = |r: &mut Self, d: Diamond, split_queue: &mut Vec<Diamond>| {
@@ -327,7 +342,7 @@ impl<'h> Refiner<'h> {
                 }
             }
         };
-        for &d in hierarchy.base_candidates() {
+        for &d in &base.candidates {
             within(&mut r, d, &mut split_queue);
         }
         let mut closure = Vec::new();
@@ -483,8 +498,7 @@ impl<'h> Refiner<'h> {
 }
 
 /// Converts a world-space box to lattice coordinates, refusing boxes that miss the grid.
-fn lattice_box(h: &Hierarchy, roi: [f64; 6]) -> Result<(glam::DVec3, glam::DVec3)> {
-    let g = h.grid();
+fn lattice_box(g: &Grid, roi: [f64; 6]) -> Result<(glam::DVec3, glam::DVec3)> {
     let b = g.bounds();
     let valid = roi.iter().all(|v| v.is_finite()) && (0..3).all(|a| roi[2 * a] <= roi[2 * a + 1]);
     if !valid {

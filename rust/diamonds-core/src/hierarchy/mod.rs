@@ -19,10 +19,11 @@ pub mod record;
 use crate::diamond::Diamond;
 use crate::isosurface::IsoCache;
 use crate::lattice::{Lattice, Placement};
-use crate::refine::{Query, Refiner, SplitSet};
+use crate::mesh::{self, TetMesh};
+use crate::refine::{BaseMesh, Query, Refiner, SplitSet};
 use crate::scan::{scan_finest_diamond, scan_tet, Stencils, TetStats};
-use crate::volume::{Sample, Volume};
-use crate::{with_volume, Error, Grid, Result, ScalarSlice, TetMesh};
+use crate::volume::{Grid, Sample, ScalarSlice, Volume};
+use crate::{with_volume, Error, Result};
 use rayon::prelude::*;
 use record::{decode_error, Quantiser, Record};
 use std::sync::OnceLock;
@@ -50,10 +51,8 @@ pub struct Hierarchy {
     lattice: Lattice,
     records: Vec<Record>,
     value_range: (f64, f64),
-    base: SplitSet,
-    base_tets: usize,
-    /// Diamonds with tetrahedra in the base mesh: where every query starts.
-    base_candidates: Vec<Diamond>,
+    /// Where every query starts.
+    base: BaseMesh,
     /// What isosurface queries keep between isovalues (see [`crate::isosurface`]).
     pub(crate) iso_cache: OnceLock<IsoCache>,
 }
@@ -78,7 +77,7 @@ impl Hierarchy {
 
     /// The hierarchy without per-diamond records and without base mesh, for isosurface queries only:
     /// these measure the errors they need at the surface samples of their isovalues
-    /// ([`crate::iso_error`]) and split the diamonds straddling a far face only where the surface
+    /// ([`crate::isosurface`]) and split the diamonds straddling a far face only where the surface
     /// passes, so nothing is precomputed over the whole volume; [`Hierarchy::query`] refuses it. Checks the
     /// samples (finite, matching the grid) and the memory like [`Hierarchy::build`].
     pub fn build_for_isosurfaces(grid: Grid, scalars: ScalarSlice<'_>) -> Result<Self> {
@@ -122,33 +121,35 @@ impl Hierarchy {
         value_range: (f64, f64),
     ) -> Result<Self> {
         let lattice = Lattice::new(volume.grid.dims)?;
-        let mut hierarchy = Self {
+        let base = if records.is_empty() {
+            // Isosurface queries split the diamonds straddling a far face only where the surface
+            // passes (see `crate::isosurface`), so they start from the root.
+            let root = Diamond::root(&lattice);
+            BaseMesh {
+                split: SplitSet::new(&lattice),
+                tets: root
+                    .tets(&lattice)
+                    .iter()
+                    .filter(|t| lattice.place(t) == Placement::Inside)
+                    .count(),
+                candidates: vec![root],
+            }
+        } else {
+            let split = Refiner::base_mesh(lattice);
+            BaseMesh {
+                tets: mesh::count_tets(&lattice, &split),
+                candidates: Refiner::candidates(&lattice, &split),
+                split,
+            }
+        };
+        Ok(Self {
             grid: volume.grid,
             lattice,
             records,
             value_range,
-            base: SplitSet::new(&lattice),
-            base_tets: 0,
-            base_candidates: Vec::new(),
+            base,
             iso_cache: OnceLock::new(),
-        };
-        if hierarchy.has_records() {
-            let (base, base_tets) = Refiner::base_mesh(&hierarchy);
-            hierarchy.base_candidates = Refiner::candidates(&lattice, &base);
-            hierarchy.base = base;
-            hierarchy.base_tets = base_tets;
-        } else {
-            // Isosurface queries split the diamonds straddling a far face only where the surface
-            // passes (see `Hierarchy::iso_criterion`), so they start from the root.
-            let root = Diamond::root(&lattice);
-            hierarchy.base_candidates = vec![root];
-            hierarchy.base_tets = root
-                .tets(&lattice)
-                .iter()
-                .filter(|t| lattice.place(t) == Placement::Inside)
-                .count();
-        }
-        Ok(hierarchy)
+        })
     }
 
     fn build_volume<T: Sample>(volume: &Volume<'_, T>, progress: Progress<'_>) -> Result<Self> {
@@ -195,8 +196,10 @@ impl Hierarchy {
                     .into(),
             ));
         }
-        let split = Refiner::run(self, query, &|d| self.error(d))?;
-        Ok(crate::mesh::extract(self, &split))
+        let split = Refiner::run(&self.grid, &self.base, query, &|d| self.error(d))?;
+        Ok(mesh::extract(&self.lattice, &self.grid, &split, |d| {
+            self.error(d)
+        }))
     }
 
     /// The grid the hierarchy was built for.
@@ -227,15 +230,12 @@ impl Hierarchy {
 
     /// Tetrahedra of the base mesh: the refinement forced by the domain's far faces alone.
     pub fn base_tetrahedra(&self) -> usize {
-        self.base_tets
+        self.base.tets
     }
 
-    pub(crate) fn base(&self) -> &SplitSet {
+    /// Where every query starts: the base mesh and its candidates for splitting.
+    pub(crate) fn base(&self) -> &BaseMesh {
         &self.base
-    }
-
-    pub(crate) fn base_candidates(&self) -> &[Diamond] {
-        &self.base_candidates
     }
 
     /// Error bound of diamond `d` (data units); diamonds whose central vertex is outside the domain are
