@@ -13,7 +13,7 @@
 //!   isosurface, which also reads the samples again);
 //! - out: an opaque [`Hierarchy`] the filters keep between executions (`rust::Box<Hierarchy>`), an
 //!   opaque [`IsoState`] kept next to it (the adaptive mesh of the last isosurface query, see
-//!   `diamonds::iso_state`), an opaque [`Mesh`] and an opaque [`Surface`] whose arrays C++ reads as
+//!   `diamonds::IsoState`), an opaque [`Mesh`] and an opaque [`Surface`] whose arrays C++ reads as
 //!   slices;
 //! - material interfaces ([`material`], for `vtkMaterialInterfaceApproximation`): volume fractions
 //!   and fields as `f32` slices added to a [`MaterialBuilder`], optional interface meshes as a
@@ -131,7 +131,7 @@ mod ffi {
         /// The triangles of one isosurface query (and, when asked, the tetrahedra carrying them).
         type Surface;
         /// What an isosurface filter keeps between queries: the adaptive mesh of the last query
-        /// and the query it was refined for (`diamonds::iso_state::IsoState`). It belongs to one
+        /// and the query it was refined for (`diamonds::IsoState`). It belongs to one
         /// hierarchy: [`isosurface`] forgets it when handed another one.
         type IsoState;
 
@@ -347,13 +347,13 @@ pub struct Hierarchy {
     id: u64,
 }
 
-/// Opaque handle on a [`diamonds::iso_state::IsoState`] for C++: the split set of the last
+/// Opaque handle on a [`diamonds::IsoState`] for C++: the split set of the last
 /// isosurface query, and the identity of the [`Hierarchy`] it was refined on. A split set belongs
 /// to one hierarchy (a rebuilt one may have the same lattice but other samples): a query on another
 /// hierarchy clears the state first, so a stale mesh can never be reused.
 #[derive(Default)]
 pub struct IsoState {
-    state: diamonds::iso_state::IsoState,
+    state: diamonds::IsoState,
     hierarchy: Option<u64>,
 }
 
@@ -534,7 +534,7 @@ impl Hierarchy {
 
     /// Extracts the isosurfaces of `isovalues` and checks the result before C++ indexes with it.
     /// `samples` must be the samples the hierarchy was built from. `state` keeps the adaptive mesh
-    /// between queries ([`diamonds::Hierarchy::isosurface_from`]); it is cleared first when it was
+    /// between queries ([`diamonds::IsoState::extract`]); it is cleared first when it was
     /// last used with another hierarchy, and cleared when the query fails.
     pub fn isosurface(
         &self,
@@ -567,9 +567,9 @@ impl Hierarchy {
                 compute_normals: spec.compute_normals,
                 carrier_tetrahedra: spec.carrier_tetrahedra,
             };
-            let mut surface = self
-                .hierarchy
-                .isosurface_from(&mut state.state, scalars, &query)
+            let mut surface = state
+                .state
+                .extract(&self.hierarchy, scalars, &query)
                 .map_err(|e| e.to_string())?;
             check_surface(&surface, &query)?;
             let carrier = surface.carrier.take();

@@ -322,7 +322,8 @@ pub fn iso(opts: &IsoOptions) -> Result<IsoSummary> {
     let hierarchy = Hierarchy::build_for_isosurfaces(grid, array.scalar_slice()?)?;
     let build_seconds = start.elapsed().as_secs_f64();
     let start = Instant::now();
-    let surface = hierarchy.isosurface(
+    let surface = diamonds::isosurface::extract(
+        &hierarchy,
         array.scalar_slice()?,
         &IsoQuery {
             isovalues: opts.isovalues.clone(),

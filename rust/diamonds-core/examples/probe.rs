@@ -12,7 +12,7 @@
 //! `isoseq` times each isovalue change of the sequence from the root and from the current mesh
 //! (minimum over `REPEAT` runs, default 5; the isosurface-error cache is warmed first). A tolerance
 //! ending in `%` is a percentage of the data diagonal.
-use diamonds::iso_state::{IsoStart, IsoState};
+use diamonds::isosurface::{IsoStart, IsoState};
 use diamonds::{Grid, Hierarchy, IsoQuery, Query, ScalarSlice};
 use std::time::Instant;
 
@@ -71,22 +71,26 @@ fn main() {
                     None => parse(tol),
                 };
                 let scalars = ScalarSlice::U8(&data);
-                // Warm the isosurface-error cache for every isovalue of the sequence.
-                for &iso in &isovalues {
-                    h.isosurface(scalars, &IsoQuery::new(iso, tol))
-                        .expect("isosurface");
+                // One state per start, its cache warmed with every isovalue of the sequence.
+                let mut states = [IsoStart::Root, IsoStart::Current].map(IsoState::with_start);
+                for state in &mut states {
+                    for &iso in &isovalues {
+                        state
+                            .extract(&h, scalars, &IsoQuery::new(iso, tol))
+                            .expect("isosurface");
+                    }
                 }
                 // Per change, per start: (total, refine) seconds, minimum over the runs.
                 let n = isovalues.len();
                 let mut best = vec![[(f64::INFINITY, f64::INFINITY); 2]; n];
                 let mut info = vec![(0usize, 0usize); n];
                 for _ in 0..repeat {
-                    for (k, start) in [IsoStart::Root, IsoStart::Current].into_iter().enumerate() {
-                        let mut state = IsoState::with_start(start);
+                    for (k, state) in states.iter_mut().enumerate() {
+                        state.forget_mesh();
                         for (i, &iso) in isovalues.iter().enumerate() {
                             let t = Instant::now();
-                            let s = h
-                                .isosurface_from(&mut state, scalars, &IsoQuery::new(iso, tol))
+                            let s = state
+                                .extract(&h, scalars, &IsoQuery::new(iso, tol))
                                 .expect("isosurface");
                             let total = t.elapsed().as_secs_f64();
                             let st = state.last().expect("stats");
@@ -104,17 +108,17 @@ fn main() {
                     compute_normals: false,
                     ..last.clone()
                 };
+                let state = &mut states[0];
                 for _ in 0..repeat {
-                    let mut state = IsoState::new();
-                    h.isosurface_from(&mut state, scalars, &last)
-                        .expect("isosurface");
+                    state.forget_mesh();
+                    state.extract(&h, scalars, &last).expect("isosurface");
                     let t = Instant::now();
-                    h.isosurface_from(&mut state, scalars, &toggled)
-                        .expect("isosurface");
+                    state.extract(&h, scalars, &toggled).expect("isosurface");
                     again = again.min(t.elapsed().as_secs_f64());
                     assert!(state.last().expect("stats").reused);
+                    state.forget_mesh();
                     let t = Instant::now();
-                    h.isosurface(scalars, &toggled).expect("isosurface");
+                    state.extract(&h, scalars, &toggled).expect("isosurface");
                     root_again = root_again.min(t.elapsed().as_secs_f64());
                 }
                 println!(
@@ -143,11 +147,14 @@ fn main() {
             }
         }
         _ => {
+            // One state, so that its cache is kept as the hierarchy's was; each query starts from
+            // the root.
+            let mut state = IsoState::new();
             for iso in a[6].split(',').map(|v| v.parse::<f64>().expect("isovalue")) {
                 for tol in a[7..].iter().map(parse) {
                     let t = Instant::now();
-                    let s = h
-                        .isosurface(ScalarSlice::U8(&data), &IsoQuery::new(iso, tol))
+                    let s = state
+                        .extract(&h, ScalarSlice::U8(&data), &IsoQuery::new(iso, tol))
                         .expect("isosurface");
                     println!(
                         "iso {iso} tol {tol}: {} triangles, bound {:.3} in {:.3}s",
@@ -194,8 +201,8 @@ fn iso_change(data: &[u8], dims: [usize; 3], isovalues: &str, tolerances: &[Stri
                 _ => IsoState::new(),
             };
             for (i, &iso) in isovalues.iter().enumerate() {
-                let s = h
-                    .isosurface_from(&mut state, scalars, &IsoQuery::new(iso, tol))
+                let s = state
+                    .extract(&h, scalars, &IsoQuery::new(iso, tol))
                     .expect("isosurface");
                 let seconds = t.elapsed().as_secs_f64();
                 let used = cpu_seconds() - c;

@@ -7,28 +7,30 @@
 //! Data flow: [`Volume`] → [`Hierarchy::build`] (per-diamond exact error and value range, Marchesin
 //! et al. §4.1) → [`Hierarchy::query`] (selective refinement with closure, Gregorski §4) → [`TetMesh`].
 //!
-//! Modules, each named after the concept it implements:
+//! Modules, each named after the concept it implements, in dependency order (each uses only
+//! modules listed before it; the crate root holds [`Error`] and [`Result`]):
+//! - [`volume`]: typed, borrowed sample arrays (u8 … f64) with origin and spacing.
 //! - [`lattice`]: the virtual `(2^L + 1)^3` lattice that embeds the input grid, and the domain box.
 //! - [`diamond`]: the implicit diamond encoding from the central vertex (Weiss & De Floriani §4, Eq. 1).
-//! - [`volume`]: typed, borrowed sample arrays (u8 … f64) with origin and spacing.
 //! - [`scan`]: integer point enumeration inside a tetrahedron and its exact interpolation error
 //!   (Marchesin §4.1).
-//! - [`hierarchy`]: the precomputed per-diamond records (error, min, max) in 4 bytes per voxel.
 //! - [`refine`]: the split set, the [`refine::SplitQueue`] and selective refinement with closure.
 //! - [`mesh`]: extraction of the current mesh as deduplicated points and tetrahedra.
-//! - [`isosurface`], [`iso_error`], [`iso_state`]: multiresolution isosurfaces (Gregorski §6), the
-//!   isosurface error measured per query at the samples that decide the surface (no precomputation:
-//!   [`Hierarchy::build_for_isosurfaces`]), and the split set kept between isosurface queries (reuse;
-//!   isovalue changes "from the current mesh", measured, §6.1).
-//! - [`material`]: material interfaces with ghost values (Gregorski §5).
+//! - [`hierarchy`]: the precomputed per-diamond records (error, min, max) in 4 bytes per voxel
+//!   ([`hierarchy::record`]: the record and its codecs) and the base mesh every query starts from.
+//! - [`isosurface`]: multiresolution isosurfaces (Gregorski §6), one file per stage: the isosurface
+//!   error measured per query at the samples that decide the surface (no precomputation:
+//!   [`Hierarchy::build_for_isosurfaces`]), the pass for hidden pieces, marching tetrahedra, and the
+//!   [`IsoState`] kept between queries (mesh reuse, isovalue changes "from the current mesh",
+//!   measured, §6.1; the isosurface cache). Entry points: [`isosurface::extract`] and
+//!   [`IsoState::extract`].
 //! - [`fields`]: generated volumes (Marschner–Lobb, distance fields) for the demo and the tests.
+//! - [`material`]: material interfaces with ghost values (Gregorski §5).
 //! - [`validate`]: independent checks (conformity, volume, tolerance at every sample) used by tests and the CLI.
 
 pub mod diamond;
 pub mod fields;
 pub mod hierarchy;
-pub mod iso_error;
-pub mod iso_state;
 pub mod isosurface;
 pub mod lattice;
 pub mod material;
@@ -39,7 +41,7 @@ pub mod validate;
 pub mod volume;
 
 pub use hierarchy::{Hierarchy, Progress};
-pub use isosurface::{IsoQuery, IsoSurface};
+pub use isosurface::{IsoQuery, IsoState, IsoSurface};
 pub use mesh::TetMesh;
 pub use refine::Query;
 pub use volume::{Grid, ScalarSlice, ScalarType, Volume};

@@ -5,9 +5,9 @@
 
 use diamonds::diamond::{bisect, Diamond};
 use diamonds::fields::{sample, sphere_distance, torus_distance, unit_grid};
-use diamonds::isosurface::marching_tetrahedra;
+use diamonds::isosurface::{extract, marching_tetrahedra};
 use diamonds::lattice::{Lattice, Placement, Tet};
-use diamonds::{Grid, Hierarchy, IsoQuery, IsoSurface, ScalarSlice, Volume};
+use diamonds::{Grid, Hierarchy, IsoQuery, IsoState, IsoSurface, ScalarSlice, Volume};
 use glam::DVec3;
 use std::collections::HashMap;
 
@@ -92,9 +92,7 @@ fn watertight_and_oriented_at_every_tolerance() {
         let h = build(g, &v);
         let mut last = usize::MAX;
         for tol in [0.0, 0.005, 0.02, 0.1] {
-            let s = h
-                .isosurface(ScalarSlice::F32(&v), &IsoQuery::new(0.0, tol))
-                .unwrap();
+            let s = extract(&h, ScalarSlice::F32(&v), &IsoQuery::new(0.0, tol)).unwrap();
             assert_watertight(&s, &format!("{dims:?} tol {tol}"));
             assert_consistently_oriented(&s, &format!("{dims:?} tol {tol}"));
             assert!(
@@ -140,9 +138,7 @@ fn tolerance_zero_is_marching_tetrahedra_at_full_resolution() {
     ] {
         let (g, v) = sphere(dims, r);
         let h = build(g, &v);
-        let adaptive = h
-            .isosurface(ScalarSlice::F32(&v), &IsoQuery::new(0.0, 0.0))
-            .unwrap();
+        let adaptive = extract(&h, ScalarSlice::F32(&v), &IsoQuery::new(0.0, 0.0)).unwrap();
         // Reference: every root tetrahedron bisected to the unit cubes, those inside the grid kept.
         let l = Lattice::new(g.dims).unwrap();
         let mut tets: Vec<Tet> = Diamond::root(&l).tets(&l).to_vec();
@@ -171,15 +167,12 @@ fn hausdorff_distance_shrinks_with_the_tolerance() {
     let (g, v) = sphere([65, 65, 65], r);
     let h = build(g, &v);
     let exact = distance_to_sphere(
-        &h.isosurface(ScalarSlice::F32(&v), &IsoQuery::new(0.0, 0.0))
-            .unwrap(),
+        &extract(&h, ScalarSlice::F32(&v), &IsoQuery::new(0.0, 0.0)).unwrap(),
         r,
     );
     let mut last = f64::INFINITY;
     for tol in [0.2, 0.05, 0.01, 0.0] {
-        let s = h
-            .isosurface(ScalarSlice::F32(&v), &IsoQuery::new(0.0, tol))
-            .unwrap();
+        let s = extract(&h, ScalarSlice::F32(&v), &IsoQuery::new(0.0, tol)).unwrap();
         let d = distance_to_sphere(&s, r);
         assert!(
             d <= tol + exact + 1e-9,
@@ -196,7 +189,7 @@ fn hausdorff_distance_shrinks_with_the_tolerance() {
         isovalues: vec![0.0, 0.08],
         ..IsoQuery::new(0.0, 0.01)
     };
-    let s = ht.isosurface(ScalarSlice::F32(&vt), &q).unwrap();
+    let s = extract(&ht, ScalarSlice::F32(&vt), &q).unwrap();
     assert_watertight(&s, "two tori");
     assert!(s.values.contains(&0.0) && s.values.contains(&0.08));
 }
@@ -205,15 +198,20 @@ fn hausdorff_distance_shrinks_with_the_tolerance() {
 fn isovalue_change_equals_a_fresh_run() {
     let (g, v) = sphere([33, 30, 31], 0.6);
     let h = build(g, &v);
-    let _first = h
-        .isosurface(ScalarSlice::F32(&v), &IsoQuery::new(0.0, 0.01))
+    // One state keeps the mesh and the cache from the first isovalue to the next.
+    let mut state = IsoState::new();
+    let _first = state
+        .extract(&h, ScalarSlice::F32(&v), &IsoQuery::new(0.0, 0.01))
         .unwrap();
-    let changed = h
-        .isosurface(ScalarSlice::F32(&v), &IsoQuery::new(-0.2, 0.01))
+    let changed = state
+        .extract(&h, ScalarSlice::F32(&v), &IsoQuery::new(-0.2, 0.01))
         .unwrap();
-    let fresh = build(g, &v)
-        .isosurface(ScalarSlice::F32(&v), &IsoQuery::new(-0.2, 0.01))
-        .unwrap();
+    let fresh = extract(
+        &build(g, &v),
+        ScalarSlice::F32(&v),
+        &IsoQuery::new(-0.2, 0.01),
+    )
+    .unwrap();
     assert_eq!(changed, fresh);
 }
 
@@ -221,14 +219,12 @@ fn isovalue_change_equals_a_fresh_run() {
 fn budget_region_and_carriers() {
     let (g, v) = sphere([65, 65, 65], 0.6);
     let h = build(g, &v);
-    let full = h
-        .isosurface(ScalarSlice::F32(&v), &IsoQuery::new(0.0, 0.0))
-        .unwrap();
+    let full = extract(&h, ScalarSlice::F32(&v), &IsoQuery::new(0.0, 0.0)).unwrap();
     let q = IsoQuery {
         max_triangles: full.triangles.len() / 10,
         ..IsoQuery::new(0.0, 0.0)
     };
-    let s = h.isosurface(ScalarSlice::F32(&v), &q).unwrap();
+    let s = extract(&h, ScalarSlice::F32(&v), &q).unwrap();
     assert!(s.triangles.len() <= q.max_triangles && s.triangles.len() > q.max_triangles / 4);
     assert_watertight(&s, "budget");
     // Full resolution only inside the region of interest.
@@ -236,7 +232,7 @@ fn budget_region_and_carriers() {
         region_of_interest: Some([0.0, 1.0, -1.0, 1.0, -1.0, 1.0]),
         ..IsoQuery::new(0.0, 0.0)
     };
-    let s = h.isosurface(ScalarSlice::F32(&v), &q).unwrap();
+    let s = extract(&h, ScalarSlice::F32(&v), &q).unwrap();
     assert_watertight(&s, "region");
     assert!(s.triangles.len() < full.triangles.len());
     // Carrier tetrahedra: each crosses the isovalue, and they are the leaves that made the surface.
@@ -244,7 +240,7 @@ fn budget_region_and_carriers() {
         carrier_tetrahedra: true,
         ..IsoQuery::new(0.0, 0.02)
     };
-    let s = h.isosurface(ScalarSlice::F32(&v), &q).unwrap();
+    let s = extract(&h, ScalarSlice::F32(&v), &q).unwrap();
     let carrier = s.carrier.expect("asked for");
     assert!(!carrier.tets.is_empty() && carrier.tets.len() <= s.triangles.len());
     for t in &carrier.tets {
@@ -252,24 +248,18 @@ fn budget_region_and_carriers() {
         assert!(f.iter().any(|&x| x < 0.0) && f.iter().any(|&x| x >= 0.0));
     }
     // Bad parameters.
-    assert!(h
-        .isosurface(
-            ScalarSlice::F32(&v),
-            &IsoQuery {
-                isovalues: vec![],
-                ..IsoQuery::new(0.0, 0.1)
-            }
-        )
-        .is_err());
-    assert!(h
-        .isosurface(ScalarSlice::F32(&v), &IsoQuery::new(f64::NAN, 0.1))
-        .is_err());
-    assert!(h
-        .isosurface(ScalarSlice::F32(&v), &IsoQuery::new(0.0, -1.0))
-        .is_err());
-    assert!(h
-        .isosurface(ScalarSlice::F32(&v[1..]), &IsoQuery::new(0.0, 0.1))
-        .is_err());
+    assert!(extract(
+        &h,
+        ScalarSlice::F32(&v),
+        &IsoQuery {
+            isovalues: vec![],
+            ..IsoQuery::new(0.0, 0.1)
+        }
+    )
+    .is_err());
+    assert!(extract(&h, ScalarSlice::F32(&v), &IsoQuery::new(f64::NAN, 0.1)).is_err());
+    assert!(extract(&h, ScalarSlice::F32(&v), &IsoQuery::new(0.0, -1.0)).is_err());
+    assert!(extract(&h, ScalarSlice::F32(&v[1..]), &IsoQuery::new(0.0, 0.1)).is_err());
 }
 
 #[test]
@@ -283,9 +273,7 @@ fn isovalues_equal_to_samples_keep_a_consistent_orientation() {
     });
     let h = Hierarchy::build_for_isosurfaces(g, ScalarSlice::U8(&v)).unwrap();
     for (iso, tol) in [(128.0, 0.0), (100.0, 0.0), (128.0, 0.05)] {
-        let s = h
-            .isosurface(ScalarSlice::U8(&v), &IsoQuery::new(iso, tol))
-            .unwrap();
+        let s = extract(&h, ScalarSlice::U8(&v), &IsoQuery::new(iso, tol)).unwrap();
         assert_watertight_or_degenerate(&s);
         assert_consistently_oriented(&s, &format!("u8 sphere at a sample value, tol {tol}"));
     }
@@ -318,8 +306,8 @@ fn both_hierarchies_give_the_same_surfaces() {
         assert!(iso.query(&diamonds::Query::tolerance(0.1)).is_err());
         for &tol in tolerances {
             let q = IsoQuery::new(0.0, tol);
-            let a = full.isosurface(ScalarSlice::F32(&v), &q).unwrap();
-            let b = iso.isosurface(ScalarSlice::F32(&v), &q).unwrap();
+            let a = extract(&full, ScalarSlice::F32(&v), &q).unwrap();
+            let b = extract(&iso, ScalarSlice::F32(&v), &q).unwrap();
             assert_eq!(a, b, "{dims:?} tol {tol}");
         }
     }
@@ -347,9 +335,12 @@ fn isolated_pieces_are_drawn_within_the_tolerance() {
     }
     let h = build(g, &v);
     let voxel = DVec3::from(g.spacing).length();
+    // One state, as a filter keeps it: the errors measured at a tolerance serve the larger ones
+    // after it (a fresh extraction at 0.5 measures coarser and misses a spike).
+    let mut state = IsoState::new();
     for tol in [0.05, 0.2, 0.5] {
-        let s = h
-            .isosurface(ScalarSlice::F32(&v), &IsoQuery::new(0.0, tol))
+        let s = state
+            .extract(&h, ScalarSlice::F32(&v), &IsoQuery::new(0.0, tol))
             .unwrap();
         for spike in spikes {
             let p = DVec3::from(g.point(spike));

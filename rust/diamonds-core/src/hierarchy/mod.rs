@@ -17,7 +17,6 @@
 pub mod record;
 
 use crate::diamond::Diamond;
-use crate::isosurface::IsoCache;
 use crate::lattice::{Lattice, Placement};
 use crate::mesh::{self, TetMesh};
 use crate::refine::{BaseMesh, Query, Refiner, SplitSet};
@@ -26,7 +25,6 @@ use crate::volume::{Grid, Sample, ScalarSlice, Volume};
 use crate::{with_volume, Error, Result};
 use rayon::prelude::*;
 use record::{decode_error, Quantiser, Record};
-use std::sync::OnceLock;
 
 /// Progress callback: called on the calling thread with a fraction in `[0, 1]`; return `false` to abort.
 pub type Progress<'a> = &'a mut dyn FnMut(f64) -> bool;
@@ -53,8 +51,6 @@ pub struct Hierarchy {
     value_range: (f64, f64),
     /// Where every query starts.
     base: BaseMesh,
-    /// What isosurface queries keep between isovalues (see [`crate::isosurface`]).
-    pub(crate) iso_cache: OnceLock<IsoCache>,
 }
 
 impl Hierarchy {
@@ -148,7 +144,6 @@ impl Hierarchy {
             records,
             value_range,
             base,
-            iso_cache: OnceLock::new(),
         })
     }
 

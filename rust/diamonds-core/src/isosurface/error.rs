@@ -15,21 +15,19 @@
 //! A surface sample on the other side of the isovalue than `T`'s interpolant, in a tetrahedron whose
 //! vertices do not straddle the isovalue, is part of the surface that `T` *hides*: no triangle is drawn
 //! through `T`. The diamond is marked; the hidden pieces of the leaves of a refined mesh that lie far
-//! from the drawn surface are found by [`far_hidden_samples`] and forced in (see
-//! [`crate::isosurface`]).
+//! from the drawn surface are found and forced in by [`super::hidden`].
 
+use super::{value, Extraction};
 use crate::diamond::{arrange, child_layout, child_of, Diamond};
 use crate::hierarchy::record::{decode_error, encode_error};
 use crate::lattice::{Lattice, Placement, Tet};
 use crate::volume::{Sample, Volume};
-use crate::Hierarchy;
-use glam::{DMat3, DVec3, IVec3};
+use glam::{DVec3, IVec3};
 use rayon::prelude::*;
-use rustc_hash::FxHashMap;
 use std::sync::atomic::{AtomicU16, AtomicU64, Ordering};
 
 /// Per-diamond approximation error at the surface samples of a set of isovalues.
-pub(crate) struct IsoErrors {
+pub(super) struct IsoErrors {
     isovalues: Vec<f64>,
     /// Tetrahedra no larger than this (world units) end the descent: diamonds below them are not
     /// measured (their isosurface error is bounded by their size instead).
@@ -43,7 +41,7 @@ pub(crate) struct IsoErrors {
     /// The central vertices (indices) of the diamonds some surface sample reached, each once.
     reached: Vec<u32>,
     /// Surface samples located (for reports and tests).
-    pub(crate) surface_samples: usize,
+    surface_samples: usize,
 }
 
 impl std::fmt::Debug for IsoErrors {
@@ -67,7 +65,7 @@ impl IsoErrors {
     /// than `cutoff` (world units); `cells_crossed` lists, per isovalue, the lower corners of the grid
     /// cells it crosses. The tables of `recycled` (errors of the same grid no longer used) are
     /// cleared and reused.
-    pub(crate) fn new<T: Sample>(
+    pub(super) fn new<T: Sample>(
         lattice: &Lattice,
         volume: &Volume<'_, T>,
         isovalues: &[f64],
@@ -153,24 +151,19 @@ impl IsoErrors {
     }
 
     /// Whether these errors serve queries for `isovalues` at `tolerance`.
-    pub(crate) fn serve(&self, isovalues: &[f64], tolerance: f64) -> bool {
+    pub(super) fn serve(&self, isovalues: &[f64], tolerance: f64) -> bool {
         self.isovalues == isovalues && self.cutoff <= tolerance
     }
 
     /// The isosurface error of `d` (central vertex in the domain), world units: the largest
     /// `min(ae / ‖∇T‖, size(T))` over its inside tetrahedra (Gregorski §6.2, Eq. 5), 0 when no surface
     /// sample lies in it, infinite when it hides part of the surface.
-    pub(crate) fn error<T: Sample>(
-        &self,
-        h: &Hierarchy,
-        volume: &Volume<'_, T>,
-        d: Diamond,
-    ) -> f64 {
-        let code = self.codes[h.lattice().index(d.center)].load(Ordering::Relaxed);
+    pub(super) fn error<T: Sample>(&self, x: &Extraction<'_, '_, T>, d: Diamond) -> f64 {
+        let code = self.codes[x.lattice().index(d.center)].load(Ordering::Relaxed);
         match code {
             // Not reached: no surface sample in it, or below the cutoff (bounded by the size).
             0 => {
-                let size = d.tet_size(volume.grid.spacing);
+                let size = d.tet_size(x.volume.grid.spacing);
                 if size <= self.cutoff {
                     size
                 } else {
@@ -178,19 +171,14 @@ impl IsoErrors {
                 }
             }
             _ if code & FINAL != 0 => decode_error(code & !FINAL),
-            _ => decode_error(encode_error(isosurface_error(
-                h,
-                volume,
-                d,
-                decode_error(code),
-            ))),
+            _ => decode_error(encode_error(isosurface_error(x, d, decode_error(code)))),
         }
     }
 }
 
 impl IsoErrors {
     /// Computes, in parallel, the isosurface error of every diamond a surface sample reached.
-    pub(crate) fn finalize<T: Sample>(&self, h: &Hierarchy, volume: &Volume<'_, T>) {
+    pub(super) fn finalize<T: Sample>(&self, x: &Extraction<'_, '_, T>) {
         self.reached
             .par_iter()
             .with_min_len(1 << 10)
@@ -200,8 +188,8 @@ impl IsoErrors {
                 let code = slot.load(Ordering::Relaxed);
                 if code & FINAL == 0 {
                     // The lattice index of a domain point is its grid index.
-                    let c = IVec3::from(volume.grid.ijk(i).map(|x| x as i32));
-                    let e = isosurface_error(h, volume, Diamond::new(c), decode_error(code));
+                    let c = IVec3::from(x.volume.grid.ijk(i).map(|c| c as i32));
+                    let e = isosurface_error(x, Diamond::new(c), decode_error(code));
                     slot.store(encode_error(e) | FINAL, Ordering::Relaxed);
                 }
             });
@@ -209,184 +197,32 @@ impl IsoErrors {
 
     /// The error refinement compares with a tolerance at least the cutoff: [`IsoErrors::error`] where a
     /// surface sample reached the diamond, else 0 (its error is at most the cutoff).
-    pub(crate) fn refinement_error<T: Sample>(
-        &self,
-        h: &Hierarchy,
-        volume: &Volume<'_, T>,
-        d: Diamond,
-    ) -> f64 {
-        match self.codes[h.lattice().index(d.center)].load(Ordering::Relaxed) {
+    pub(super) fn refinement_error<T: Sample>(&self, x: &Extraction<'_, '_, T>, d: Diamond) -> f64 {
+        match self.codes[x.lattice().index(d.center)].load(Ordering::Relaxed) {
             0 => 0.0,
-            _ => self.error(h, volume, d),
+            _ => self.error(x, d),
         }
     }
 
     /// Does the diamond `d` (central vertex in the domain) hide part of the surface somewhere?
-    pub(crate) fn hides(&self, lattice: &Lattice, d: Diamond) -> bool {
+    pub(super) fn hides(&self, lattice: &Lattice, d: Diamond) -> bool {
         let i = lattice.index(d.center);
         self.hidden[i / 64].load(Ordering::Relaxed) & (1 << (i % 64)) != 0
     }
 }
 
-/// Samples of hidden pieces of the surface that lie farther than `reach` (world units) from the
-/// surface drawn: in each leaf of `hiders` (leaves that carry no triangle of some isovalue, in diamonds
-/// that hide part of the surface), the samples on the other side of an isovalue the leaf does not
-/// carry than the leaf's interpolant, with no point of `drawn` (points on the surface, one per
-/// polygon) and no sample chosen before within `reach`.
-pub(crate) fn far_hidden_samples<T: Sample>(
-    volume: &Volume<'_, T>,
-    isovalues: &[f64],
-    hiders: &[Tet],
-    drawn: &[[f64; 3]],
-    reach: f64,
-) -> Vec<IVec3> {
-    let ball = |t: &Tet| {
-        let p = t.map(|q| world(volume, q));
-        let centre = (p[0] + p[1] + p[2] + p[3]) / 4.0;
-        (
-            centre,
-            p.iter().map(|q| q.distance(centre)).fold(0.0, f64::max),
-        )
-    };
-    let near = PointGrid::new(reach, drawn);
-    // Leaves entirely within `reach` of the surface need no look inside.
-    let open: Vec<(&Tet, Vec<f64>)> = hiders
-        .par_iter()
-        .filter_map(|t| {
-            let f = t.map(|p| value(volume, p));
-            let min = f[0].min(f[1]).min(f[2].min(f[3]));
-            let max = f[0].max(f[1]).max(f[2].max(f[3]));
-            let lost: Vec<f64> = isovalues
-                .iter()
-                .copied()
-                .filter(|&v| !(min < v && v <= max))
-                .collect();
-            let (centre, r) = ball(t);
-            (!(lost.is_empty() || r < reach && near.any_within(centre, reach - r)))
-                .then_some((t, lost))
-        })
-        .collect();
-    // The hidden samples far from the drawn surface (in parallel), then those far from the ones
-    // chosen before them too.
-    let candidates: Vec<(IVec3, DVec3)> = open
-        .par_iter()
-        .flat_map_iter(|(t, lost)| {
-            let f = t.map(|p| value(volume, p));
-            let e = |i: usize| (t[i] - t[0]).as_dvec3();
-            let inverse = DMat3::from_cols(e(1), e(2), e(3)).inverse();
-            let near = &near;
-            crate::scan::brute_force_points(t)
-                .into_iter()
-                .filter_map(move |s| {
-                    let l = inverse * (s - t[0]).as_dvec3();
-                    let interpolated =
-                        f[0] + l.x * (f[1] - f[0]) + l.y * (f[2] - f[0]) + l.z * (f[3] - f[0]);
-                    let fs = value(volume, s);
-                    let hidden = lost.iter().any(|&v| (fs >= v) != (interpolated >= v));
-                    let p = world(volume, s);
-                    (hidden && !near.any_within(p, reach)).then_some((s, p))
-                })
-        })
-        .collect();
-    let mut chosen = PointGrid::new(reach, &[]);
-    let mut out = Vec::new();
-    for (s, p) in candidates {
-        if !chosen.any_within(p, reach) {
-            chosen.insert(p);
-            out.push(s);
-        }
-    }
-    out
-}
-
-/// The diamonds to split so that each of `samples` becomes a vertex of the mesh: those of the
-/// tetrahedra holding it, from the root down (central vertices in the domain only).
-pub(crate) fn paths_to(lattice: &Lattice, samples: &[IVec3]) -> Vec<Diamond> {
-    let roots = RootTets::new(lattice);
-    let mut out = Vec::new();
-    for &s in samples {
-        let (k, mut l) = roots.containing(s);
-        let mut t = roots.tets[k].0;
-        while l.iter().all(|&c| c < 1.0) && ((t[0] + t[1]) & IVec3::ONE) == IVec3::ZERO {
-            let m = (t[0] + t[1]) / 2;
-            if lattice.in_domain(m) {
-                out.push(Diamond::new(m));
-            }
-            let (first, nl) = child_coordinates(&t, l);
-            let k = usize::from(!first);
-            (t, l) = (child_of(&t, first, t, t[k], m), nl);
-        }
-    }
-    out
-}
-
-/// Points bucketed in cubes of side `side`, to ask whether any lies within a distance (at most the
-/// side) of a point.
-struct PointGrid {
-    side: f64,
-    cells: FxHashMap<[i64; 3], Vec<DVec3>>,
-}
-
-impl PointGrid {
-    fn new(side: f64, points: &[[f64; 3]]) -> Self {
-        let mut grid = Self {
-            side,
-            cells: FxHashMap::default(),
-        };
-        for &p in points {
-            grid.insert(DVec3::from(p));
-        }
-        grid
-    }
-
-    fn key(&self, p: DVec3) -> [i64; 3] {
-        (p / self.side).floor().as_i64vec3().to_array()
-    }
-
-    fn insert(&mut self, p: DVec3) {
-        self.cells.entry(self.key(p)).or_default().push(p);
-    }
-
-    /// Is a point within `distance` (at most the side) of `p`?
-    fn any_within(&self, p: DVec3, distance: f64) -> bool {
-        let [x, y, z] = self.key(p);
-        (-1..=1).any(|dz| {
-            (-1..=1).any(|dy| {
-                (-1..=1).any(|dx| {
-                    self.cells
-                        .get(&[x + dx, y + dy, z + dz])
-                        .is_some_and(|c| c.iter().any(|q| q.distance(p) <= distance))
-                })
-            })
-        })
-    }
-}
-
 /// Gregorski §6.2, Eq. (5): the largest `min(ae / ‖∇T‖, size(T))` over the diamond's inside
 /// tetrahedra, i.e. `min(ae / G, size)` with `G` the smallest gradient magnitude among them (the
-/// tetrahedra of a diamond are congruent) — `G` comes from the hierarchy's cache, the same for every
-/// isovalue.
-fn isosurface_error<T: Sample>(h: &Hierarchy, volume: &Volume<'_, T>, d: Diamond, ae: f64) -> f64 {
-    let size = d.tet_size(volume.grid.spacing);
-    let g = h.smallest_gradient(volume, d);
+/// tetrahedra of a diamond are congruent) — `G` comes from the [`IsoCache`](super::cache::IsoCache),
+/// the same for every isovalue.
+fn isosurface_error<T: Sample>(x: &Extraction<'_, '_, T>, d: Diamond, ae: f64) -> f64 {
+    let size = d.tet_size(x.volume.grid.spacing);
+    let g = x.smallest_gradient(d);
     if g > 0.0 {
         (ae / g).min(size)
     } else {
         size
     }
-}
-
-/// The smallest gradient magnitude (world units) among the inside tetrahedra of `d`.
-pub(crate) fn smallest_gradient<T: Sample>(
-    lattice: &Lattice,
-    volume: &Volume<'_, T>,
-    d: Diamond,
-) -> f64 {
-    d.tets(lattice)
-        .iter()
-        .filter(|t| lattice.place(t) == Placement::Inside)
-        .map(|t| tet_gradient(volume, t).length())
-        .fold(f64::INFINITY, f64::min)
 }
 
 /// The squared longest edge of `t` in world units for a grid `spacing`.
@@ -397,29 +233,6 @@ fn tet_size2(spacing: &[f64; 3], t: &Tet) -> f64 {
         .iter()
         .map(|&(a, b)| ((t[a] - t[b]).as_dvec3() * s).length_squared())
         .fold(0.0, f64::max)
-}
-
-/// World position of a lattice point.
-#[inline]
-pub(crate) fn world<T: Sample>(volume: &Volume<'_, T>, p: IVec3) -> DVec3 {
-    DVec3::from(
-        volume
-            .grid
-            .point([p.x as usize, p.y as usize, p.z as usize]),
-    )
-}
-
-#[inline]
-fn value<T: Sample>(volume: &Volume<'_, T>, p: IVec3) -> f64 {
-    volume.at(p.x as usize, p.y as usize, p.z as usize)
-}
-
-/// Gradient (world units) of the linear interpolant on `t`.
-pub(crate) fn tet_gradient<T: Sample>(volume: &Volume<'_, T>, t: &Tet) -> DVec3 {
-    let p = t.map(|q| world(volume, q));
-    let f = t.map(|q| value(volume, q));
-    let m = DMat3::from_cols(p[1] - p[0], p[2] - p[0], p[3] - p[0]);
-    m.transpose().inverse() * DVec3::new(f[1] - f[0], f[2] - f[0], f[3] - f[0])
 }
 
 /// A bitset of `n` bits, all clear.
@@ -461,13 +274,13 @@ fn corners_of(dims: [usize; 3], cells: &[u32]) -> Vec<u32> {
 
 /// The six tetrahedra of the root diamond, `[0, (N, N, N), N e_i, N (e_i + e_j)]` (see
 /// [`Diamond::tets`]), with their axes `(i, j, k)`: each holds the points with `s_i ≥ s_j ≥ s_k`.
-struct RootTets {
-    tets: Vec<(Tet, [usize; 3])>,
+pub(super) struct RootTets {
+    pub(super) tets: Vec<(Tet, [usize; 3])>,
     n: f64,
 }
 
 impl RootTets {
-    fn new(lattice: &Lattice) -> Self {
+    pub(super) fn new(lattice: &Lattice) -> Self {
         let axis = |v: IVec3| (0..3).find(|&a| v[a] != 0).expect("an axis step");
         let tets = Diamond::root(lattice)
             .tets(lattice)
@@ -486,7 +299,7 @@ impl RootTets {
 
     /// The first root tetrahedron holding `s` (its position in `tets`) and the barycentric
     /// coordinates of `s` in it.
-    fn containing(&self, s: IVec3) -> (usize, [f64; 4]) {
+    pub(super) fn containing(&self, s: IVec3) -> (usize, [f64; 4]) {
         self.tets
             .iter()
             .enumerate()
@@ -637,7 +450,7 @@ impl<T: Sample> Walk<'_, '_, T> {
 /// point's coordinates in it: `l_k t_k + l_o t_o` with `t_o = 2m − t_k` gives `t_k` the weight
 /// `l_k − l_o` and `m` the weight `2 l_o`.
 #[inline]
-fn child_coordinates(t: &Tet, l: [f64; 4]) -> (bool, [f64; 4]) {
+pub(super) fn child_coordinates(t: &Tet, l: [f64; 4]) -> (bool, [f64; 4]) {
     let first = l[0] >= l[1];
     let (k, o) = if first { (0, 1) } else { (1, 0) };
     (first, child_of(t, first, l, l[k] - l[o], 2.0 * l[o]))

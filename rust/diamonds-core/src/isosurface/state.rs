@@ -9,28 +9,32 @@
 //! reuses the split set without refining. Budget queries and tolerance or region changes start from
 //! the root.
 //!
-//! Which start is faster was measured (see [`Hierarchy::isosurface_from`]): from the root, so
+//! The state also owns the [`IsoCache`] (brick ranges, gradient magnitudes, the errors of the last
+//! isovalues), so it belongs to one hierarchy and the samples it was built from.
+//!
+//! Which start is faster was measured (see [`IsoState::extract`]): from the root, so
 //! [`IsoStart::Root`] is the default; [`IsoStart::Current`] remains for callers and probes.
 
-use crate::isosurface::refine_query;
+use super::cache::IsoCache;
+use super::{check, refine_query, Extraction, IsoQuery, IsoSurface};
+use crate::hierarchy::Hierarchy;
 use crate::lattice::Tet;
 use crate::refine::{Refiner, SplitSet};
-use crate::volume::{Sample, Volume};
-use crate::{with_volume, Hierarchy, IsoQuery, IsoSurface, Result, ScalarSlice};
+use crate::volume::{Sample, ScalarSlice, Volume};
+use crate::{with_volume, Result};
 use std::time::Instant;
 
 /// Where an isovalue change starts refining.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum IsoStart {
-    /// From the base mesh, as [`Hierarchy::isosurface`]: the measured default (see
-    /// [`Hierarchy::isosurface_from`]).
+    /// From the base mesh, as [`super::extract`]: the measured default (see [`IsoState::extract`]).
     #[default]
     Root,
     /// From the current mesh whenever only the isovalues changed.
     Current,
 }
 
-/// What the last [`Hierarchy::isosurface_from`] call did (for probes and tests).
+/// What the last [`IsoState::extract`] call did (for probes and tests).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct IsoStats {
     /// The split set was reused as is (same isovalues, tolerance and region).
@@ -45,15 +49,19 @@ pub struct IsoStats {
     pub split_diamonds: usize,
 }
 
-/// The state kept between isosurface queries on one hierarchy: the current mesh and its query.
+/// The state kept between isosurface queries on one hierarchy: the current mesh and its query, and
+/// the [`IsoCache`].
 ///
-/// Keep one per hierarchy; call [`IsoState::clear`] (or make a new one) when the hierarchy is rebuilt.
-#[derive(Clone, Debug, Default)]
+/// Keep one per hierarchy; call [`IsoState::clear`] (or make a new one) when the hierarchy or its
+/// samples change.
+#[derive(Debug, Default)]
 pub struct IsoState {
     /// Where isovalue changes start refining.
     pub start: IsoStart,
     current: Option<Current>,
     last: Option<IsoStats>,
+    /// Made by the first query.
+    cache: Option<IsoCache>,
 }
 
 /// The current mesh and the query it was refined for.
@@ -79,8 +87,16 @@ impl IsoState {
         }
     }
 
-    /// Forgets the current mesh (the next query starts from the root).
+    /// Forgets the current mesh and the cache: the next query starts from the root and measures
+    /// again (for another hierarchy or other samples).
     pub fn clear(&mut self) {
+        self.forget_mesh();
+        self.cache = None;
+    }
+
+    /// Forgets the current mesh but keeps the cache (same hierarchy and samples): the next query
+    /// starts from the root.
+    pub fn forget_mesh(&mut self) {
         self.current = None;
         self.last = None;
     }
@@ -100,73 +116,83 @@ fn same_refinement(a: &IsoQuery, b: &IsoQuery) -> bool {
             == b.region_of_interest.map(|r| r.map(f64::to_bits))
 }
 
-impl Hierarchy {
-    /// [`Hierarchy::isosurface`] keeping the adaptive mesh in `state` between queries (Gregorski §6.1).
-    /// The surface is always the one [`Hierarchy::isosurface`] returns for `query` (same triangles,
+impl IsoState {
+    /// Extracts the isosurface(s) of `query` as [`super::extract`] does, keeping the adaptive mesh
+    /// and the cache between queries (Gregorski §6.1); `scalars` must be the samples `hierarchy` was
+    /// built from. The surface is always the one [`super::extract`] returns for `query` (same triangles,
     /// same points, same order). When nothing that drives refinement changed since the previous query
-    /// in `state` (same isovalues, tolerance and region; only normals or carrier output), the mesh is
+    /// (same isovalues, tolerance and region; only normals or carrier output), the mesh is
     /// reused without refining. When only the isovalues changed, [`IsoStart::Current`] starts from the
     /// previous mesh (merge pass, then split pass: `Refiner::rerun`); [`IsoStart::Root`] (the default)
     /// starts from the root. Budget queries (`max_triangles > 0`) and tolerance or
     /// region changes start from the root; a budget query keeps no mesh.
     ///
     /// Measured: see "Isovalue change" in `docs/benchmarks.md`.
-    pub fn isosurface_from(
-        &self,
-        state: &mut IsoState,
+    pub fn extract(
+        &mut self,
+        hierarchy: &Hierarchy,
         scalars: ScalarSlice<'_>,
         query: &IsoQuery,
     ) -> Result<IsoSurface> {
-        self.check_iso(scalars, query)?;
-        with_volume!(*self.grid(), scalars, |v| self
-            .isosurface_from_volume(&v, state, query))
+        check(hierarchy, scalars, query)?;
+        with_volume!(*hierarchy.grid(), scalars, |v| self
+            .extract_volume(hierarchy, &v, query))
     }
 
-    fn isosurface_from_volume<T: Sample>(
-        &self,
+    fn extract_volume<T: Sample>(
+        &mut self,
+        hierarchy: &Hierarchy,
         volume: &Volume<'_, T>,
-        state: &mut IsoState,
         query: &IsoQuery,
     ) -> Result<IsoSurface> {
-        state.last = None;
+        self.last = None;
+        if self.cache.as_ref().is_some_and(|c| !c.fits(&volume.grid)) {
+            self.cache = None;
+        }
+        let cache = self.cache.get_or_insert_with(|| IsoCache::new(volume));
+        let x = Extraction {
+            hierarchy,
+            volume,
+            cache,
+        };
         if query.max_triangles > 0 {
-            state.current = None;
-            return self.isosurface_of(volume, query);
+            self.current = None;
+            return x.isosurface_of(query);
         }
         let t = Instant::now();
         let mut stats = IsoStats::default();
-        let previous = state
-            .current
-            .take()
-            .filter(|c| c.split.lattice() == self.lattice() && same_refinement(&c.query, query));
+        let previous = self.current.take().filter(|c| {
+            c.split.lattice() == hierarchy.lattice() && same_refinement(&c.query, query)
+        });
         let refine = refine_query(query, query.tolerance);
+        let (grid, base) = (hierarchy.grid(), hierarchy.base());
         let (split, carriers) = match previous {
             Some(c) if c.query.isovalues == query.isovalues => {
                 stats.reused = true;
                 let carriers = c.carriers;
                 (c.split, carriers)
             }
-            Some(c) if state.start == IsoStart::Current => {
+            Some(c) if self.start == IsoStart::Current => {
                 stats.from_current = true;
-                self.refine_iso(volume, query, query.tolerance, &mut |criterion| {
-                    Refiner::rerun(self.grid(), self.base(), &refine, criterion, &c.split)
+                x.refine_iso(query, query.tolerance, &mut |criterion| {
+                    Refiner::rerun(grid, base, &refine, criterion, &c.split)
                 })?
             }
-            _ => self.refine_iso(volume, query, query.tolerance, &mut |criterion| {
-                Refiner::run(self.grid(), self.base(), &refine, criterion)
+            _ => x.refine_iso(query, query.tolerance, &mut |criterion| {
+                Refiner::run(grid, base, &refine, criterion)
             })?,
         };
         stats.refine_seconds = t.elapsed().as_secs_f64();
         let t = Instant::now();
-        let surface = self.surface_of(volume, query, query.tolerance, &carriers);
+        let surface = x.surface_of(query, query.tolerance, &carriers);
         stats.extract_seconds = t.elapsed().as_secs_f64();
         stats.split_diamonds = split.len();
-        state.current = Some(Current {
+        self.current = Some(Current {
             query: query.clone(),
             split,
             carriers,
         });
-        state.last = Some(stats);
+        self.last = Some(stats);
         Ok(surface)
     }
 }
@@ -175,7 +201,8 @@ impl Hierarchy {
 mod tests {
     use super::*;
     use crate::fields::{marschner_lobb, sample, sphere_distance, torus_distance, unit_grid};
-    use crate::Grid;
+    use crate::isosurface::extract;
+    use crate::volume::Grid;
 
     fn build(grid: Grid, values: &[f32]) -> Hierarchy {
         Hierarchy::build(grid, ScalarSlice::F32(values), &mut |_| true).unwrap()
@@ -202,28 +229,40 @@ mod tests {
         p
     }
 
+    /// `f` of an extraction from `h` and its samples `values`, with a fresh cache.
+    fn with_extraction<R>(
+        h: &Hierarchy,
+        values: &[f32],
+        f: impl FnOnce(&Extraction<'_, '_, f32>) -> R,
+    ) -> R {
+        let volume = Volume::new(*h.grid(), values).unwrap();
+        let cache = IsoCache::new(&volume);
+        f(&Extraction {
+            hierarchy: h,
+            volume: &volume,
+            cache: &cache,
+        })
+    }
+
     /// The from-root split set of `query` (hidden pieces far from the surface included).
     fn from_root_split(h: &Hierarchy, values: &[f32], query: &IsoQuery) -> SplitSet {
-        let volume = Volume::new(*h.grid(), values).unwrap();
         let refine = refine_query(query, query.tolerance);
-        h.refine_iso(&volume, query, query.tolerance, &mut |criterion| {
-            Refiner::run(h.grid(), h.base(), &refine, criterion)
+        with_extraction(h, values, |x| {
+            x.refine_iso(query, query.tolerance, &mut |criterion| {
+                Refiner::run(h.grid(), h.base(), &refine, criterion)
+            })
+            .unwrap()
+            .0
         })
-        .unwrap()
-        .0
     }
 
     /// The from-root split set of the diamond error alone (no pass for hidden pieces).
     fn criterion_split(h: &Hierarchy, values: &[f32], query: &IsoQuery) -> SplitSet {
-        let volume = Volume::new(*h.grid(), values).unwrap();
-        let criterion = h.iso_criterion(&volume, &query.isovalues, query.tolerance);
-        Refiner::run(
-            h.grid(),
-            h.base(),
-            &refine_query(query, query.tolerance),
-            &criterion,
-        )
-        .unwrap()
+        with_extraction(h, values, |x| {
+            let criterion = x.iso_criterion(&query.isovalues, query.tolerance);
+            let refine = refine_query(query, query.tolerance);
+            Refiner::run(h.grid(), h.base(), &refine, &criterion).unwrap()
+        })
     }
 
     /// Runs `sequence` through one state starting from the current mesh and checks every surface and
@@ -232,12 +271,10 @@ mod tests {
         let mut state = IsoState::with_start(IsoStart::Current);
         let mut from_current = 0;
         for (k, q) in queries.iter().enumerate() {
-            let s = h
-                .isosurface_from(&mut state, ScalarSlice::F32(values), q)
-                .unwrap();
+            let s = state.extract(h, ScalarSlice::F32(values), q).unwrap();
             let stats = state.last().unwrap();
             from_current += stats.from_current as usize;
-            let root = h.isosurface(ScalarSlice::F32(values), q).unwrap();
+            let root = extract(h, ScalarSlice::F32(values), q).unwrap();
             let what = format!("query {k} {:?} tol {}", q.isovalues, q.tolerance);
             assert_eq!(s.triangles.len(), root.triangles.len(), "{what}");
             assert_eq!(point_set(&s), point_set(&root), "{what}");
@@ -368,10 +405,8 @@ mod tests {
         let mut state = IsoState::with_start(IsoStart::Current);
         let mut log = Vec::new();
         for q in &qs {
-            let s = h
-                .isosurface_from(&mut state, ScalarSlice::F32(&v), q)
-                .unwrap();
-            assert_eq!(s, h.isosurface(ScalarSlice::F32(&v), q).unwrap());
+            let s = state.extract(&h, ScalarSlice::F32(&v), q).unwrap();
+            assert_eq!(s, extract(&h, ScalarSlice::F32(&v), q).unwrap());
             let st = state.last();
             log.push(st.map(|s| (s.reused, s.from_current)));
         }
@@ -389,10 +424,8 @@ mod tests {
         let mut state = IsoState::new();
         assert_eq!(state.start, IsoStart::Root);
         for q in &qs {
-            let s = h
-                .isosurface_from(&mut state, ScalarSlice::F32(&v), q)
-                .unwrap();
-            assert_eq!(s, h.isosurface(ScalarSlice::F32(&v), q).unwrap());
+            let s = state.extract(&h, ScalarSlice::F32(&v), q).unwrap();
+            assert_eq!(s, extract(&h, ScalarSlice::F32(&v), q).unwrap());
         }
     }
 
@@ -403,26 +436,17 @@ mod tests {
         let h = build(grid, &v);
         let mut state = IsoState::with_start(IsoStart::Current);
         let q = IsoQuery::new(0.5, 0.02);
-        h.isosurface_from(&mut state, ScalarSlice::F32(&v), &q)
-            .unwrap();
-        assert!(h
-            .isosurface_from(&mut state, ScalarSlice::F32(&v[1..]), &q)
+        state.extract(&h, ScalarSlice::F32(&v), &q).unwrap();
+        assert!(state.extract(&h, ScalarSlice::F32(&v[1..]), &q).is_err());
+        assert!(state
+            .extract(&h, ScalarSlice::F32(&v), &IsoQuery::new(f64::NAN, 0.02))
             .is_err());
-        assert!(h
-            .isosurface_from(
-                &mut state,
-                ScalarSlice::F32(&v),
-                &IsoQuery::new(f64::NAN, 0.02)
-            )
-            .is_err());
-        assert!(h
-            .isosurface_from(&mut state, ScalarSlice::F32(&v), &IsoQuery::new(0.4, -1.0))
+        assert!(state
+            .extract(&h, ScalarSlice::F32(&v), &IsoQuery::new(0.4, -1.0))
             .is_err());
         let q = IsoQuery::new(0.45, 0.02);
-        let s = h
-            .isosurface_from(&mut state, ScalarSlice::F32(&v), &q)
-            .unwrap();
-        assert_eq!(s, h.isosurface(ScalarSlice::F32(&v), &q).unwrap());
+        let s = state.extract(&h, ScalarSlice::F32(&v), &q).unwrap();
+        assert_eq!(s, extract(&h, ScalarSlice::F32(&v), &q).unwrap());
     }
 
     /// Gregorski's bottom-up merge queue alone, then the split pass: merge a split diamond (not of the
@@ -433,28 +457,29 @@ mod tests {
         query: &IsoQuery,
         old: &SplitSet,
     ) -> SplitSet {
-        let volume = Volume::new(*h.grid(), values).unwrap();
-        let criterion = h.iso_criterion(&volume, &query.isovalues, query.tolerance);
-        let lattice = *h.lattice();
-        let mut split = old.clone();
-        let mut merge: Vec<_> = crate::diamond::all_diamonds(&lattice)
-            .into_iter()
-            .filter(|&d| split.contains(d))
-            .collect();
-        while let Some(d) = merge.pop() {
-            let leaf = d.children(&lattice).iter().all(|&c| !split.contains(c));
-            if !split.contains(d) || h.base().split.contains(d) || !leaf {
-                continue;
+        with_extraction(h, values, |x| {
+            let criterion = x.iso_criterion(&query.isovalues, query.tolerance);
+            let lattice = *h.lattice();
+            let mut split = old.clone();
+            let mut merge: Vec<_> = crate::diamond::all_diamonds(&lattice)
+                .into_iter()
+                .filter(|&d| split.contains(d))
+                .collect();
+            while let Some(d) = merge.pop() {
+                let leaf = d.children(&lattice).iter().all(|&c| !split.contains(c));
+                if !split.contains(d) || h.base().split.contains(d) || !leaf {
+                    continue;
+                }
+                if criterion(d) <= query.tolerance {
+                    split.remove(d);
+                    merge.extend(d.parents(&lattice));
+                }
             }
-            if criterion(d) <= query.tolerance {
-                split.remove(d);
-                merge.extend(d.parents(&lattice));
-            }
-        }
-        let candidates = Refiner::candidates(&lattice, &split);
-        Refiner::new(lattice, split, 0, &criterion)
-            .refine_with(query.tolerance, &candidates)
-            .0
+            let candidates = Refiner::candidates(&lattice, &split);
+            Refiner::new(lattice, split, 0, &criterion)
+                .refine_with(query.tolerance, &candidates)
+                .0
+        })
     }
 
     /// A smooth field plus uniform noise on `dims` (deterministic in `seed`), and six isovalues: the

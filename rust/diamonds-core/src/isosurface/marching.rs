@@ -1,0 +1,283 @@
+//! Marching tetrahedra on the leaves of the adaptive mesh that carry the surface (Gregorski §6;
+//! Weiss & De Floriani §5.1: a conforming mesh gives a crack-free surface). Each polygon names its
+//! points by (mesh edge, isovalue), so every triangle through an edge shares its point; normals are
+//! the data's gradient at the point.
+
+use super::{tet_gradient, world, IsoSurface};
+use crate::lattice::Tet;
+use crate::volume::{Sample, Volume};
+use glam::{DVec3, I64Vec3, IVec3};
+use rayon::prelude::*;
+
+/// Does the tetrahedron with vertex values `f` carry the isosurface of `v`? (Vertices at `v` count as above.)
+#[inline]
+fn crosses(f: &[f64; 4], v: f64) -> bool {
+    let min = f[0].min(f[1]).min(f[2].min(f[3]));
+    let max = f[0].max(f[1]).max(f[2].max(f[3]));
+    min < v && v <= max
+}
+
+/// Does the tetrahedron `t` carry the surface of some isovalue?
+pub(super) fn carries<T: Sample>(volume: &Volume<'_, T>, isovalues: &[f64], t: &Tet) -> bool {
+    let f = t.map(|p| volume.at(p.x as usize, p.y as usize, p.z as usize));
+    isovalues.iter().any(|&v| crosses(&f, v))
+}
+
+/// Number of triangles marching tetrahedra makes from `tets`: one per tetrahedron and isovalue that
+/// cuts off one vertex, two where it separates two from two.
+pub(super) fn count_triangles<T: Sample>(
+    volume: &Volume<'_, T>,
+    tets: &[Tet],
+    isovalues: &[f64],
+) -> usize {
+    tets.iter()
+        .map(|t| {
+            let f = t.map(|p| volume.at(p.x as usize, p.y as usize, p.z as usize));
+            isovalues
+                .iter()
+                .filter(|&&v| crosses(&f, v))
+                .map(|&v| {
+                    if f.iter().filter(|&&x| x >= v).count() == 2 {
+                        2
+                    } else {
+                        1
+                    }
+                })
+                .sum::<usize>()
+        })
+        .sum()
+}
+
+/// Gradient (world units) of the data at world position `p`: the central-difference gradients at the
+/// corners of the grid cell holding `p`, interpolated trilinearly.
+fn gradient_at<T: Sample>(volume: &Volume<'_, T>, p: DVec3) -> DVec3 {
+    let grid = &volume.grid;
+    let mut cell = IVec3::ZERO;
+    let mut w = DVec3::ZERO;
+    for a in 0..3 {
+        let x = ((p[a] - grid.origin[a]) / grid.spacing[a]).clamp(0.0, (grid.dims[a] - 1) as f64);
+        let c = (x.floor() as i32).min(grid.dims[a] as i32 - 2).max(0);
+        cell[a] = c;
+        w[a] = x - c as f64;
+    }
+    let mut g = DVec3::ZERO;
+    for k in 0..8 {
+        let o = IVec3::new(k & 1, (k >> 1) & 1, (k >> 2) & 1);
+        let weight: f64 = (0..3)
+            .map(|a| if o[a] == 1 { w[a] } else { 1.0 - w[a] })
+            .product();
+        if weight > 0.0 {
+            g += weight
+                * point_gradient(
+                    volume,
+                    (cell + o).min(IVec3::from(grid.dims.map(|d| d as i32 - 1))),
+                );
+        }
+    }
+    g
+}
+
+/// Gradient at a lattice point by central differences (one-sided on the boundary), world units.
+fn point_gradient<T: Sample>(volume: &Volume<'_, T>, p: IVec3) -> DVec3 {
+    let grid = &volume.grid;
+    let mut g = DVec3::ZERO;
+    for a in 0..3 {
+        let hi = grid.dims[a] as i32 - 1;
+        let (mut lo_p, mut hi_p) = (p, p);
+        lo_p[a] = (p[a] - 1).max(0);
+        hi_p[a] = (p[a] + 1).min(hi);
+        let at = |q: IVec3| volume.at(q.x as usize, q.y as usize, q.z as usize);
+        g[a] = (at(hi_p) - at(lo_p)) / ((hi_p[a] - lo_p[a]) as f64 * grid.spacing[a]);
+    }
+    g
+}
+
+/// Marching tetrahedra over `tets` (all inside the grid) for every isovalue. Points are shared by edge
+/// and isovalue, so the surface is crack-free across face-adjacent tetrahedra; triangles are oriented
+/// toward increasing values. Parallel: each tetrahedron's polygons name their points by edge, the
+/// distinct edges (sorted) become the points, each interpolated once from its lower-index end.
+pub fn marching_tetrahedra<T: Sample>(
+    volume: &Volume<'_, T>,
+    tets: &[Tet],
+    isovalues: &[f64],
+    compute_normals: bool,
+) -> IsoSurface {
+    let polygons = polygons(volume, tets, isovalues);
+    // Every polygon corner with its slot, sorted by edge: equal edges are neighbours.
+    let mut corners: Vec<(EdgeKey, u32)> = polygons
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(p, poly)| (0..poly.n).map(move |i| (poly.keys[i], (4 * p + i) as u32)))
+        .collect();
+    corners.par_sort_unstable();
+    // The distinct edges, with the polygon of their first corner.
+    let mut keys: Vec<(EdgeKey, u32)> = Vec::new();
+    let mut slot_ids = vec![0u32; 4 * polygons.len()];
+    for &(key, slot) in &corners {
+        if keys.last().map(|k| k.0) != Some(key) {
+            keys.push((key, slot / 4));
+        }
+        slot_ids[slot as usize] = (keys.len() - 1) as u32;
+    }
+    drop(corners);
+    let interpolated: Vec<(DVec3, f64, [f32; 3])> = keys
+        .par_iter()
+        .map(|&(key, p)| {
+            let (point, value, normal) = interpolate(volume, isovalues, key, compute_normals);
+            // Where the gradients vanish: the gradient of the tetrahedron, toward increasing values.
+            let normal = normal.unwrap_or_else(|| {
+                if compute_normals {
+                    let t = &tets[polygons[p as usize].tet as usize];
+                    tet_gradient(volume, t).normalize_or_zero()
+                } else {
+                    DVec3::ZERO
+                }
+            });
+            (point, value, normal.as_vec3().to_array())
+        })
+        .collect();
+    IsoSurface {
+        points: interpolated.par_iter().map(|p| p.0.to_array()).collect(),
+        values: interpolated.par_iter().map(|p| p.1).collect(),
+        normals: if compute_normals {
+            interpolated.par_iter().map(|p| p.2).collect()
+        } else {
+            Vec::new()
+        },
+        triangles: polygons
+            .par_iter()
+            .enumerate()
+            .flat_map_iter(|(p, poly)| {
+                let slot_ids = &slot_ids;
+                let id = move |i: usize| slot_ids[4 * p + i];
+                [[0, 1, 2], [0, 2, 3]]
+                    .into_iter()
+                    .take(poly.n - 2)
+                    .map(move |tri| tri.map(id))
+            })
+            .collect(),
+        ..IsoSurface::default()
+    }
+}
+
+/// A point of each polygon marching tetrahedra makes from `tets` (the mean of its corners).
+pub(super) fn polygon_centres<T: Sample>(
+    volume: &Volume<'_, T>,
+    tets: &[Tet],
+    isovalues: &[f64],
+) -> Vec<[f64; 3]> {
+    polygons(volume, tets, isovalues)
+        .par_iter()
+        .map(|poly| {
+            let sum: DVec3 = poly.keys[..poly.n]
+                .iter()
+                .map(|&key| interpolate(volume, isovalues, key, false).0)
+                .sum();
+            (sum / poly.n as f64).to_array()
+        })
+        .collect()
+}
+
+/// A polygon of marching tetrahedra: 3 or 4 corners, oriented toward increasing values, each an
+/// edge key; made by tetrahedron `tet`.
+struct Polygon {
+    keys: [EdgeKey; 4],
+    n: usize,
+    tet: u32,
+}
+
+/// The polygons of `tets` for every isovalue.
+fn polygons<T: Sample>(volume: &Volume<'_, T>, tets: &[Tet], isovalues: &[f64]) -> Vec<Polygon> {
+    let grid = &volume.grid;
+    let index = |p: IVec3| grid.index(p.x as usize, p.y as usize, p.z as usize) as u32;
+    tets.par_iter()
+        .enumerate()
+        .flat_map_iter(|(tet, t)| {
+            let f = t.map(|p| volume.at(p.x as usize, p.y as usize, p.z as usize));
+            isovalues.iter().enumerate().filter_map(move |(k, &v)| {
+                if !crosses(&f, v) {
+                    return None;
+                }
+                let mut above = [0usize; 4];
+                let mut below = [0usize; 4];
+                let (mut na, mut nb) = (0, 0);
+                for (i, &fi) in f.iter().enumerate() {
+                    if fi >= v {
+                        above[na] = i;
+                        na += 1;
+                    } else {
+                        below[nb] = i;
+                        nb += 1;
+                    }
+                }
+                // The crossed edges in cyclic order around the polygon.
+                let (mut edges, n) = match (na, nb) {
+                    (1, 3) => {
+                        let a = above[0];
+                        ([(a, below[0]), (a, below[1]), (a, below[2]), (0, 0)], 3)
+                    }
+                    (3, 1) => {
+                        let b = below[0];
+                        ([(above[0], b), (above[1], b), (above[2], b), (0, 0)], 3)
+                    }
+                    _ => {
+                        let ([a, b], [c, d]) = ([above[0], above[1]], [below[0], below[1]]);
+                        ([(a, c), (a, d), (b, d), (b, c)], 4)
+                    }
+                };
+                // Orientation from the lattice alone, so that it holds even when points coincide
+                // with samples (zero-area triangles): the polygon through the edges' midpoints, in
+                // doubled integer coordinates, must face from the vertices below to those above.
+                // (A positive diagonal scaling to world coordinates keeps the sign.)
+                let mid2 = |(a, b): (usize, usize)| (t[a] + t[b]).as_i64vec3();
+                let (q0, q1, q2) = (mid2(edges[0]), mid2(edges[1]), mid2(edges[2]));
+                let sum = |vs: &[usize]| vs.iter().map(|&i| t[i].as_i64vec3()).sum::<I64Vec3>();
+                let up = sum(&above[..na]) * nb as i64 - sum(&below[..nb]) * na as i64;
+                if (q1 - q0).cross(q2 - q0).dot(up) < 0 {
+                    edges[..n].reverse();
+                }
+                let keys = edges.map(|(a, b)| {
+                    let (ia, ib) = (index(t[a]), index(t[b]));
+                    (ia.min(ib), ia.max(ib), k as u32)
+                });
+                Some(Polygon {
+                    keys,
+                    n,
+                    tet: tet as u32,
+                })
+            })
+        })
+        .collect()
+}
+
+/// The point of edge `key`: position, isovalue and, when asked and defined, the unit normal (the
+/// gradient of the data at the point, [`gradient_at`]: a long edge of a coarse tetrahedron may join
+/// samples whose gradients point apart). Interpolated from the lower-index end so that every
+/// tetrahedron sharing the edge gets the same point bit for bit.
+fn interpolate<T: Sample>(
+    volume: &Volume<'_, T>,
+    isovalues: &[f64],
+    (ia, ib, k): EdgeKey,
+    compute_normals: bool,
+) -> (DVec3, f64, Option<DVec3>) {
+    let grid = &volume.grid;
+    let at = |i: u32| {
+        let [x, y, z] = grid.ijk(i as usize);
+        IVec3::new(x as i32, y as i32, z as i32)
+    };
+    let v = isovalues[k as usize];
+    let (a, b) = (at(ia), at(ib));
+    let (fa, fb) = (volume.at_index(ia as usize), volume.at_index(ib as usize));
+    let s = (v - fa) / (fb - fa);
+    let (pa, pb) = (world(volume, a), world(volume, b));
+    let point = pa + s * (pb - pa);
+    let normal = if compute_normals {
+        gradient_at(volume, point).try_normalize()
+    } else {
+        None
+    };
+    (point, v, normal)
+}
+
+/// A point of marching tetrahedra: the lower and higher point ids of its edge, the isovalue's index.
+type EdgeKey = (u32, u32, u32);

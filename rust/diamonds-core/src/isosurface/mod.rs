@@ -1,0 +1,297 @@
+//! Multiresolution isosurfaces from the diamond hierarchy (Gregorski §6, §6.1–6.2; Weiss & De Floriani
+//! §2.1, §5.1).
+//!
+//! A query refines the hierarchy with the *isosurface error* of Gregorski §6.2 as the diamond error:
+//! for each tetrahedron `T` of a diamond, `ie_T = ae / ‖∇T‖` (the diamond's approximation error over the
+//! magnitude of the tetrahedron's linear gradient, in world units) clamped to the tetrahedron's size,
+//! because a surface drawn through `T` never leaves it. `ae` is measured per query at the samples that
+//! decide the surface ([`error`]), so no per-diamond precomputation over the volume is
+//! needed ([`Hierarchy::build_for_isosurfaces`]). Diamonds whose sample range misses every isovalue are
+//! *empty* (Gregorski §6.1) and never split; diamonds straddling a far face of the domain are split
+//! where the surface may pass. Tolerance 0 splits every non-empty diamond, so the surface is exactly
+//! the full-resolution one.
+//!
+//! Beyond the paper: the surface of a coarse tetrahedron whose vertices all lie on one side of the
+//! isovalue is lost, and a small closed piece (a speck of noise, a thin branch) lost that way can lie
+//! far from every drawn triangle — the local error cannot see it. After refining, the pieces hidden in
+//! leaves farther than the tolerance (plus a voxel) from the drawn surface are found and the diamonds
+//! down to one sample of each are split; so every part of the full-resolution surface ends up within
+//! about the tolerance of the result, which bounds the Hausdorff distance from that side.
+//!
+//! The surface is extracted from the leaves of the adaptive, conforming mesh by marching tetrahedra; a
+//! point is shared by every triangle through its mesh edge, so the surface is crack-free wherever the
+//! full-resolution one is.
+//!
+//! The stages, one file each, in the order a query runs them:
+//! - this file: the query and result types, the entry point [`extract`], the triangle budget and the
+//!   carrier tetrahedra;
+//! - [`state`]: [`IsoState`], what a caller keeps between queries — the current mesh (reused, or
+//!   refined "from the current mesh", §6.1) and the [`IsoCache`];
+//! - [`cache`]: the [`IsoCache`] — brick ranges, gradient magnitudes (the `‖∇T‖` of §6.2) and the
+//!   errors of the last isovalues;
+//! - [`bricks`]: sample ranges of 8³ bricks, which bound any box's range and list the crossed cells;
+//! - [`criterion`]: the diamond error refinement compares with the tolerance (§6.1 culling, §6.2);
+//! - [`error`]: `ae` measured per query at the surface samples, which descend the hierarchy together;
+//! - [`hidden`]: the pass that splits down to pieces of the surface hidden far from the drawn one;
+//! - [`marching`]: marching tetrahedra on the carrier leaves, points shared by edge.
+
+mod bricks;
+mod cache;
+mod criterion;
+mod error;
+mod hidden;
+mod marching;
+mod state;
+
+pub use marching::marching_tetrahedra;
+pub use state::{IsoStart, IsoState, IsoStats};
+
+use crate::diamond::{signed_volume6, Diamond};
+use crate::hierarchy::Hierarchy;
+use crate::lattice::{Lattice, Tet};
+use crate::mesh::TetMesh;
+use crate::refine::{Query, Refiner, SplitSet};
+use crate::volume::{Sample, ScalarSlice, Volume};
+use crate::{Error, Result};
+use cache::IsoCache;
+use glam::{DMat3, DVec3, IVec3};
+use marching::count_triangles;
+
+/// An isosurface query.
+#[derive(Clone, Debug, PartialEq)]
+pub struct IsoQuery {
+    /// One or more isovalues, in data units.
+    pub isovalues: Vec<f64>,
+    /// Isosurface error bound in world units (Gregorski §6.2: approximation error over gradient
+    /// magnitude, clamped to the tetrahedron's size); 0 = full resolution wherever the surface passes.
+    pub tolerance: f64,
+    /// Maximum number of triangles, 0 = no limit.
+    pub max_triangles: usize,
+    /// World-space box `[xmin, xmax, ymin, ymax, zmin, zmax]`: the tolerance applies inside, coarse outside.
+    pub region_of_interest: Option<[f64; 6]>,
+    /// Compute point normals from the gradient at the lattice points.
+    pub compute_normals: bool,
+    /// Also return the tetrahedra that carry the surface.
+    pub carrier_tetrahedra: bool,
+}
+
+impl IsoQuery {
+    /// One isovalue at `tolerance`, with normals.
+    pub fn new(isovalue: f64, tolerance: f64) -> Self {
+        Self {
+            isovalues: vec![isovalue],
+            tolerance,
+            max_triangles: 0,
+            region_of_interest: None,
+            compute_normals: true,
+            carrier_tetrahedra: false,
+        }
+    }
+}
+
+/// An extracted isosurface.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct IsoSurface {
+    /// World coordinates of each point.
+    pub points: Vec<[f64; 3]>,
+    /// Unit normals toward increasing values (empty unless asked for).
+    pub normals: Vec<[f32; 3]>,
+    /// Triangles, oriented so that their normal points toward increasing values.
+    pub triangles: Vec<[u32; 3]>,
+    /// The isovalue of each point.
+    pub values: Vec<f64>,
+    /// Largest isosurface error (world units) of the diamonds carrying the surface.
+    pub error_bound: f64,
+    /// The tetrahedra carrying the surface, when asked for.
+    pub carrier: Option<TetMesh>,
+}
+
+/// Extracts the isosurface(s) of `query` from the adaptive mesh of `hierarchy`; `scalars` must be the
+/// samples the hierarchy was built from. Each call refines from the root and measures its errors
+/// again; [`IsoState::extract`] keeps the mesh and the [`IsoCache`] between queries (same surface).
+pub fn extract(
+    hierarchy: &Hierarchy,
+    scalars: ScalarSlice<'_>,
+    query: &IsoQuery,
+) -> Result<IsoSurface> {
+    IsoState::new().extract(hierarchy, scalars, query)
+}
+
+/// Refuses empty or non-finite isovalues and samples that do not match the grid.
+fn check(hierarchy: &Hierarchy, scalars: ScalarSlice<'_>, query: &IsoQuery) -> Result<()> {
+    if query.isovalues.is_empty() || query.isovalues.iter().any(|v| !v.is_finite()) {
+        return Err(Error::Parameter(format!(
+            "isovalues must be one or more finite numbers (got {:?})",
+            query.isovalues
+        )));
+    }
+    if scalars.len() != hierarchy.grid().len() {
+        return Err(Error::Length {
+            len: scalars.len(),
+            expected: hierarchy.grid().len(),
+            dims: hierarchy.grid().dims,
+        });
+    }
+    Ok(())
+}
+
+/// What the stages of an extraction read: the hierarchy, the samples it was built from and what
+/// queries keep between calls. The stages are its methods, one file each.
+struct Extraction<'a, 'v, T> {
+    hierarchy: &'a Hierarchy,
+    volume: &'a Volume<'v, T>,
+    cache: &'a IsoCache,
+}
+
+/// A refinement (from the root or from a current mesh) with a given diamond error.
+type RefineWith<'a> = dyn FnMut(&dyn Fn(Diamond) -> f64) -> Result<SplitSet> + 'a;
+
+/// The refinement query of an isosurface query at `tolerance`.
+fn refine_query(query: &IsoQuery, tolerance: f64) -> Query {
+    Query {
+        tolerance,
+        max_tetrahedra: 0,
+        region_of_interest: query.region_of_interest,
+    }
+}
+
+impl<T: Sample> Extraction<'_, '_, T> {
+    /// The lattice of the hierarchy.
+    fn lattice(&self) -> &Lattice {
+        self.hierarchy.lattice()
+    }
+
+    /// The surface of `query` refined from the root, within its triangle budget when it has one.
+    fn isosurface_of(&self, query: &IsoQuery) -> Result<IsoSurface> {
+        let volume = self.volume;
+        let mut carriers = self.carriers_at(query, query.tolerance)?;
+        let mut used = query.tolerance;
+        if query.max_triangles > 0
+            && count_triangles(volume, &carriers, &query.isovalues) > query.max_triangles
+        {
+            // Budget: the smallest tolerance whose surface fits, by bisection on the tolerance (the
+            // triangle count does not grow with it; it is counted without building the surface). At
+            // the data diagonal nothing non-empty is split.
+            let b = self.hierarchy.grid().bounds();
+            let diagonal = DVec3::new(b[1] - b[0], b[3] - b[2], b[5] - b[4]).length();
+            let (mut lo, mut hi) = (query.tolerance, diagonal.max(query.tolerance));
+            carriers = self.carriers_at(query, hi)?;
+            for _ in 0..24 {
+                let mid = 0.5 * (lo + hi);
+                let c = self.carriers_at(query, mid)?;
+                if count_triangles(volume, &c, &query.isovalues) <= query.max_triangles {
+                    (hi, carriers) = (mid, c);
+                } else {
+                    lo = mid;
+                }
+                if hi - lo <= 1e-3 * hi {
+                    break;
+                }
+            }
+            used = hi;
+        }
+        Ok(self.surface_of(query, used, &carriers))
+    }
+
+    /// Marching tetrahedra on `carriers` (refined at `tolerance`), with the error bound and, when asked
+    /// for, the carrier mesh.
+    fn surface_of(&self, query: &IsoQuery, tolerance: f64, carriers: &[Tet]) -> IsoSurface {
+        let volume = self.volume;
+        let mut surface =
+            marching_tetrahedra(volume, carriers, &query.isovalues, query.compute_normals);
+        // At tolerance 0 the surface is the full-resolution one: error 0.
+        let errors = (tolerance > 0.0).then(|| self.iso_errors(&query.isovalues, tolerance));
+        let error = |t: &Tet| match (&errors, Diamond::of_tet(t)) {
+            (Some(errors), Some(d)) if self.lattice().in_domain(d.center) => errors.error(self, d),
+            _ => 0.0,
+        };
+        surface.error_bound = carriers.iter().map(error).fold(0.0, f64::max);
+        if query.carrier_tetrahedra {
+            surface.carrier = Some(carrier_mesh(self.hierarchy, carriers, error));
+        }
+        surface
+    }
+
+    /// The leaves of the mesh refined for `query` at `tolerance` that carry the surface.
+    fn carriers_at(&self, query: &IsoQuery, tolerance: f64) -> Result<Vec<Tet>> {
+        let refine = refine_query(query, tolerance);
+        let h = self.hierarchy;
+        let (_, carriers) = self.refine_iso(query, tolerance, &mut |criterion| {
+            Refiner::run(h.grid(), h.base(), &refine, criterion)
+        })?;
+        Ok(carriers)
+    }
+
+    /// The split set of `query`'s isovalues at `tolerance` and its leaves that carry the surface.
+    /// `refine` splits with the diamond error it is given (from the root or from a current mesh).
+    /// When parts of the surface hidden in leaves ([`error`]) lie farther than the tolerance (plus a
+    /// voxel diagonal) from the surface drawn, the diamonds down to one sample of each such part are
+    /// split as well ([`hidden`]), so every part of the full-resolution surface is drawn within the
+    /// tolerance.
+    fn refine_iso(
+        &self,
+        query: &IsoQuery,
+        tolerance: f64,
+        refine: &mut RefineWith<'_>,
+    ) -> Result<(SplitSet, Vec<Tet>)> {
+        let criterion = self.iso_criterion(&query.isovalues, tolerance);
+        let split = refine(&criterion)?;
+        if tolerance == 0.0 {
+            // Full resolution wherever the surface may pass: nothing is hidden.
+            let carriers = self.carriers_of(&query.isovalues, &split);
+            return Ok((split, carriers));
+        }
+        Ok(self.split_hidden(query, tolerance, split, &criterion))
+    }
+}
+
+/// The carrier tetrahedra as a mesh of their own (points deduplicated by input point), each with the
+/// isosurface error of its diamond.
+fn carrier_mesh(h: &Hierarchy, tets: &[Tet], error_of: impl Fn(&Tet) -> f64) -> TetMesh {
+    let lattice: &Lattice = h.lattice();
+    let grid = h.grid();
+    let mut point_ids: Vec<usize> = tets.iter().flatten().map(|&p| lattice.index(p)).collect();
+    point_ids.sort_unstable();
+    point_ids.dedup();
+    let id = |p: IVec3| point_ids.binary_search(&lattice.index(p)).expect("listed") as u32;
+    let mut mesh = TetMesh::default();
+    for t in tets {
+        let mut t = *t;
+        if signed_volume6(&t) < 0 {
+            t.swap(2, 3);
+        }
+        let depth = Diamond::of_tet(&t).map_or(3 * lattice.levels, |d| d.depth(lattice));
+        let error = error_of(&t) as f32;
+        mesh.tets.push(t.map(id));
+        mesh.levels.push(depth as u8);
+        mesh.errors.push(error);
+        mesh.max_error = mesh.max_error.max(error as f64);
+    }
+    mesh.points = point_ids.iter().map(|&i| grid.point(grid.ijk(i))).collect();
+    mesh.point_ids = point_ids;
+    mesh
+}
+
+/// World position of a lattice point.
+#[inline]
+fn world<T: Sample>(volume: &Volume<'_, T>, p: IVec3) -> DVec3 {
+    DVec3::from(
+        volume
+            .grid
+            .point([p.x as usize, p.y as usize, p.z as usize]),
+    )
+}
+
+/// The sample at a lattice point.
+#[inline]
+fn value<T: Sample>(volume: &Volume<'_, T>, p: IVec3) -> f64 {
+    volume.at(p.x as usize, p.y as usize, p.z as usize)
+}
+
+/// Gradient (world units) of the linear interpolant on `t` (the `∇T` of Gregorski §6.2).
+fn tet_gradient<T: Sample>(volume: &Volume<'_, T>, t: &Tet) -> DVec3 {
+    let p = t.map(|q| world(volume, q));
+    let f = t.map(|q| value(volume, q));
+    let m = DMat3::from_cols(p[1] - p[0], p[2] - p[0], p[3] - p[0]);
+    m.transpose().inverse() * DVec3::new(f[1] - f[0], f[2] - f[0], f[3] - f[0])
+}
