@@ -1,7 +1,7 @@
-//! Marching tetrahedra on the leaves of the adaptive mesh that carry the surface (Gregorski §6;
-//! Weiss & De Floriani §5.1: a conforming mesh gives a crack-free surface). Each polygon names its
-//! points by (mesh edge, isovalue), so every triangle through an edge shares its point; normals are
-//! the data's gradient at the point.
+//! Marching tetrahedra on the leaves of the adaptive mesh that carry the surface (Gregorski §6.1,
+//! isosurface extraction from the current mesh; Weiss & De Floriani §2.1: on a conforming mesh the
+//! surface has no cracks). Each polygon names its points by (mesh edge, isovalue), so every
+//! triangle through an edge shares its point; normals are the data's gradient at the point.
 
 use super::{tet_gradient, world, IsoSurface};
 use crate::lattice::Tet;
