@@ -26,7 +26,9 @@
 //!   [`IsoState::extract`].
 //! - [`fields`]: generated volumes (Marschner–Lobb, distance fields) for the demo and the tests.
 //! - [`material`]: material interfaces with ghost values (Gregorski §5).
-//! - [`validate`]: independent checks (conformity, volume, tolerance at every sample) used by tests and the CLI.
+//! - [`validate`]: independent checks of tetrahedra, surfaces and polygons (conformity, volume, the
+//!   tolerance at every sample, watertight and oriented surfaces, crack-free interfaces, array
+//!   consistency) used by the tests, the CLI and the bridge.
 
 pub mod diamond;
 pub mod fields;

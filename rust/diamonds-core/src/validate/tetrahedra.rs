@@ -1,0 +1,497 @@
+//! Tetrahedra: a [`TetMesh`] against its grid (conformity, exact volume, bounds, and the tolerance at
+//! every input sample), any tetrahedra against a box ([`check_conforming`]), and the array consistency
+//! of a [`TetMesh`] ([`check_mesh_arrays`]) and a [`MaterialMesh`] ([`check_material_mesh_arrays`]).
+
+use super::check_corners;
+use crate::material::MaterialMesh;
+use crate::volume::{Grid, Sample, Volume};
+use crate::TetMesh;
+use glam::{DMat3, DVec3, I64Vec3};
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// What [`check_mesh`] measured.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct MeshReport {
+    pub tets: usize,
+    pub interior_faces: usize,
+    pub boundary_faces: usize,
+}
+
+/// Checks that `mesh` is a conforming tetrahedralisation of exactly the grid's box whose vertices are
+/// input samples: positive volumes summing to the box volume, every face shared by two tetrahedra unless
+/// it lies on the box boundary, coordinates equal to the samples' positions.
+pub fn check_mesh(mesh: &TetMesh, grid: &Grid) -> Result<MeshReport, String> {
+    let n = mesh.points.len();
+    if mesh.point_ids.len() != n
+        || mesh.levels.len() != mesh.tets.len()
+        || mesh.errors.len() != mesh.tets.len()
+    {
+        return Err("array lengths disagree".into());
+    }
+    let ijk: Vec<I64Vec3> = mesh
+        .point_ids
+        .iter()
+        .map(|&i| {
+            let [x, y, z] = grid.ijk(i);
+            I64Vec3::new(x as i64, y as i64, z as i64)
+        })
+        .collect();
+    for (k, &i) in mesh.point_ids.iter().enumerate() {
+        if i >= grid.len() {
+            return Err(format!(
+                "point {k} refers to input point {i} outside the grid"
+            ));
+        }
+        let want = grid.point(grid.ijk(i));
+        if (0..3).any(|a| (mesh.points[k][a] - want[a]).abs() > 1e-9 * (1.0 + want[a].abs())) {
+            return Err(format!(
+                "point {k} at {:?} is not input point {i} at {want:?}",
+                mesh.points[k]
+            ));
+        }
+    }
+    check_corners(&mesh.tets, n, "tetrahedron")?;
+    let hi = I64Vec3::new(
+        grid.dims[0] as i64 - 1,
+        grid.dims[1] as i64 - 1,
+        grid.dims[2] as i64 - 1,
+    );
+    let mut volume6 = 0i64;
+    for (c, t) in mesh.tets.iter().enumerate() {
+        let p = t.map(|v| ijk[v as usize]);
+        let det = (p[1] - p[0]).dot((p[2] - p[0]).cross(p[3] - p[0]));
+        if det <= 0 {
+            return Err(format!(
+                "tet {c} {p:?} is degenerate or negatively oriented (6V = {det})"
+            ));
+        }
+        volume6 += det;
+    }
+    let box6 = 6 * hi.x * hi.y * hi.z;
+    if volume6 != box6 {
+        return Err(format!(
+            "tet volumes sum to {volume6}/6, the box has {box6}/6"
+        ));
+    }
+    let corners = |f: [u32; 3]| f.map(|v| ijk[v as usize]);
+    let (interior_faces, boundary_faces) = match_faces(
+        &mesh.tets,
+        |f| {
+            let p = corners(f);
+            (0..3).any(|a| p.iter().all(|q| q[a] == 0) || p.iter().all(|q| q[a] == hi[a]))
+        },
+        |f| format!("{:?}", corners(f)),
+    )?;
+    Ok(MeshReport {
+        tets: mesh.tets.len(),
+        interior_faces,
+        boundary_faces,
+    })
+}
+
+/// Checks that `tets` (corners indexing `points`, VTK_TETRA order) tile exactly the box `bounds`
+/// (`[xmin, xmax, ymin, ymax, zmin, zmax]`) conformingly: positive volumes summing to the box's (to a
+/// relative 1e-9), every face shared by two tetrahedra unless its corners lie on one face of the box
+/// (within a millionth of its diagonal), then by one. For meshes whose vertices are not grid samples
+/// (material meshes live on a finer lattice); [`check_mesh`] is the exact check of a [`TetMesh`].
+pub fn check_conforming(
+    points: &[[f64; 3]],
+    tets: &[[u32; 4]],
+    bounds: [f64; 6],
+) -> Result<MeshReport, String> {
+    check_corners(tets, points.len(), "tetrahedron")?;
+    let mut volume = 0.0;
+    for (c, t) in tets.iter().enumerate() {
+        let x = t.map(|v| DVec3::from_array(points[v as usize]));
+        let v = (x[1] - x[0]).dot((x[2] - x[0]).cross(x[3] - x[0])) / 6.0;
+        if v.is_nan() || v <= 0.0 {
+            return Err(format!(
+                "tet {c} {x:?} is degenerate or negatively oriented (volume {v})"
+            ));
+        }
+        volume += v;
+    }
+    let box_volume = (bounds[1] - bounds[0]) * (bounds[3] - bounds[2]) * (bounds[5] - bounds[4]);
+    if (volume - box_volume).abs() > 1e-9 * box_volume {
+        return Err(format!(
+            "tet volumes sum to {volume}, the box has {box_volume}"
+        ));
+    }
+    let faces = super::faces_of_bounds(points, &bounds, super::bounds_eps(&bounds));
+    let (interior_faces, boundary_faces) = match_faces(
+        tets,
+        |f| faces[f[0] as usize] & faces[f[1] as usize] & faces[f[2] as usize] != 0,
+        |f| format!("{:?}", f.map(|v| points[v as usize])),
+    )?;
+    Ok(MeshReport {
+        tets: tets.len(),
+        interior_faces,
+        boundary_faces,
+    })
+}
+
+/// Checks that every face of `tets` (corners sorted) is shared by two of them, or by one when
+/// `on_boundary` says it lies on the boundary of the domain; `describe` names a face in the message.
+/// Returns the numbers of interior and boundary faces.
+fn match_faces(
+    tets: &[[u32; 4]],
+    on_boundary: impl Fn([u32; 3]) -> bool,
+    describe: impl Fn([u32; 3]) -> String,
+) -> Result<(usize, usize), String> {
+    let mut faces: Vec<[u32; 3]> = tets
+        .par_iter()
+        .flat_map_iter(|t| {
+            (0..4).map(move |skip| {
+                let mut f = [0u32; 3];
+                for (k, i) in (0..4).filter(|&i| i != skip).enumerate() {
+                    f[k] = t[i];
+                }
+                f.sort_unstable();
+                f
+            })
+        })
+        .collect();
+    faces.par_sort_unstable();
+    let (mut interior, mut boundary) = (0, 0);
+    for group in faces.chunk_by(|a, b| a == b) {
+        let f = group[0];
+        let on_boundary = on_boundary(f);
+        match (group.len(), on_boundary) {
+            (2, false) => interior += 1,
+            (1, true) => boundary += 1,
+            (count, _) => {
+                return Err(format!(
+                    "face {} is shared by {count} tets (boundary: {on_boundary}): the mesh is not conforming",
+                    describe(f)
+                ))
+            }
+        }
+    }
+    Ok((interior, boundary))
+}
+
+/// The consistency C++ relies on when it indexes VTK arrays with a [`TetMesh`]: one level and one
+/// error per tetrahedron, tetrahedron corners inside `points`, point ids inside the `grid_points`
+/// input points.
+pub fn check_mesh_arrays(mesh: &TetMesh, grid_points: usize) -> Result<(), String> {
+    let n_tets = mesh.tets.len();
+    if mesh.levels.len() != n_tets || mesh.errors.len() != n_tets {
+        return Err(format!(
+            "{n_tets} tetrahedra but {} levels and {} errors",
+            mesh.levels.len(),
+            mesh.errors.len()
+        ));
+    }
+    if let Some(id) = mesh.point_ids.iter().find(|&&id| id >= grid_points) {
+        return Err(format!(
+            "point id {id} outside the {grid_points} input points"
+        ));
+    }
+    check_corners(&mesh.tets, mesh.point_ids.len(), "tetrahedron")
+}
+
+/// The consistency C++ relies on when it builds VTK arrays from a [`MaterialMesh`] refined from an
+/// input of `materials` materials and `fields` fields: one value per point or tetrahedron in every
+/// array, corners inside `points`, materials and pairs below `materials`, one distance array per pair
+/// and material, one mixed field per field and, with `ghost_values`, one per field and material
+/// (without, those may be left out or given anyway).
+pub fn check_material_mesh_arrays(
+    mesh: &MaterialMesh,
+    materials: usize,
+    fields: usize,
+    ghost_values: bool,
+) -> Result<(), String> {
+    let (n_points, n_tets) = (mesh.points.len(), mesh.tets.len());
+    if mesh.materials != materials || mesh.fields != fields {
+        return Err(format!(
+            "the mesh reports {} materials and {} fields, the input had {materials} and {fields}",
+            mesh.materials, mesh.fields
+        ));
+    }
+    let per_tet = [
+        ("levels", mesh.levels.len()),
+        ("interface errors", mesh.interface_error.len()),
+        ("field errors", mesh.field_error.len()),
+        ("material masks", mesh.tet_materials.len()),
+    ];
+    if let Some((what, n)) = per_tet.iter().find(|(_, n)| *n != n_tets) {
+        return Err(format!("{n_tets} tetrahedra but {n} {what}"));
+    }
+    if mesh.point_material.len() != n_points {
+        return Err(format!(
+            "{n_points} points but {} point materials",
+            mesh.point_material.len()
+        ));
+    }
+    check_corners(&mesh.tets, n_points, "tetrahedron")?;
+    if let Some(m) = mesh
+        .point_material
+        .iter()
+        .find(|&&m| m as usize >= materials)
+    {
+        return Err(format!("point material {m} of {materials} materials"));
+    }
+    if let Some(p) = mesh
+        .pairs
+        .iter()
+        .find(|p| p.0 >= p.1 || p.1 as usize >= materials)
+    {
+        return Err(format!("interface pair {p:?} of {materials} materials"));
+    }
+    let arrays = [
+        (
+            "interface distance",
+            &mesh.interface_distance,
+            mesh.pairs.len(),
+        ),
+        ("material distance", &mesh.material_distance, materials),
+        ("mixed field", &mesh.mixed, fields),
+        (
+            "material field",
+            &mesh.material_field,
+            if ghost_values { fields * materials } else { 0 },
+        ),
+    ];
+    for (what, list, count) in arrays {
+        let optional = what == "material field" && !ghost_values;
+        if list.len() != count && !(optional && list.len() == fields * materials) {
+            return Err(format!("{} {what} arrays, {count} expected", list.len()));
+        }
+        if let Some(a) = list.iter().find(|a| a.len() != n_points) {
+            return Err(format!(
+                "a {what} array has {} values for {n_points} points",
+                a.len()
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Checks that every input sample lies in some tetrahedron of `mesh` and that the linear interpolation
+/// of every tetrahedron containing it is within `tolerance` of it. Returns the largest error found.
+/// Brute force over each tetrahedron's bounding box with `f64` barycentric coordinates, in parallel.
+pub fn check_tolerance<T: Sample>(
+    mesh: &TetMesh,
+    volume: &Volume<'_, T>,
+    tolerance: f64,
+) -> Result<f64, String> {
+    let grid = volume.grid;
+    let covered: Vec<AtomicBool> = (0..grid.len()).map(|_| AtomicBool::new(false)).collect();
+    let slack = 1e-9 * (1.0 + tolerance);
+    let worst = mesh
+        .tets
+        .par_iter()
+        .enumerate()
+        .try_fold(
+            || 0.0f64,
+            |mut worst, (c, t)| {
+                let ids = t.map(|v| mesh.point_ids[v as usize]);
+                let p = ids.map(|i| {
+                    let [x, y, z] = grid.ijk(i);
+                    DVec3::new(x as f64, y as f64, z as f64)
+                });
+                let f = ids.map(|i| volume.samples[i].to_f64());
+                let allowed = tolerance + slack * (1.0 + f.iter().fold(0.0f64, |m, v| m.max(v.abs())));
+                let inv = DMat3::from_cols(p[1] - p[0], p[2] - p[0], p[3] - p[0]).inverse();
+                let lo = p[0].min(p[1]).min(p[2].min(p[3]));
+                let hi = p[0].max(p[1]).max(p[2].max(p[3]));
+                for z in lo.z as usize..=hi.z as usize {
+                    for y in lo.y as usize..=hi.y as usize {
+                        for x in lo.x as usize..=hi.x as usize {
+                            let l = inv * (DVec3::new(x as f64, y as f64, z as f64) - p[0]);
+                            let l0 = 1.0 - l.element_sum();
+                            if l.min_element() < -1e-9 || l0 < -1e-9 {
+                                continue;
+                            }
+                            let i = grid.index(x, y, z);
+                            covered[i].store(true, Ordering::Relaxed);
+                            let interp = f[0] * l0 + f[1] * l.x + f[2] * l.y + f[3] * l.z;
+                            let e = (interp - volume.samples[i].to_f64()).abs();
+                            if e > allowed {
+                                return Err(format!(
+                                    "sample ({x}, {y}, {z}) = {} but tet {c} interpolates {interp} (error {e} > tolerance {tolerance})",
+                                    volume.samples[i].to_f64()
+                                ));
+                            }
+                            worst = worst.max(e);
+                        }
+                    }
+                }
+                Ok(worst)
+            },
+        )
+        .try_reduce(|| 0.0, |a, b| Ok(a.max(b)))?;
+    if let Some(i) = covered.iter().position(|c| !c.load(Ordering::Relaxed)) {
+        return Err(format!("sample {:?} lies in no tetrahedron", grid.ijk(i)));
+    }
+    Ok(worst)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{Hierarchy, Query, ScalarSlice};
+
+    #[test]
+    fn the_checks_catch_broken_meshes() {
+        let grid = Grid::new([9, 7, 5]);
+        let samples: Vec<u8> = (0..grid.len()).map(|i| (i * 37 % 251) as u8).collect();
+        let volume = Volume::new(grid, &samples[..]).unwrap();
+        let h = Hierarchy::build(grid, ScalarSlice::U8(&samples), &mut |_| true).unwrap();
+        let mesh = h.query(&Query::tolerance(20.0)).unwrap();
+        check_mesh(&mesh, &grid).unwrap();
+        check_tolerance(&mesh, &volume, 20.0).unwrap();
+        // A missing tetrahedron: a hole.
+        let mut holed = mesh.clone();
+        holed.tets.pop();
+        holed.levels.pop();
+        holed.errors.pop();
+        assert!(check_mesh(&holed, &grid).unwrap_err().contains("sum"));
+        // An inverted tetrahedron.
+        let mut inverted = mesh.clone();
+        inverted.tets[0].swap(0, 1);
+        assert!(check_mesh(&inverted, &grid)
+            .unwrap_err()
+            .contains("negatively"));
+        // A sample off by more than the tolerance.
+        let mut changed = samples.clone();
+        let i = (0..grid.len())
+            .find(|&i| !mesh.point_ids.contains(&i))
+            .unwrap();
+        changed[i] = changed[i].wrapping_add(128);
+        let other = Volume::new(grid, &changed[..]).unwrap();
+        assert!(check_tolerance(&mesh, &other, 20.0)
+            .unwrap_err()
+            .contains("tolerance"));
+    }
+
+    /// One tetrahedron on input points 0 to 3, for the array checks (its geometry is not looked at).
+    fn one_tet() -> TetMesh {
+        TetMesh {
+            point_ids: vec![0, 1, 2, 3],
+            points: vec![[0.0; 3]; 4],
+            tets: vec![[0, 1, 2, 3]],
+            levels: vec![0],
+            errors: vec![0.0],
+            max_error: 0.0,
+        }
+    }
+
+    #[test]
+    fn check_mesh_arrays_catches_inconsistent_meshes() {
+        let good = one_tet();
+        assert!(check_mesh_arrays(&good, 8).is_ok());
+        assert!(check_mesh_arrays(&good, 3)
+            .unwrap_err()
+            .contains("point id 3 outside the 3 input points"));
+        let mut bad = good.clone();
+        bad.tets[0][2] = 4;
+        assert!(check_mesh_arrays(&bad, 8)
+            .unwrap_err()
+            .contains("refers past the 4 points"));
+        let mut bad = good;
+        bad.levels.clear();
+        assert!(check_mesh_arrays(&bad, 8).unwrap_err().contains("0 levels"));
+    }
+
+    /// The unit cube cut into six tetrahedra around its diagonal (0,0,0)–(1,1,1), positively oriented.
+    fn cube() -> (Vec<[f64; 3]>, Vec<[u32; 4]>) {
+        let points = (0..8)
+            .map(|i| [(i & 1) as f64, (i >> 1 & 1) as f64, (i >> 2) as f64])
+            .collect();
+        let tets = vec![
+            [0, 1, 3, 7],
+            [0, 3, 2, 7],
+            [0, 2, 6, 7],
+            [0, 6, 4, 7],
+            [0, 4, 5, 7],
+            [0, 5, 1, 7],
+        ];
+        (points, tets)
+    }
+
+    #[test]
+    fn check_conforming_catches_holes_flips_and_bad_indices() {
+        let (points, tets) = cube();
+        let unit = [0.0, 1.0, 0.0, 1.0, 0.0, 1.0];
+        let report = check_conforming(&points, &tets, unit).unwrap();
+        assert_eq!(
+            (report.tets, report.interior_faces, report.boundary_faces),
+            (6, 6, 12)
+        );
+        let holed = &tets[1..];
+        assert!(check_conforming(&points, holed, unit)
+            .unwrap_err()
+            .contains("volumes sum"));
+        let mut flipped = tets.clone();
+        flipped[2].swap(0, 1);
+        assert!(check_conforming(&points, &flipped, unit)
+            .unwrap_err()
+            .contains("negatively"));
+        let mut out = tets.clone();
+        out[5][3] = 8;
+        assert!(check_conforming(&points, &out, unit)
+            .unwrap_err()
+            .contains("refers past the 8 points"));
+        // The same volume in the wrong box: faces on the cube's boundary are not on the box's.
+        let shifted = [0.0, 1.0, 0.0, 1.0, -0.5, 0.5];
+        assert!(check_conforming(&points, &tets, shifted)
+            .unwrap_err()
+            .contains("not conforming"));
+    }
+
+    fn tiny_material_mesh() -> MaterialMesh {
+        MaterialMesh {
+            materials: 2,
+            fields: 1,
+            points: vec![[0.0; 3]; 4],
+            tets: vec![[0, 1, 2, 3]],
+            levels: vec![0],
+            point_material: vec![0, 0, 1, 1],
+            pairs: vec![(0, 1)],
+            interface_distance: vec![vec![0.0; 4]],
+            material_distance: vec![vec![0.0; 4]; 2],
+            mixed: vec![vec![0.0; 4]],
+            material_field: vec![vec![0.0; 4]; 2],
+            interface_error: vec![0.0],
+            field_error: vec![0.0],
+            tet_materials: vec![3],
+            interface_tetrahedra: 1,
+            ghost_values: true,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn check_material_mesh_arrays_catches_inconsistent_meshes() {
+        let good = tiny_material_mesh();
+        assert!(check_material_mesh_arrays(&good, 2, 1, true).is_ok());
+        assert!(check_material_mesh_arrays(&good, 2, 1, false).is_ok());
+        assert!(check_material_mesh_arrays(&good, 3, 1, true).is_err());
+        let mut bad = good.clone();
+        bad.material_field.clear();
+        assert!(check_material_mesh_arrays(&bad, 2, 1, true).is_err());
+        assert!(check_material_mesh_arrays(&bad, 2, 1, false).is_ok());
+        let mut bad = good.clone();
+        bad.tets[0][3] = 4;
+        assert!(check_material_mesh_arrays(&bad, 2, 1, true)
+            .unwrap_err()
+            .contains("refers past"));
+        let mut bad = good.clone();
+        bad.point_material[0] = 2;
+        assert!(check_material_mesh_arrays(&bad, 2, 1, true).is_err());
+        let mut bad = good.clone();
+        bad.pairs[0] = (1, 0);
+        assert!(check_material_mesh_arrays(&bad, 2, 1, true).is_err());
+        let mut bad = good.clone();
+        bad.field_error.push(0.0);
+        assert!(check_material_mesh_arrays(&bad, 2, 1, true).is_err());
+        let mut bad = good.clone();
+        bad.mixed[0].pop();
+        assert!(check_material_mesh_arrays(&bad, 2, 1, true).is_err());
+        let mut bad = good;
+        bad.interface_distance.push(vec![0.0; 4]);
+        assert!(check_material_mesh_arrays(&bad, 2, 1, true).is_err());
+    }
+}
