@@ -31,6 +31,7 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::pin::Pin;
 use std::sync::atomic::{AtomicU64, Ordering};
 
+use diamonds::validate::{check_isosurface_arrays, check_mesh_arrays};
 use diamonds::{Grid, IsoQuery, IsoSurface, Query, ScalarSlice, TetMesh};
 
 #[cxx::bridge(namespace = "diamonds::bridge")]
@@ -521,7 +522,7 @@ impl Hierarchy {
                     .then_some(query.region_of_interest),
             };
             let mesh = self.hierarchy.query(&query).map_err(|e| e.to_string())?;
-            check_mesh(&mesh, self.hierarchy.grid().len())?;
+            check_core(check_mesh_arrays(&mesh, self.hierarchy.grid().len()))?;
             Ok(Box::new(Mesh(mesh)))
         })
     }
@@ -571,10 +572,10 @@ impl Hierarchy {
                 .state
                 .extract(&self.hierarchy, scalars, &query)
                 .map_err(|e| e.to_string())?;
-            check_surface(&surface, &query)?;
+            check_core(check_isosurface_arrays(&surface, &query))?;
             let carrier = surface.carrier.take();
             if let Some(mesh) = &carrier {
-                check_mesh(mesh, expected)?;
+                check_core(check_mesh_arrays(mesh, expected))?;
             }
             Ok(Box::new(Surface {
                 surface,
@@ -588,71 +589,11 @@ impl Hierarchy {
     }
 }
 
-/// The consistency C++ relies on when it copies a surface into VTK arrays: one value (and one
-/// normal, when asked for) per point, triangle corners inside `points`, a carrier exactly when
-/// asked for. A violation is a core bug, reported as an error.
-fn check_surface(surface: &IsoSurface, query: &IsoQuery) -> Result<(), String> {
-    let n_points = surface.points.len();
-    let bug = |what: String| Err(format!("internal error in the Diamonds core: {what}"));
-    if surface.values.len() != n_points {
-        return bug(format!(
-            "{n_points} isosurface points but {} values",
-            surface.values.len()
-        ));
-    }
-    let normals = if query.compute_normals { n_points } else { 0 };
-    if surface.normals.len() != normals {
-        return bug(format!(
-            "{n_points} isosurface points but {} normals (normals asked for: {})",
-            surface.normals.len(),
-            query.compute_normals
-        ));
-    }
-    if let Some(t) = surface
-        .triangles
-        .iter()
-        .find(|t| t.iter().any(|&c| c as usize >= n_points))
-    {
-        return bug(format!("triangle {t:?} refers past the {n_points} points"));
-    }
-    if surface.carrier.is_some() != query.carrier_tetrahedra {
-        return bug(format!(
-            "carrier tetrahedra asked for: {}, returned: {}",
-            query.carrier_tetrahedra,
-            surface.carrier.is_some()
-        ));
-    }
-    Ok(())
-}
-
-/// The consistency C++ relies on when it indexes VTK arrays with the mesh: equal lengths,
-/// tetrahedron corners inside `points`, point ids inside the input grid. A violation is a core
-/// bug; it is reported as an error instead of becoming an out-of-bounds write in C++.
-fn check_mesh(mesh: &TetMesh, grid_points: usize) -> Result<(), String> {
-    let (n_points, n_tets) = (mesh.point_ids.len(), mesh.tets.len());
-    let bug = |what: String| Err(format!("internal error in the Diamonds core: {what}"));
-    if mesh.levels.len() != n_tets || mesh.errors.len() != n_tets {
-        return bug(format!(
-            "{n_tets} tetrahedra but {} levels and {} errors",
-            mesh.levels.len(),
-            mesh.errors.len()
-        ));
-    }
-    if let Some(id) = mesh.point_ids.iter().find(|&&id| id >= grid_points) {
-        return bug(format!(
-            "point id {id} outside the {grid_points} input points"
-        ));
-    }
-    if let Some(t) = mesh
-        .tets
-        .iter()
-        .find(|t| t.iter().any(|&c| c as usize >= n_points))
-    {
-        return bug(format!(
-            "tetrahedron {t:?} refers past the {n_points} points"
-        ));
-    }
-    Ok(())
+/// Runs one of the core's array checks (`diamonds::validate::check_*_arrays`) on a result before C++
+/// indexes with it: a violation is a core bug, reported as an error instead of becoming an
+/// out-of-bounds write in C++.
+pub(crate) fn check_core(outcome: Result<(), String>) -> Result<(), String> {
+    outcome.map_err(|e| format!("internal error in the Diamonds core: {e}"))
 }
 
 impl Mesh {
@@ -847,23 +788,13 @@ mod tests {
     }
 
     #[test]
-    fn check_mesh_catches_inconsistent_meshes() {
-        let good = TetMesh {
-            point_ids: vec![0, 1, 2, 3],
-            points: vec![[0.0; 3]; 4],
-            tets: vec![[0, 1, 2, 3]],
-            levels: vec![0],
-            errors: vec![0.0],
-            max_error: 0.0,
-        };
-        assert!(check_mesh(&good, 8).is_ok());
-        assert!(check_mesh(&good, 3).is_err());
-        let mut bad = good.clone();
-        bad.tets[0][2] = 4;
-        assert!(check_mesh(&bad, 8).is_err());
-        let mut bad = good;
-        bad.levels.clear();
-        assert!(check_mesh(&bad, 8).is_err());
+    fn a_core_violation_becomes_an_error() {
+        assert_eq!(check_core(Ok(())), Ok(()));
+        let e = check_core(Err("3 tetrahedra but 2 levels".into())).unwrap_err();
+        assert_eq!(
+            e,
+            "internal error in the Diamonds core: 3 tetrahedra but 2 levels"
+        );
     }
 
     /// A distance field to a point on a 17^3 grid (spacing 0.5): the isosurface `r` is a sphere.
@@ -1265,40 +1196,5 @@ mod tests {
             );
             assert!(nan.is_err(), "{kind}");
         }
-    }
-
-    #[test]
-    fn check_surface_catches_inconsistent_surfaces() {
-        let query = IsoQuery {
-            isovalues: vec![1.0],
-            tolerance: 0.0,
-            max_triangles: 0,
-            region_of_interest: None,
-            compute_normals: true,
-            carrier_tetrahedra: false,
-        };
-        let good = IsoSurface {
-            points: vec![[0.0; 3]; 3],
-            normals: vec![[0.0, 0.0, 1.0]; 3],
-            triangles: vec![[0, 1, 2]],
-            values: vec![1.0; 3],
-            error_bound: 0.0,
-            carrier: None,
-        };
-        assert!(check_surface(&good, &query).is_ok());
-        let mut bad = good.clone();
-        bad.triangles[0][1] = 3;
-        assert!(check_surface(&bad, &query).is_err());
-        let mut bad = good.clone();
-        bad.normals.pop();
-        assert!(check_surface(&bad, &query).is_err());
-        let mut bad = good.clone();
-        bad.values.pop();
-        assert!(check_surface(&bad, &query).is_err());
-        let carrier = IsoQuery {
-            carrier_tetrahedra: true,
-            ..query
-        };
-        assert!(check_surface(&good, &carrier).is_err());
     }
 }

@@ -14,8 +14,8 @@
 //!   [`MaterialMesh`] and [`PolygonMesh`]es whose arrays C++ reads as slices.
 //!
 //! Every function runs inside [`guard`] (no panic crosses into C++), and every result is checked for
-//! the consistency C++ relies on when it indexes with it ([`check_material_mesh`],
-//! [`check_polygons`]).
+//! the consistency C++ relies on when it indexes with it ([`check_material_mesh_arrays`],
+//! [`check_polygon_arrays`], through [`check_core`]).
 //!
 //! User interface meshes arrive as one triangle soup: points, triangles, a material pair per
 //! triangle (two integers: the materials on either side) and optionally normals (per triangle, or
@@ -26,10 +26,11 @@
 use std::pin::Pin;
 
 use diamonds::material::{self, InterfaceMesh, MaterialField, MaterialInput, MaterialQuery};
+use diamonds::validate::{check_material_mesh_arrays, check_polygon_arrays};
 use diamonds::Grid;
 
 use crate::ffi::{self, GridSpec, MaterialQuerySpec, PlaneSpec};
-use crate::guard;
+use crate::{check_core, guard};
 
 /// Collects the input of a [`MaterialModel`]: the grid, the fractions, fields and per-material fields
 /// (copied) and the optional interface meshes.
@@ -303,173 +304,18 @@ impl MaterialModel {
             ghost_values: query.ghost_values,
         };
         let mesh = self.model.refine(&q, progress).map_err(|e| e.to_string())?;
-        check_material_mesh(&mesh, self.materials, self.fields, query.ghost_values)?;
+        check_core(check_material_mesh_arrays(
+            &mesh,
+            self.materials,
+            self.fields,
+            query.ghost_values,
+        ))?;
         Ok(MaterialMesh {
             pairs: mesh.pairs.iter().flat_map(|&(a, b)| [a, b]).collect(),
             mesh,
             ghost_values: query.ghost_values,
         })
     }
-}
-
-/// The consistency C++ relies on when it builds VTK arrays from a material mesh: one value per
-/// point or tetrahedron in every array, corners inside `points`, materials and pairs below
-/// `materials`, one distance array per pair and material, one mixed field per field and, with ghost
-/// values, one per field and material. A violation is a core bug, reported as an error.
-pub fn check_material_mesh(
-    mesh: &material::MaterialMesh,
-    materials: usize,
-    fields: usize,
-    ghost_values: bool,
-) -> Result<(), String> {
-    let bug = |what: String| Err(format!("internal error in the Diamonds core: {what}"));
-    let (n_points, n_tets) = (mesh.points.len(), mesh.tets.len());
-    if mesh.materials != materials || mesh.fields != fields {
-        return bug(format!(
-            "the mesh reports {} materials and {} fields, the input had {materials} and {fields}",
-            mesh.materials, mesh.fields
-        ));
-    }
-    let per_tet = [
-        ("levels", mesh.levels.len()),
-        ("interface errors", mesh.interface_error.len()),
-        ("field errors", mesh.field_error.len()),
-        ("material masks", mesh.tet_materials.len()),
-    ];
-    if let Some((what, n)) = per_tet.iter().find(|(_, n)| *n != n_tets) {
-        return bug(format!("{n_tets} tetrahedra but {n} {what}"));
-    }
-    if mesh.point_material.len() != n_points {
-        return bug(format!(
-            "{n_points} points but {} point materials",
-            mesh.point_material.len()
-        ));
-    }
-    if let Some(t) = mesh
-        .tets
-        .iter()
-        .find(|t| t.iter().any(|&c| c as usize >= n_points))
-    {
-        return bug(format!(
-            "tetrahedron {t:?} refers past the {n_points} points"
-        ));
-    }
-    if let Some(m) = mesh
-        .point_material
-        .iter()
-        .find(|&&m| m as usize >= materials)
-    {
-        return bug(format!("point material {m} of {materials} materials"));
-    }
-    if let Some(p) = mesh
-        .pairs
-        .iter()
-        .find(|p| p.0 >= p.1 || p.1 as usize >= materials)
-    {
-        return bug(format!("interface pair {p:?} of {materials} materials"));
-    }
-    let arrays = [
-        (
-            "interface distance",
-            &mesh.interface_distance,
-            mesh.pairs.len(),
-        ),
-        ("material distance", &mesh.material_distance, materials),
-        ("mixed field", &mesh.mixed, fields),
-        (
-            "material field",
-            &mesh.material_field,
-            if ghost_values { fields * materials } else { 0 },
-        ),
-    ];
-    for (what, list, count) in arrays {
-        // Without ghost values the per-material fields may be left out or given anyway.
-        let optional = what == "material field" && !ghost_values;
-        if list.len() != count && !(optional && list.len() == fields * materials) {
-            return bug(format!("{} {what} arrays, {count} expected", list.len()));
-        }
-        if let Some(a) = list.iter().find(|a| a.len() != n_points) {
-            return bug(format!(
-                "a {what} array has {} values for {n_points} points",
-                a.len()
-            ));
-        }
-    }
-    Ok(())
-}
-
-/// The consistency C++ relies on when it builds a vtkPolyData: offsets from 0 to the connectivity's
-/// length, non-decreasing, one label per polygon of at least 3 points inside `points`, and `values`
-/// arrays (exactly `value_arrays` of them, or none) of one value per point. Labels are two materials
-/// below `materials`: `a < b` for interfaces; `(m, m)`, or `(255, 255)` for the mixed field without
-/// ghost values, for a `cut`.
-pub fn check_polygons(
-    polygons: &material::PolygonMesh,
-    materials: usize,
-    cut: bool,
-    value_arrays: usize,
-) -> Result<(), String> {
-    let bug = |what: String| Err(format!("internal error in the Diamonds core: {what}"));
-    let n_points = polygons.points.len();
-    let n_polys = polygons.labels.len();
-    let offsets = &polygons.offsets;
-    if n_polys == 0 {
-        if offsets.len() > 1 || offsets.first().is_some_and(|&o| o != 0) {
-            return bug(format!("no polygon labels but offsets {offsets:?}"));
-        }
-        if !polygons.connectivity.is_empty() {
-            return bug("no polygon labels but a connectivity".into());
-        }
-    } else {
-        if offsets.len() != n_polys + 1 {
-            return bug(format!(
-                "{n_polys} polygon labels but {} offsets",
-                offsets.len()
-            ));
-        }
-        if offsets[0] != 0
-            || offsets.windows(2).any(|w| w[1] < w[0] + 3)
-            || offsets[n_polys] as usize != polygons.connectivity.len()
-        {
-            return bug(format!(
-                "polygon offsets do not run from 0 to the connectivity's {} entries with at least 3 points per polygon",
-                polygons.connectivity.len()
-            ));
-        }
-    }
-    if let Some(c) = polygons
-        .connectivity
-        .iter()
-        .find(|&&c| c as usize >= n_points)
-    {
-        return bug(format!("polygon corner {c} of {n_points} points"));
-    }
-    let valid = |&[a, b]: &[u8; 2]| {
-        if cut {
-            a == b && (a == u8::MAX || (a as usize) < materials)
-        } else {
-            a < b && (b as usize) < materials
-        }
-    };
-    if let Some(l) = polygons.labels.iter().find(|l| !valid(l)) {
-        return bug(format!(
-            "polygon label {l:?} for {} of {materials} materials",
-            if cut { "a cut" } else { "an interface" }
-        ));
-    }
-    if !polygons.values.is_empty() && polygons.values.len() != value_arrays {
-        return bug(format!(
-            "{} polygon value arrays, {value_arrays} expected",
-            polygons.values.len()
-        ));
-    }
-    if let Some(v) = polygons.values.iter().find(|v| v.len() != n_points) {
-        return bug(format!(
-            "a polygon value array has {} values for {n_points} points",
-            v.len()
-        ));
-    }
-    Ok(())
 }
 
 /// Index `i` of `list` or an error naming what was asked.
@@ -599,7 +445,12 @@ impl MaterialMesh {
     pub fn interface_polygons(&self) -> Result<Box<PolygonMesh>, String> {
         guard("extracting the interface polygons", || {
             let polygons = self.mesh.interface_polygons();
-            check_polygons(&polygons, self.mesh.materials, false, 0)?;
+            check_core(check_polygon_arrays(
+                &polygons,
+                self.mesh.materials,
+                false,
+                0,
+            ))?;
             Ok(Box::new(PolygonMesh(polygons)))
         })
     }
@@ -611,7 +462,12 @@ impl MaterialMesh {
                 .mesh
                 .slice(plane.origin, plane.normal)
                 .map_err(|e| e.to_string())?;
-            check_polygons(&polygons, self.mesh.materials, true, self.mesh.fields)?;
+            check_core(check_polygon_arrays(
+                &polygons,
+                self.mesh.materials,
+                true,
+                self.mesh.fields,
+            ))?;
             Ok(Box::new(PolygonMesh(polygons)))
         })
     }
@@ -737,62 +593,6 @@ mod tests {
         assert!(grid_from_coordinates(&[0.0], &[1.0, 2.0], &[0.0, 1.0]).is_err());
     }
 
-    fn polygons(
-        offsets: Vec<u32>,
-        connectivity: Vec<u32>,
-        labels: Vec<[u8; 2]>,
-    ) -> material::PolygonMesh {
-        material::PolygonMesh {
-            points: vec![[0.0; 3]; 4],
-            offsets,
-            connectivity,
-            labels,
-            ..Default::default()
-        }
-    }
-
-    #[test]
-    fn check_polygons_catches_inconsistent_polygons() {
-        assert!(check_polygons(&polygons(vec![], vec![], vec![]), 2, false, 0).is_ok());
-        assert!(check_polygons(&polygons(vec![0], vec![], vec![]), 2, true, 0).is_ok());
-        let conn = vec![0, 1, 2, 0, 1, 2, 3];
-        let good = polygons(vec![0, 3, 7], conn.clone(), vec![[0, 1], [1, 2]]);
-        assert!(check_polygons(&good, 3, false, 0).is_ok());
-        assert!(
-            check_polygons(&good, 2, false, 0).is_err(),
-            "material 2 of 2"
-        );
-        assert!(
-            check_polygons(&good, 3, true, 0).is_err(),
-            "a pair in a cut"
-        );
-        let cut = polygons(vec![0, 3, 7], conn.clone(), vec![[0, 0], [255, 255]]);
-        assert!(check_polygons(&cut, 3, true, 0).is_ok());
-        assert!(
-            check_polygons(&cut, 3, false, 0).is_err(),
-            "(m, m) interface"
-        );
-        let mut bad = good.clone();
-        bad.connectivity[6] = 4;
-        assert!(check_polygons(&bad, 3, false, 0).is_err());
-        let bad = polygons(vec![0, 2, 7], conn, vec![[0, 1], [0, 1]]);
-        assert!(
-            check_polygons(&bad, 3, false, 0).is_err(),
-            "a 2-point polygon"
-        );
-        let bad = polygons(vec![0, 3], vec![0, 1, 2, 3], vec![[0, 1]]);
-        assert!(
-            check_polygons(&bad, 3, false, 0).is_err(),
-            "connectivity longer"
-        );
-        let mut values = cut.clone();
-        values.values = vec![vec![1.0; 4]];
-        assert!(check_polygons(&values, 3, true, 1).is_ok());
-        assert!(check_polygons(&values, 3, true, 2).is_err());
-        values.values[0].pop();
-        assert!(check_polygons(&values, 3, true, 1).is_err());
-    }
-
     fn tiny_mesh() -> material::MaterialMesh {
         material::MaterialMesh {
             materials: 2,
@@ -813,36 +613,6 @@ mod tests {
             ghost_values: true,
             ..Default::default()
         }
-    }
-
-    #[test]
-    fn check_material_mesh_catches_inconsistent_meshes() {
-        let good = tiny_mesh();
-        assert!(check_material_mesh(&good, 2, 1, true).is_ok());
-        assert!(check_material_mesh(&good, 2, 1, false).is_ok());
-        assert!(check_material_mesh(&good, 3, 1, true).is_err());
-        let mut bad = good.clone();
-        bad.material_field.clear();
-        assert!(check_material_mesh(&bad, 2, 1, true).is_err());
-        assert!(check_material_mesh(&bad, 2, 1, false).is_ok());
-        let mut bad = good.clone();
-        bad.tets[0][3] = 4;
-        assert!(check_material_mesh(&bad, 2, 1, true).is_err());
-        let mut bad = good.clone();
-        bad.point_material[0] = 2;
-        assert!(check_material_mesh(&bad, 2, 1, true).is_err());
-        let mut bad = good.clone();
-        bad.pairs[0] = (1, 0);
-        assert!(check_material_mesh(&bad, 2, 1, true).is_err());
-        let mut bad = good.clone();
-        bad.field_error.push(0.0);
-        assert!(check_material_mesh(&bad, 2, 1, true).is_err());
-        let mut bad = good.clone();
-        bad.mixed[0].pop();
-        assert!(check_material_mesh(&bad, 2, 1, true).is_err());
-        let mut bad = good;
-        bad.interface_distance.push(vec![0.0; 4]);
-        assert!(check_material_mesh(&bad, 2, 1, true).is_err());
     }
 
     #[test]
