@@ -6,7 +6,7 @@ use crate::write::{
     checked_extension, write_image, write_tets, write_triangles, TetGrid, Triangles,
 };
 use crate::{bail, Array, AsScalarSlice, Result};
-use diamonds::validate::{check_mesh, check_tolerance};
+use diamonds::validate::{check_mesh, check_surface, check_tolerance, check_unit_normals};
 use diamonds::{fields, with_volume, Grid, Hierarchy, IsoQuery, Query, TetMesh};
 use rayon::prelude::*;
 use std::fmt;
@@ -754,13 +754,14 @@ fn finish_as(mut report: VerifyReport, command: &str) -> VerifyReport {
 /// `diamonds verify-surface`: checks a triangle surface (`.vtp`): triangles with three distinct points,
 /// every edge in exactly two triangles traversed in opposite directions (watertight and consistently
 /// oriented), except edges on a face of `image`'s bounds, which may border one triangle; unit `Normals`
-/// when the file has them. Unreadable input is an error; a failed check is reported in [`VerifyReport`].
+/// when the file has them (the checks of `diamonds::validate::surfaces`). Unreadable input is an error;
+/// a failed check is reported in [`VerifyReport`].
 pub fn verify_surface(mesh_path: &Path, image: Option<&Path>) -> Result<VerifyReport> {
     let bounds = match image {
         Some(path) => {
             let grid = read_image(path)?.grid;
             grid.validate()?;
-            Some((grid.bounds(), 1e-6 * diagonal(&grid)))
+            Some(grid.bounds())
         }
         None => None,
     };
@@ -778,18 +779,9 @@ pub fn verify_surface(mesh_path: &Path, image: Option<&Path>) -> Result<VerifyRe
         )],
         passed: true,
     };
-    let triangles_ok = (|| {
+    let checked = (|| {
         if let Some(c) = (0..n).find(|&c| surface.offsets[c] != 3 * (c + 1)) {
             return Err(format!("polygon {c} is not a triangle"));
-        }
-        let t = &surface.connectivity;
-        if let Some(c) = (0..n).find(|&c| {
-            t[3 * c] == t[3 * c + 1] || t[3 * c + 1] == t[3 * c + 2] || t[3 * c] == t[3 * c + 2]
-        }) {
-            return Err(format!(
-                "triangle {c} is degenerate: {:?}",
-                &t[3 * c..3 * c + 3]
-            ));
         }
         if let Some(a) = surface
             .field_data
@@ -803,70 +795,37 @@ pub fn verify_surface(mesh_path: &Path, image: Option<&Path>) -> Result<VerifyRe
                 ));
             }
         }
-        Ok(format!("{n} triangles, three distinct points each"))
+        let corner =
+            |i: usize| u32::try_from(i).map_err(|_| format!("point id {i} beyond 32 bits"));
+        let triangles = surface
+            .connectivity
+            .chunks_exact(3)
+            .map(|t| Ok([corner(t[0])?, corner(t[1])?, corner(t[2])?]))
+            .collect::<std::result::Result<Vec<[u32; 3]>, String>>()?;
+        check_surface(&surface.points, &triangles, bounds)
     })();
-    if !report.check("triangles", triangles_ok) {
+    let described = checked.as_ref().map_err(Clone::clone);
+    report.check(
+        "triangles",
+        described.map(|_| format!("{n} triangles, three distinct points each")),
+    );
+    let Ok(checked) = checked else {
         return Ok(finish_as(report, "verify-surface"));
-    }
-    // Faces of the bounds each point lies on, one bit per face.
-    let faces: Vec<u8> = surface
-        .points
-        .iter()
-        .map(|p| match bounds {
-            None => 0,
-            Some((b, eps)) => (0..6)
-                .filter(|&f| (p[f / 2] - b[f]).abs() <= eps)
-                .fold(0, |m, f| m | 1 << f),
-        })
-        .collect();
-    // Every edge as (smaller id, larger id) and whether a triangle goes from the smaller one.
-    let mut edges: Vec<(usize, usize, bool)> = surface
-        .connectivity
-        .par_chunks_exact(3)
-        .flat_map_iter(|t| {
-            [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])].map(|(a, b)| (a.min(b), a.max(b), a < b))
-        })
-        .collect();
-    edges.par_sort_unstable();
-    let (mut open, mut boundary, mut interior, mut misoriented) = (Vec::new(), 0, 0, Vec::new());
-    for group in edges.chunk_by(|x, y| (x.0, x.1) == (y.0, y.1)) {
-        let (a, b) = (group[0].0, group[0].1);
-        match group.len() {
-            1 if faces[a] & faces[b] != 0 => boundary += 1,
-            2 => {
-                interior += 1;
-                if group[0].2 == group[1].2 {
-                    misoriented.push((a, b));
-                }
-            }
-            k => open.push((a, b, k)),
-        }
-    }
-    let describe =
-        |a: usize, b: usize| format!("{a} {:?} - {b} {:?}", surface.points[a], surface.points[b]);
+    };
     report.check(
         "watertight",
-        match open.first() {
-            None => Ok(format!(
-                "{interior} edges in two triangles, {boundary} edges on the image bounds in one"
-            )),
-            Some(&(a, b, k)) => Err(format!(
-                "{} edges not in exactly two triangles, e.g. edge {} in {k}",
-                open.len(),
-                describe(a, b)
-            )),
-        },
+        checked.watertight.map(|()| {
+            format!(
+                "{} edges in two triangles, {} edges on the image bounds in one",
+                checked.interior_edges, checked.boundary_edges
+            )
+        }),
     );
     report.check(
         "orientation",
-        match misoriented.first() {
-            None => Ok("every shared edge traversed once each way".to_string()),
-            Some(&(a, b)) => Err(format!(
-                "{} edges traversed twice the same way, e.g. edge {}",
-                misoriented.len(),
-                describe(a, b)
-            )),
-        },
+        checked
+            .oriented
+            .map(|()| "every shared edge traversed once each way".to_string()),
     );
     match surface.point_data.iter().find(|a| a.name == "Normals") {
         None => report.lines.push("  normals: none in the file".to_string()),
@@ -880,21 +839,11 @@ pub fn verify_surface(mesh_path: &Path, image: Option<&Path>) -> Result<VerifyRe
             );
         }
         Some(normals) => {
-            let bad = (0..surface.points.len()).find_map(|p| {
-                let length = (0..3)
-                    .map(|a| normals.value(3 * p + a).powi(2))
-                    .sum::<f64>()
-                    .sqrt();
-                ((length - 1.0).abs() > 1e-3 || !length.is_finite()).then_some((p, length))
-            });
+            let vectors =
+                (0..surface.points.len()).map(|p| [0, 1, 2].map(|a| normals.value(3 * p + a)));
             report.check(
                 "normals",
-                match bad {
-                    None => Ok(format!("{} unit normals", surface.points.len())),
-                    Some((p, length)) => {
-                        Err(format!("the normal at point {p} has length {length}"))
-                    }
-                },
+                check_unit_normals(vectors, 1e-3).map(|count| format!("{count} unit normals")),
             );
         }
     }
