@@ -7,9 +7,9 @@ use diamonds::diamond::{bisect, Diamond};
 use diamonds::fields::{sample, sphere_distance, torus_distance, unit_grid};
 use diamonds::isosurface::{extract, marching_tetrahedra};
 use diamonds::lattice::{Lattice, Placement, Tet};
+use diamonds::validate::{check_surface, check_unit_normals};
 use diamonds::{Grid, Hierarchy, IsoQuery, IsoState, IsoSurface, ScalarSlice, Volume};
 use glam::DVec3;
-use std::collections::HashMap;
 
 fn build(grid: Grid, s: &[f32]) -> Hierarchy {
     Hierarchy::build_for_isosurfaces(grid, ScalarSlice::F32(s)).expect("build")
@@ -21,42 +21,13 @@ fn sphere(dims: [usize; 3], r: f64) -> (Grid, Vec<f32>) {
     (g, v)
 }
 
-/// Every edge in exactly two triangles (a closed surface away from the boundary), no degenerate ids.
+/// Closed (every edge in exactly two triangles), consistently oriented (traversed once each way),
+/// three distinct points per triangle, not empty.
 fn assert_watertight(s: &IsoSurface, what: &str) {
     assert!(!s.triangles.is_empty(), "{what}: empty surface");
-    let mut edges: HashMap<(u32, u32), u32> = HashMap::new();
-    for t in &s.triangles {
-        assert!(
-            t[0] != t[1] && t[1] != t[2] && t[0] != t[2],
-            "{what}: degenerate {t:?}"
-        );
-        for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
-            *edges.entry((a.min(b), a.max(b))).or_default() += 1;
-        }
-    }
-    for (e, n) in edges {
-        assert_eq!(n, 2, "{what}: edge {e:?} in {n} triangles");
-    }
-}
-
-/// Every edge traversed once in each direction by the triangles through it.
-fn assert_consistently_oriented(s: &IsoSurface, what: &str) {
-    let mut directed: HashMap<(u32, u32), u32> = HashMap::new();
-    for t in &s.triangles {
-        for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
-            *directed.entry((a, b)).or_default() += 1;
-        }
-    }
-    for (&(a, b), &n) in &directed {
-        assert_eq!(
-            n, 1,
-            "{what}: edge {a}→{b} traversed {n} times the same way"
-        );
-        assert!(
-            directed.contains_key(&(b, a)),
-            "{what}: edge {a}→{b} never traversed back"
-        );
-    }
+    check_surface(&s.points, &s.triangles, None)
+        .and_then(|report| report.passed())
+        .unwrap_or_else(|e| panic!("{what}: {e}"));
 }
 
 fn area(s: &IsoSurface) -> f64 {
@@ -94,7 +65,6 @@ fn watertight_and_oriented_at_every_tolerance() {
         for tol in [0.0, 0.005, 0.02, 0.1] {
             let s = extract(&h, ScalarSlice::F32(&v), &IsoQuery::new(0.0, tol)).unwrap();
             assert_watertight(&s, &format!("{dims:?} tol {tol}"));
-            assert_consistently_oriented(&s, &format!("{dims:?} tol {tol}"));
             assert!(
                 s.triangles.len() <= last,
                 "{dims:?}: more triangles at a larger tolerance"
@@ -114,9 +84,10 @@ fn watertight_and_oriented_at_every_tolerance() {
                     "{dims:?}: inward triangle {p:?}"
                 );
             }
+            let normals = s.normals.iter().map(|n| n.map(f64::from));
+            assert_eq!(check_unit_normals(normals, 1e-5), Ok(s.points.len()));
             for (n, p) in s.normals.iter().zip(&s.points) {
                 let n = glam::Vec3::from(*n);
-                assert!((n.length() - 1.0).abs() < 1e-5);
                 assert!(
                     n.as_dvec3().dot(DVec3::from(*p)) > 0.0,
                     "inward normal at {p:?}"
@@ -274,20 +245,9 @@ fn isovalues_equal_to_samples_keep_a_consistent_orientation() {
     let h = Hierarchy::build_for_isosurfaces(g, ScalarSlice::U8(&v)).unwrap();
     for (iso, tol) in [(128.0, 0.0), (100.0, 0.0), (128.0, 0.05)] {
         let s = extract(&h, ScalarSlice::U8(&v), &IsoQuery::new(iso, tol)).unwrap();
-        assert_watertight_or_degenerate(&s);
-        assert_consistently_oriented(&s, &format!("u8 sphere at a sample value, tol {tol}"));
+        // Zero-area triangles, but distinct point ids: watertight and oriented by ids.
+        assert_watertight(&s, &format!("u8 sphere at a sample value, tol {tol}"));
     }
-}
-
-/// Watertight by point ids (zero-area triangles allowed).
-fn assert_watertight_or_degenerate(s: &IsoSurface) {
-    let mut edges: HashMap<(u32, u32), u32> = HashMap::new();
-    for t in &s.triangles {
-        for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
-            *edges.entry((a.min(b), a.max(b))).or_default() += 1;
-        }
-    }
-    assert!(edges.values().all(|&n| n == 2));
 }
 
 #[test]

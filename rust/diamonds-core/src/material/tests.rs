@@ -1,12 +1,13 @@
 //! Property tests of the material pipeline, with checks written independently of the refinement:
-//! conformity by face matching, the field tolerance at every sample of every material, the interface
-//! tolerance at every interface-mesh vertex, crack-free interface polygons, and cuts on their plane.
+//! conformity and crack-free interface polygons ([`crate::validate`]), the field tolerance at every
+//! sample of every material, the interface tolerance at every interface-mesh vertex, and cuts on their
+//! plane.
 
 use super::*;
 use crate::fields::impact_case;
+use crate::validate::{check_conforming, check_crack_free};
 use crate::Error;
 use glam::DVec3;
-use std::collections::HashMap;
 
 fn noop() -> impl FnMut(f64) -> bool {
     |_| true
@@ -93,37 +94,9 @@ fn corners(mesh: &MaterialMesh, t: &[u32; 4]) -> [DVec3; 4] {
     t.map(|p| DVec3::from_array(mesh.points[p as usize]))
 }
 
-/// Conforming tetrahedralisation of exactly `bounds`: positive volumes summing to the box, every face
-/// shared by two tetrahedra unless it lies on the box boundary.
-fn check_conforming(mesh: &MaterialMesh, b: [f64; 6]) {
-    let mut faces: HashMap<[u32; 3], u32> = HashMap::new();
-    let mut volume = 0.0;
-    for t in &mesh.tets {
-        let x = corners(mesh, t);
-        let v = (x[1] - x[0]).dot((x[2] - x[0]).cross(x[3] - x[0])) / 6.0;
-        assert!(v > 0.0, "tet {t:?} has volume {v}");
-        volume += v;
-        for skip in 0..4 {
-            let mut f: Vec<u32> = (0..4).filter(|&i| i != skip).map(|i| t[i]).collect();
-            f.sort_unstable();
-            *faces.entry([f[0], f[1], f[2]]).or_default() += 1;
-        }
-    }
-    let box_volume = (b[1] - b[0]) * (b[3] - b[2]) * (b[5] - b[4]);
-    assert!(
-        (volume - box_volume).abs() < 1e-9 * box_volume,
-        "{volume} vs {box_volume}"
-    );
-    for (f, count) in faces {
-        let on_boundary = (0..3).any(|a| {
-            let at = |v: f64| {
-                f.iter()
-                    .all(|&p| (mesh.points[p as usize][a] - v).abs() < 1e-9)
-            };
-            at(b[2 * a]) || at(b[2 * a + 1])
-        });
-        assert_eq!(count, if on_boundary { 1 } else { 2 }, "face {f:?}");
-    }
+/// Conforming tetrahedralisation of exactly `bounds` ([`check_conforming`]).
+fn assert_conforming(mesh: &MaterialMesh, bounds: [f64; 6]) {
+    check_conforming(&mesh.points, &mesh.tets, bounds).unwrap_or_else(|e| panic!("{e}"));
 }
 
 /// Visits every (sample, tetrahedron containing it) pair by brute force over bounding boxes.
@@ -214,37 +187,6 @@ fn measured_interface_error(mesh: &MaterialMesh, interfaces: &[InterfaceMesh]) -
     worst
 }
 
-/// Every polygon edge is shared by at least two polygons unless it lies on the box boundary.
-fn check_crack_free(poly: &PolygonMesh, b: [f64; 6]) -> usize {
-    let mut edges: HashMap<(u32, u32), u32> = HashMap::new();
-    for w in poly.offsets.windows(2) {
-        let p = &poly.connectivity[w[0] as usize..w[1] as usize];
-        for i in 0..p.len() {
-            let (u, v) = (p[i], p[(i + 1) % p.len()]);
-            *edges.entry((u.min(v), u.max(v))).or_default() += 1;
-        }
-    }
-    for (&(u, v), &count) in &edges {
-        if count >= 2 {
-            continue;
-        }
-        let on_boundary = (0..3).any(|a| {
-            let at = |x: f64| {
-                [u, v]
-                    .iter()
-                    .all(|&p| (poly.points[p as usize][a] - x).abs() < 1e-7)
-            };
-            at(b[2 * a]) || at(b[2 * a + 1])
-        });
-        assert!(
-            on_boundary,
-            "edge {:?}–{:?} is in one polygon only",
-            poly.points[u as usize], poly.points[v as usize]
-        );
-    }
-    edges.len()
-}
-
 #[test]
 fn impact_case_meets_both_tolerances_everywhere() {
     let case = Case::impact([32, 32, 52]);
@@ -258,7 +200,7 @@ fn impact_case_meets_both_tolerances_everywhere() {
         mesh.max_interface_error,
         mesh.max_field_error
     );
-    check_conforming(&mesh, case.grid.bounds());
+    assert_conforming(&mesh, case.grid.bounds());
     assert!(mesh.max_interface_error <= ti && mesh.max_field_error <= tf);
     let labels = model.labels();
     let fe = measured_field_error(&mesh, &case, labels);
@@ -292,7 +234,7 @@ fn ghost_values_need_fewer_tets_than_plain_interpolation() {
         ghost.tets.len(),
         plain.tets.len()
     );
-    check_conforming(&plain, case.grid.bounds());
+    assert_conforming(&plain, case.grid.bounds());
     let fe = measured_field_error(&plain, &case, model.labels());
     assert!(fe <= 3.0 + 1e-4, "plain field error {fe}");
     // The goals on the impact analogue: no more than the paper's 11,990 tetrahedra, and at least
@@ -308,7 +250,7 @@ fn interface_polygons_are_crack_free_and_oriented() {
     let mesh = model.refine(&query(0.15, 3.0), &mut noop()).unwrap();
     let poly = mesh.interface_polygons();
     assert!(poly.labels.len() > 100);
-    let edges = check_crack_free(&poly, case.grid.bounds());
+    let edges = check_crack_free(&poly, case.grid.bounds()).unwrap_or_else(|e| panic!("{e}"));
     assert!(edges > 0);
     // Each polygon's normal points from its first material into its second: φ_a − φ_b grows along it.
     for (i, w) in poly.offsets.windows(2).enumerate() {
@@ -438,7 +380,7 @@ fn per_material_densities_are_the_materials_own_values() {
         mesh.interface_tetrahedra,
         mesh.max_field_error
     );
-    check_conforming(&mesh, case.grid.bounds());
+    assert_conforming(&mesh, case.grid.bounds());
     // (1) The field tolerance at every sample, against its material's own density.
     let labels = model.labels();
     let fe = measured_field_error(&mesh, &case, labels);
