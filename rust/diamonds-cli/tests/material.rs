@@ -6,12 +6,13 @@
 mod common;
 
 use common::{diamonds, field_value, s, shared_file, TempDir};
+use diamonds::material::PolygonMesh;
+use diamonds::validate::{check_conforming, check_crack_free};
 use diamonds_cli::read::{
     read_polydata, read_structured, read_unstructured, StructuredGrid, Unstructured,
 };
 use diamonds_cli::write::write_image;
 use diamonds_cli::Array;
-use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 const FRACTIONS: &str =
@@ -43,31 +44,21 @@ fn outputs(base: &Path) -> [PathBuf; 3] {
     diamonds_cli::material::output_paths(base)
 }
 
-/// Every face of the tetrahedra in exactly two of them, or in one when it lies in a face of `bounds`.
-fn check_conforming(mesh: &Unstructured, bounds: [f64; 6]) {
+/// Tetrahedra only, tiling `bounds` conformingly ([`check_conforming`]: positive volumes summing to
+/// the box, every face in two tetrahedra, or in one when it lies in a face of `bounds`).
+fn assert_conforming(mesh: &Unstructured, bounds: [f64; 6]) {
     assert!(mesh.types.iter().all(|&t| t == 10), "only VTK_TETRA");
-    let mut faces: HashMap<[usize; 3], usize> = HashMap::new();
-    for c in 0..mesh.offsets.len() {
-        let start = if c == 0 { 0 } else { mesh.offsets[c - 1] };
-        let t = &mesh.connectivity[start..mesh.offsets[c]];
-        assert_eq!(t.len(), 4);
-        for skip in 0..4 {
-            let mut f: Vec<usize> = (0..4).filter(|&k| k != skip).map(|k| t[k]).collect();
-            f.sort_unstable();
-            *faces.entry([f[0], f[1], f[2]]).or_default() += 1;
-        }
-    }
-    for (f, &count) in &faces {
-        assert!(count <= 2, "face {f:?} in {count} tetrahedra");
-        if count == 1 {
-            let on_box = (0..6).any(|side| {
-                let axis = side / 2;
-                f.iter()
-                    .all(|&p| (mesh.points[p][axis] - bounds[side]).abs() < 1e-9)
-            });
-            assert!(on_box, "unmatched interior face {f:?}");
-        }
-    }
+    assert!(mesh
+        .offsets
+        .iter()
+        .enumerate()
+        .all(|(c, &o)| o == 4 * (c + 1)));
+    let tets: Vec<[u32; 4]> = mesh
+        .connectivity
+        .chunks_exact(4)
+        .map(|t| [t[0], t[1], t[2], t[3]].map(|i| i as u32))
+        .collect();
+    check_conforming(&mesh.points, &tets, bounds).unwrap_or_else(|e| panic!("{e}"));
 }
 
 fn run_material(input: &Path, base: &Path, extra: &[&str]) -> String {
@@ -226,7 +217,8 @@ fn impact_case_meets_both_tolerances_with_fewer_tets_than_plain_interpolation() 
         uniform_checked > 100,
         "{uniform_checked} vertices in uniform cells"
     );
-    check_conforming(&mesh, [0.0, 12.0, 0.0, 12.0, -16.0, 4.8]);
+    let bounds = [0.0, 12.0, 0.0, 12.0, -16.0, 4.8];
+    assert_conforming(&mesh, bounds);
 
     // The interfaces: polygons with their pair, no crack (every edge in ≥ 2 polygons, or in the box).
     let polys = read_polydata(&interfaces).unwrap();
@@ -234,27 +226,20 @@ fn impact_case_meets_both_tolerances_with_fewer_tets_than_plain_interpolation() 
     let a = values(array(&polys.cell_data, "MaterialA"));
     let b = values(array(&polys.cell_data, "MaterialB"));
     assert!(a.iter().zip(&b).all(|(a, b)| a < b && *b <= 2.0));
-    let mut edges: HashMap<(usize, usize), usize> = HashMap::new();
-    for c in 0..polys.offsets.len() {
-        let start = if c == 0 { 0 } else { polys.offsets[c - 1] };
-        let p = &polys.connectivity[start..polys.offsets[c]];
-        assert!(p.len() >= 3);
-        for k in 0..p.len() {
-            let (u, v) = (p[k], p[(k + 1) % p.len()]);
-            *edges.entry((u.min(v), u.max(v))).or_default() += 1;
-        }
-    }
-    let bounds = [0.0, 12.0, 0.0, 12.0, -16.0, 4.8];
-    for (&(u, v), &count) in &edges {
-        if count < 2 {
-            let on_box = (0..6).any(|side| {
-                [u, v]
-                    .iter()
-                    .all(|&p| (polys.points[p][side / 2] - bounds[side]).abs() < 1e-6)
-            });
-            assert!(on_box, "crack at edge {u}-{v}");
-        }
-    }
+    let interfaces = PolygonMesh {
+        points: polys.points.clone(),
+        offsets: std::iter::once(0)
+            .chain(polys.offsets.iter().map(|&o| o as u32))
+            .collect(),
+        connectivity: polys.connectivity.iter().map(|&i| i as u32).collect(),
+        labels: a
+            .iter()
+            .zip(&b)
+            .map(|(&a, &b)| [a as u8, b as u8])
+            .collect(),
+        ..Default::default()
+    };
+    check_crack_free(&interfaces, bounds).unwrap_or_else(|e| panic!("{e}"));
 
     // The slice lies on y = 0.8 (through the projectile) and carries per-material density.
     let cut = read_polydata(&slice).unwrap();
@@ -376,7 +361,7 @@ fn rectilinear_grids_with_cell_data() {
     let mesh = read_unstructured(&outputs(&base)[0]).unwrap();
     assert!(!mesh.types.is_empty());
     assert!(names(&mesh.point_data).contains(&"SignedDistance Ball|Void"));
-    check_conforming(&mesh, [-3.0, 3.0, -3.0, 3.0, -3.0, 2.0]);
+    assert_conforming(&mesh, [-3.0, 3.0, -3.0, 3.0, -3.0, 2.0]);
 
     // Non-uniform coordinates: refused with the core's message, or resampled on request.
     let uneven: Vec<f64> = (0..13)
