@@ -17,6 +17,7 @@ Run the tests with the plugin on PV_PLUGIN_PATH, e.g.
   PV_PLUGIN_PATH=$PWD/build/lib/paraview-5.11/plugins/Diamonds pvpython tests/pvpython/test_mesh.py
 """
 
+import functools
 import os
 import shutil
 import subprocess
@@ -324,9 +325,10 @@ def shared_path(relative):
     return None
 
 
+@functools.lru_cache(maxsize=None)
 def diamonds_binary():
     """The CLI (target/release/diamonds), brought up to date with cargo when cargo is there (a no-op
-    when it is fresh)."""
+    when it is fresh; once per process)."""
     root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     binary = os.path.join(root, "target", "release", "diamonds")
     cargo = shutil.which("cargo") or os.path.expanduser("~/.cargo/bin/cargo")

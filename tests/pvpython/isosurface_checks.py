@@ -3,9 +3,12 @@ test_isosurface.py and mpi_isosurface.py. numpy only; VTK hands over the arrays,
 vtkDistancePolyDataFilter measures distances to a reference surface (ParaView's Contour).
 
 - only triangles, corners index existing points, every point inside the image bounds;
-- watertight and consistently oriented: every edge in exactly two triangles, once in each direction,
-  except edges whose two ends lie on the same face of the image box (then in one); optionally closed
-  with one genus-0 component (V - E + F = 2);
+- watertight and consistently oriented, by the one implementation of that check (the Rust core's
+  `diamonds::validate::check_surface`): the surface and the image are saved and `diamonds
+  verify-surface` runs on them: triangles of three distinct points, every edge in exactly two triangles,
+  once in each direction, except edges whose two ends lie on the same face of the image box (then in
+  one; not at all when closed), unit normals; optionally closed with one genus-0 component
+  (V - E + F = 2);
 - the triangles face increasing values (trilinear interpolation of the samples on both sides of each
   triangle), normals unit length and on the same side;
 - field data ErrorBound, NumberOfTriangles, Tolerance, RelativeTolerance;
@@ -13,10 +16,14 @@ vtkDistancePolyDataFilter measures distances to a reference surface (ParaView's 
 """
 
 import math
+import os
+import subprocess
+import tempfile
 
 import numpy as np
 from vtkmodules.util.numpy_support import vtk_to_numpy
 from vtkmodules.vtkFiltersGeneral import vtkDistancePolyDataFilter
+from vtkmodules.vtkIOXML import vtkXMLImageDataWriter, vtkXMLPolyDataWriter
 
 import diamonds_checks as dc
 
@@ -34,21 +41,24 @@ def surface_arrays(poly):
     return points, conn.reshape(-1, 3)
 
 
-def on_box(points, bounds, eps):
-    """Which face of the box (axis, side) each point lies on: a (N, 6) boolean array."""
-    b = np.asarray(bounds)
-    return np.stack([np.abs(points[:, a] - b[2 * a + s]) <= eps for a in range(3) for s in (0, 1)], axis=1)
-
-
-def edge_table(tris):
-    """Undirected edges (E,2), their triangle counts, and whether each interior edge is used once in
-    each direction (consistent orientation)."""
-    directed = np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]])
-    undirected = np.sort(directed, axis=1)
-    edges, inverse, counts = np.unique(undirected, axis=0, return_inverse=True, return_counts=True)
-    forward = np.zeros(len(edges), np.int64)
-    np.add.at(forward, inverse.ravel(), (directed[:, 0] < directed[:, 1]).astype(np.int64))
-    return edges, counts, forward
+def verify_surface(image, poly, closed):
+    """Runs `diamonds verify-surface` on `poly` saved as .vtp, open only on the faces of `image`'s box
+    (saved as .vti) unless `closed`. Returns (passed, the CLI's report)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        surface_path = os.path.join(tmp, "surface.vtp")
+        args = [dc.diamonds_binary(), "verify-surface", surface_path]
+        writers = [(vtkXMLPolyDataWriter(), poly, surface_path)]
+        if not closed:
+            image_path = os.path.join(tmp, "image.vti")
+            args += ["--image", image_path]
+            writers.append((vtkXMLImageDataWriter(), image, image_path))
+        for writer, data, path in writers:
+            writer.SetInputData(data)
+            writer.SetFileName(path)
+            if not writer.Write():
+                return False, f"could not write {path}"
+        run = subprocess.run(args, capture_output=True, text=True)
+        return run.returncode == 0, (run.stdout + run.stderr).strip()
 
 
 def components(n_points, tris):
@@ -118,20 +128,12 @@ def check_surface(
         f"{label}: every point inside the image bounds",
     )
 
-    # Watertight and consistently oriented.
-    edges, counts, forward = edge_table(tris)
-    faces = on_box(points, bounds, eps)
-    edge_on_boundary = (faces[edges[:, 0]] & faces[edges[:, 1]]).any(1)
-    interior = ~edge_on_boundary
-    dc.check(counts.max() <= 2, f"{label}: no edge in three or more triangles (max {counts.max()})")
-    bad = interior & (counts != 2)
-    dc.check(not bad.any(), f"{label}: watertight ({bad.sum()} of {len(edges)} interior edges not in exactly two triangles)")
-    dc.check(((counts != 1) | edge_on_boundary).all(), f"{label}: edges in one triangle lie on the image boundary")
-    twice = counts == 2
-    dc.check((forward[twice] == 1).all(), f"{label}: consistently oriented ({(forward[twice] != 1).sum()} edges used twice in the same direction)")
+    # Watertight and consistently oriented (closed: without an edge on the image boundary).
+    passed, report = verify_surface(image, poly, closed)
+    dc.check(passed, f"{label}: diamonds verify-surface{' (closed)' if closed else ''}: watertight, consistently oriented" + ("" if passed else "\n" + report))
     if closed:
-        euler = len(np.unique(tris)) - len(edges) + len(tris)
-        dc.check(not edge_on_boundary.any(), f"{label}: closed surface, no boundary edge")
+        # Every edge in two triangles (verified): E = 3F / 2.
+        euler = len(np.unique(tris)) - len(tris) // 2
         dc.check(euler == 2 and components(len(points), tris) == 1, f"{label}: one genus-0 component (V - E + F = {euler})")
 
     # Orientation: the samples increase along the face normal (trilinear interpolation, a quarter

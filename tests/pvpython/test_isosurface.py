@@ -2,8 +2,9 @@
 ParaView's own Contour is the reference surface):
 
 - (isosurface_checks.py) only triangles; watertight and consistently oriented: every edge in exactly
-  two triangles, once in each direction, except edges on the image boundary (in one); a closed sphere
-  is one genus-0 component (V - E + F = 2); triangles face increasing values (trilinear
+  two triangles, once in each direction, except edges on the image boundary (in one), checked by
+  `diamonds verify-surface` on the saved surface (and shown to fail on a hole and a flipped triangle);
+  a closed sphere is one genus-0 component (V - E + F = 2); triangles face increasing values (trilinear
   interpolation of the samples on both sides), normals unit length and on the same side;
 - ErrorBound <= Tolerance; triangle count non-increasing as Tolerance grows; every vertex within
   Tolerance + one voxel diagonal of ParaView's Contour of the same isovalue (and of the exact sphere);
@@ -26,11 +27,12 @@ import os
 import sys
 
 import numpy as np
-from vtkmodules.util.numpy_support import vtk_to_numpy
+from vtkmodules.util.numpy_support import numpy_to_vtkIdTypeArray, vtk_to_numpy
+from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkPolyData
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import diamonds_checks as dc  # noqa: E402
-from isosurface_checks import check_surface, components, same_surface, surface_arrays  # noqa: E402
+from isosurface_checks import check_surface, components, same_surface, surface_arrays, verify_surface  # noqa: E402
 from paraview import servermanager  # noqa: E402
 
 simple = dc.require_plugin()
@@ -190,6 +192,24 @@ for tol in (0.0, 0.02, 0.1, 0.3):
 print("sphere triangles at tolerance 0, 0.02, 0.1, 0.3:", sphere_counts)
 dc.check(ball(a >= b for a, b in zip(sphere_counts, sphere_counts[1:])), "sphere: triangle count non-increasing as the tolerance grows")
 dc.check(sphere_counts[-1] < sphere_counts[0] / 4, "sphere: tolerance 0.3 is visibly adaptive")
+
+# The watertightness check (the CLI on a saved copy) fails on a hole and on a flipped triangle.
+def with_triangles(poly, tris):
+    copy = vtkPolyData()
+    copy.SetPoints(poly.GetPoints())
+    cells = vtkCellArray()
+    offsets = np.arange(0, 3 * len(tris) + 1, 3, dtype=np.int64)
+    cells.SetData(numpy_to_vtkIdTypeArray(offsets, deep=1), numpy_to_vtkIdTypeArray(np.ascontiguousarray(tris.ravel(), dtype=np.int64), deep=1))
+    copy.SetPolys(cells)
+    return copy
+
+
+_, sphere_tris = surface_arrays(s)
+dc.check(verify_surface(sphere_image, with_triangles(s, sphere_tris), closed=True)[0], "verify-surface passes the sphere copied as is")
+for broken, what in [(sphere_tris[1:], "watertight"), (np.concatenate([sphere_tris[:7], sphere_tris[7:8, ::-1], sphere_tris[8:]]), "orientation")]:
+    for closed in (True, False):
+        passed, report = verify_surface(sphere_image, with_triangles(s, broken), closed=closed)
+        dc.check(not passed and f"{what}: FAILED" in report, f"verify-surface{' (closed)' if closed else ''} fails on the sphere with {'a hole' if what == 'watertight' else 'a flipped triangle'}")
 
 # A sphere cut by the image boundary: open along the boundary only.
 cut = simple.AdaptiveIsosurface(Input=sphere, Isosurfaces=[5.2], Tolerance=0.05)
