@@ -5,6 +5,7 @@
 #include "vtkCellData.h"
 #include "vtkDataArray.h"
 #include "vtkDataObject.h"
+#include "vtkDataSet.h"
 #include "vtkDoubleArray.h"
 #include "vtkFieldData.h"
 #include "vtkFloatArray.h"
@@ -16,6 +17,10 @@
 #include "vtkPointData.h"
 #include "vtkPoints.h"
 #include "vtkStreamingDemandDrivenPipeline.h"
+#include "vtkStringArray.h"
+#include "vtkTypeUInt32Array.h"
+#include "vtkIdTypeArray.h"
+#include "vtkIntArray.h"
 #include "vtkTypeInt32Array.h"
 #include "vtkTypeInt64Array.h"
 #include "vtkUnsignedCharArray.h"
@@ -316,6 +321,110 @@ vtkSmartPointer<vtkCellArray> FixedSizeCells(
   return cells;
 }
 
+//------------------------------------------------------------------------------
+vtkSmartPointer<vtkPoints> PointsFrom(rust::Slice<const double> xyz)
+{
+  vtkNew<vtkDoubleArray> data;
+  data->SetNumberOfComponents(3);
+  data->SetNumberOfTuples(static_cast<vtkIdType>(xyz.size() / 3));
+  std::copy(xyz.begin(), xyz.end(), data->GetPointer(0));
+  auto points = vtkSmartPointer<vtkPoints>::New();
+  points->SetData(data);
+  return points;
+}
+
+vtkSmartPointer<vtkCellArray> CellsFrom(
+  rust::Slice<const std::uint32_t> offsets, rust::Slice<const std::uint32_t> connectivity)
+{
+  auto cells = vtkSmartPointer<vtkCellArray>::New();
+  if (offsets.size() < 2)
+  {
+    return cells;
+  }
+  vtkNew<vtkTypeInt64Array> off;
+  off->SetNumberOfValues(static_cast<vtkIdType>(offsets.size()));
+  std::copy(offsets.begin(), offsets.end(), off->GetPointer(0));
+  vtkNew<vtkTypeInt64Array> conn;
+  conn->SetNumberOfValues(static_cast<vtkIdType>(connectivity.size()));
+  std::copy(connectivity.begin(), connectivity.end(), conn->GetPointer(0));
+  cells->SetData(off, conn);
+  return cells;
+}
+
+vtkSmartPointer<vtkStringArray> Strings(const char* name, const std::vector<std::string>& values)
+{
+  auto a = vtkSmartPointer<vtkStringArray>::New();
+  a->SetName(name);
+  a->SetNumberOfValues(static_cast<vtkIdType>(values.size()));
+  for (std::size_t i = 0; i < values.size(); ++i)
+  {
+    a->SetValue(static_cast<vtkIdType>(i), values[i]);
+  }
+  return a;
+}
+
+namespace
+{
+// An empty array of the VTK class the core's type is written with.
+vtkSmartPointer<vtkDataArray> NewArray(bridge::ArrayType type)
+{
+  static_assert(sizeof(vtkIdType) == 8, "64-bit output arrays are written as vtkIdType");
+  switch (type)
+  {
+    case bridge::ArrayType::U8:
+      return vtkSmartPointer<vtkUnsignedCharArray>::New();
+    case bridge::ArrayType::I32:
+      return vtkSmartPointer<vtkIntArray>::New();
+    case bridge::ArrayType::U32:
+      return vtkSmartPointer<vtkTypeUInt32Array>::New();
+    case bridge::ArrayType::I64:
+      return vtkSmartPointer<vtkIdTypeArray>::New();
+    case bridge::ArrayType::F32:
+      return vtkSmartPointer<vtkFloatArray>::New();
+    default:
+      return vtkSmartPointer<vtkDoubleArray>::New();
+  }
+}
+} // namespace
+
+void AddOutputArrays(const bridge::OutputArrays& arrays, vtkDataSet* output)
+{
+  for (std::size_t i = 0; i < arrays.len(); ++i)
+  {
+    const bridge::OutputArrayInfo info = arrays.info(i);
+    const rust::Slice<const std::uint8_t> bytes = arrays.bytes(i);
+    vtkSmartPointer<vtkDataArray> array = NewArray(info.value_type);
+    const std::string name(info.name);
+    array->SetName(name.c_str());
+    array->SetNumberOfComponents(static_cast<int>(info.components));
+    array->SetNumberOfTuples(
+      static_cast<vtkIdType>(bytes.size() / (array->GetDataTypeSize() * info.components)));
+    if (!bytes.empty())
+    {
+      std::memcpy(array->GetVoidPointer(0), bytes.data(), bytes.size());
+    }
+    vtkDataSetAttributes* attributes = nullptr;
+    switch (info.association)
+    {
+      case bridge::ArrayAssociation::Point:
+        attributes = output->GetPointData();
+        break;
+      case bridge::ArrayAssociation::Cell:
+        attributes = output->GetCellData();
+        break;
+      default:
+        output->GetFieldData()->AddArray(array);
+        continue;
+    }
+    attributes->AddArray(array);
+    if (info.active_scalars)
+    {
+      attributes->SetActiveScalars(name.c_str());
+    }
+  }
+}
+
+//------------------------------------------------------------------------------
 bool MeshToUnstructuredGrid(vtkAlgorithm* filter, bridge::Mesh& mesh, vtkImageData* input,
   const char* errorName, vtkUnstructuredGrid* output, vtkIdType& numberOfTetrahedra,
   double& maximumError)

@@ -25,8 +25,12 @@
 #include <cstring>
 #include <optional>
 #include <string>
+#include <vector>
 
 class vtkCellArray;
+class vtkDataSet;
+class vtkPoints;
+class vtkStringArray;
 
 class vtkAlgorithm;
 class vtkDataArray;
@@ -186,6 +190,20 @@ vtkSmartPointer<ArrayT> NamedArray(const char* name, vtkIdType n, const void* va
 // connectivity when the point count allows (half the memory), else 64-bit.
 vtkSmartPointer<vtkCellArray> FixedSizeCells(
   int size, rust::Slice<const std::uint32_t> ids, vtkIdType numPoints);
+
+// Points from three coordinates per point.
+vtkSmartPointer<vtkPoints> PointsFrom(rust::Slice<const double> xyz);
+
+// Polygons from core offsets (one per polygon plus one, or empty for none) and connectivity.
+vtkSmartPointer<vtkCellArray> CellsFrom(
+  rust::Slice<const std::uint32_t> offsets, rust::Slice<const std::uint32_t> connectivity);
+
+// A named string array.
+vtkSmartPointer<vtkStringArray> Strings(const char* name, const std::vector<std::string>& values);
+
+// Adds the core's named arrays to the point, cell or field data of `output`, in order, and makes
+// the arrays marked so the active scalars.
+void AddOutputArrays(const bridge::OutputArrays& arrays, vtkDataSet* output);
 
 // A named one-value array (field data).
 template <typename ArrayT>

@@ -85,14 +85,76 @@ mod ffi {
         carrier_tetrahedra: bool,
     }
 
-    /// The fields of the per-material field arrays (see `diamonds::material::material_fields`).
+    /// A numeric array of the input (for `select_material_arrays`).
+    struct InputArrayInfo {
+        name: String,
+        components: usize,
+        /// Cell data, else point data.
+        cell: bool,
+    }
+
+    /// An input array to read; cell data is converted to point data first.
     #[derive(Debug)]
-    struct MaterialFields {
-        /// The given fields, then those defined only by per-material arrays, in order of first
-        /// appearance.
-        fields: Vec<String>,
-        /// The (field into `fields`, material) of each array, flattened.
-        pairs: Vec<usize>,
+    struct SelectedArray {
+        name: String,
+        cell: bool,
+    }
+
+    /// A field to approximate and the array of its mixed values (unused when `from_materials`:
+    /// computed from its per-material arrays).
+    #[derive(Debug)]
+    struct SelectedField {
+        name: String,
+        from_materials: bool,
+        array: SelectedArray,
+    }
+
+    /// A per-material field array: field `field` inside material `material`.
+    #[derive(Debug)]
+    struct SelectedMaterialField {
+        array: SelectedArray,
+        field: usize,
+        material: usize,
+    }
+
+    /// The arrays a material approximation reads (see `diamonds::material::selection`).
+    #[derive(Debug)]
+    struct ArraySelection {
+        /// One name per material (the order of `fractions`).
+        materials: Vec<String>,
+        fractions: Vec<SelectedArray>,
+        /// The selected fields, then those defined only by per-material arrays.
+        fields: Vec<SelectedField>,
+        material_fields: Vec<SelectedMaterialField>,
+    }
+
+    /// Which data of an output a named array belongs to.
+    #[derive(Debug)]
+    enum ArrayAssociation {
+        Point,
+        Cell,
+        Field,
+    }
+
+    /// What a named output array is; its values are read with `OutputArrays::bytes`.
+    struct OutputArrayInfo {
+        name: String,
+        association: ArrayAssociation,
+        components: usize,
+        value_type: ArrayType,
+        /// Whether it is the active scalars of its data.
+        active_scalars: bool,
+    }
+
+    /// The value type of a named output array.
+    #[derive(Debug)]
+    enum ArrayType {
+        U8,
+        I32,
+        U32,
+        I64,
+        F32,
+        F64,
     }
 
     /// One material refinement query (see `diamonds::material::MaterialQuery`).
@@ -218,9 +280,23 @@ mod ffi {
         type MaterialModel;
         /// The adaptive mesh of one material query with its per-vertex and per-tetrahedron arrays.
         type MaterialMesh;
-        /// Labelled polygons: the approximated interfaces or a plane cut.
+        /// Labelled polygons: the approximated interfaces or a plane cut, with their arrays.
         type PolygonMesh;
+        /// The named arrays of one output.
+        type OutputArrays;
 
+        /// The arrays to read: the selected volume-fraction arrays (none: every single-component
+        /// array named like a fraction), fields and per-material field arrays ("<field> for
+        /// <material>" or "<field> (<material>)"; a <field> that is none of `fields` is added
+        /// after them, computed from its per-material arrays). An error when fewer than 2
+        /// fractions are found, an array is selected twice, a per-material array matches no field
+        /// and material, or an array to read is missing or has more than one component.
+        fn select_material_arrays(
+            input: &[InputArrayInfo],
+            fractions: &[String],
+            fields: &[String],
+            material_fields: &[String],
+        ) -> Result<ArraySelection>;
         /// A builder on `grid` (refused when an axis has fewer than 2 points).
         fn new_material_builder(grid: &GridSpec) -> Result<Box<MaterialBuilder>>;
         /// The uniform grid of a rectilinear grid's coordinates; an error when an axis is not
@@ -242,18 +318,6 @@ mod ffi {
             material: usize,
             values: &[f32],
         ) -> Result<()>;
-        /// The fields and the (field, material) of each per-material field array: an array is named
-        /// "<field> for <material>" or "<field> (<material>)"; a <field> that is none of `fields`
-        /// is added after them (a field given only per material); an error names the array that
-        /// matches nothing and lists the accepted names.
-        fn material_fields(
-            fields: &[String],
-            materials: &[String],
-            arrays: &[String],
-        ) -> Result<MaterialFields>;
-        /// The material names of the volume-fraction arrays ("Volume Fraction for Armor Plate" →
-        /// "Armor Plate", "Void Volume Fraction" → "Void"; the array names when two would clash).
-        fn material_names(arrays: &[String]) -> Result<Vec<String>>;
         /// Sets the user's interface meshes from a triangle soup: points (3 each), triangles (3
         /// point indices each), 2 materials per triangle (the normal points from the first into the
         /// second) and normals (none, 3 per triangle, or 3 per point with `point_normals`).
@@ -268,10 +332,6 @@ mod ffi {
         /// Validates the input and prepares the model.
         fn build(self: &MaterialBuilder) -> Result<Box<MaterialModel>>;
 
-        fn number_of_materials(self: &MaterialModel) -> Result<usize>;
-        fn number_of_fields(self: &MaterialModel) -> Result<usize>;
-        /// Number of interface meshes (reconstructed or given).
-        fn number_of_interfaces(self: &MaterialModel) -> Result<usize>;
         /// Refines to `query`: interfaces first, then fields.
         fn refine(
             self: &MaterialModel,
@@ -279,66 +339,58 @@ mod ffi {
             progress: Pin<&mut ProgressObserver>,
         ) -> Result<Box<MaterialMesh>>;
 
-        fn number_of_materials(self: &MaterialMesh) -> Result<usize>;
-        fn number_of_fields(self: &MaterialMesh) -> Result<usize>;
-        /// Number of interface pairs present (the order of `interface_distance`).
-        fn number_of_pairs(self: &MaterialMesh) -> Result<usize>;
         /// World coordinates, three per vertex.
-        fn points(self: &MaterialMesh) -> Result<&[f64]>;
+        fn points(self: &MaterialMesh) -> &[f64];
         /// Four vertex indices per tetrahedron, positively oriented (VTK_TETRA order).
-        fn tets(self: &MaterialMesh) -> Result<&[u32]>;
-        /// Bisection depth of each tetrahedron.
-        fn levels(self: &MaterialMesh) -> Result<&[u8]>;
-        /// Material of each vertex.
-        fn point_material(self: &MaterialMesh) -> Result<&[u8]>;
-        /// The interface pairs, two materials each (`a < b`).
-        fn pairs(self: &MaterialMesh) -> Result<&[u8]>;
-        /// Signed distance of each vertex to interface `pair`, positive on its second material's side.
-        fn interface_distance(self: &MaterialMesh, pair: usize) -> Result<&[f32]>;
-        /// Signed distance of each vertex to the boundary of `material`, negative inside it.
-        fn material_distance(self: &MaterialMesh, material: usize) -> Result<&[f32]>;
-        /// Field `field` resampled at each vertex.
-        fn mixed_field(self: &MaterialMesh, field: usize) -> Result<&[f32]>;
-        /// Whether the per-material fields (with ghost values) are there.
-        fn has_material_fields(self: &MaterialMesh) -> Result<bool>;
-        /// Field `field` of `material` at each vertex: its own value in it, a ghost value elsewhere.
-        fn material_field(self: &MaterialMesh, field: usize, material: usize) -> Result<&[f32]>;
-        /// Per tetrahedron: interface error (world units), field error (data units), bit mask of
-        /// the materials present.
-        fn interface_error(self: &MaterialMesh) -> Result<&[f32]>;
-        fn field_error(self: &MaterialMesh) -> Result<&[f32]>;
-        fn tet_materials(self: &MaterialMesh) -> Result<&[u32]>;
-        fn max_interface_error(self: &MaterialMesh) -> Result<f64>;
-        fn max_field_error(self: &MaterialMesh) -> Result<f64>;
-        /// Tetrahedra after the interface pass alone.
-        fn interface_tetrahedra(self: &MaterialMesh) -> Result<usize>;
-        /// The approximated interfaces (label: pair index), crack-free across tetrahedra.
+        fn tets(self: &MaterialMesh) -> &[u32];
+        /// Largest interface error (world units) and field error (data units) over the mesh.
+        fn max_interface_error(self: &MaterialMesh) -> f64;
+        fn max_field_error(self: &MaterialMesh) -> f64;
+        /// The name of each interface, "<a>|<b>" with the names `materials`.
+        fn interface_names(self: &MaterialMesh, materials: &[String]) -> Vec<String>;
+        /// The named arrays of the tetrahedra, for materials and fields named `materials` and
+        /// `fields` and the query as the user gave it (written as field data).
+        fn tetrahedra_arrays(
+            self: &MaterialMesh,
+            materials: &[String],
+            fields: &[String],
+            query: &MaterialQuerySpec,
+        ) -> Result<Box<OutputArrays>>;
+        /// The approximated interfaces (crack-free across tetrahedra) and their arrays.
         fn interface_polygons(self: &MaterialMesh) -> Result<Box<PolygonMesh>>;
-        /// The cut by `plane` (label: material), with each field of the polygon's material.
-        fn slice(self: &MaterialMesh, plane: &PlaneSpec) -> Result<Box<PolygonMesh>>;
+        /// The cut by `plane` and its arrays: the material of each polygon, each field (named by
+        /// `fields`) of the polygon's material at each point.
+        fn slice(
+            self: &MaterialMesh,
+            plane: &PlaneSpec,
+            fields: &[String],
+        ) -> Result<Box<PolygonMesh>>;
 
-        fn number_of_polygons(self: &PolygonMesh) -> Result<usize>;
         /// World coordinates, three per point.
-        fn points(self: &PolygonMesh) -> Result<&[f64]>;
-        /// `number_of_polygons() + 1` offsets into `connectivity()` (may be empty without polygons).
-        fn offsets(self: &PolygonMesh) -> Result<&[u32]>;
-        fn connectivity(self: &PolygonMesh) -> Result<&[u32]>;
-        /// Per polygon: pair index (interfaces) or material (cuts).
-        fn labels(self: &PolygonMesh) -> Result<&[u8]>;
-        /// Number of per-point value arrays (cuts: one per field).
-        fn number_of_value_arrays(self: &PolygonMesh) -> Result<usize>;
-        fn values(self: &PolygonMesh, field: usize) -> Result<&[f32]>;
+        fn points(self: &PolygonMesh) -> &[f64];
+        /// One offset per polygon plus one into `connectivity()` (empty without polygons).
+        fn offsets(self: &PolygonMesh) -> &[u32];
+        fn connectivity(self: &PolygonMesh) -> &[u32];
+        fn arrays(self: &PolygonMesh) -> &OutputArrays;
+
+        fn len(self: &OutputArrays) -> usize;
+        /// What array `i` is (an error past the last).
+        fn info(self: &OutputArrays, i: usize) -> Result<OutputArrayInfo>;
+        /// The values of array `i`, as the bytes of its `value_type` values (tuples × components
+        /// of them), in place (an error past the last).
+        fn bytes(self: &OutputArrays, i: usize) -> Result<&[u8]>;
     }
 }
 
 pub use ffi::{
-    GridSpec, IsoSpec, MaterialFields, MaterialQuerySpec, PlaneSpec, QuerySpec, ScalarType,
+    ArrayAssociation, ArraySelection, ArrayType, GridSpec, InputArrayInfo, IsoSpec,
+    MaterialQuerySpec, OutputArrayInfo, PlaneSpec, QuerySpec, ScalarType,
 };
 
 pub mod material;
 pub use material::{
-    grid_from_coordinates, material_fields, material_names, new_material_builder, MaterialBuilder,
-    MaterialMesh, MaterialModel, PolygonMesh,
+    grid_from_coordinates, new_material_builder, select_material_arrays, MaterialBuilder,
+    MaterialMesh, MaterialModel, OutputArrays, PolygonMesh,
 };
 
 /// Opaque handle on a [`diamonds::Hierarchy`] for C++, with an identity that tells the

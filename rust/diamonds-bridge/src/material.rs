@@ -7,15 +7,19 @@
 //!   slices added one by one to a [`MaterialBuilder`] (cxx cannot pass a vector of slices; the builder
 //!   copies them, since the kept model outlives the VTK arrays), optional interface triangle meshes as
 //!   flat arrays, the query ([`MaterialQuerySpec`]) and the slice plane ([`PlaneSpec`]);
-//! - names: the per-material field arrays' names are matched to (field, material) here
-//!   ([`material_fields`], the core's rule, which also adds the fields given only by such arrays), so
-//!   that C++ only passes arrays along;
+//! - names: which input arrays are read for the selected fractions, fields and per-material fields
+//!   is decided here ([`select_material_arrays`], the core's rules: fractions found by name, distinct
+//!   selections, material names, per-material arrays matched to (field, material)), so that C++ only
+//!   reads the arrays it is told to;
 //! - out: an opaque [`MaterialModel`] that the filter keeps between executions, an opaque
-//!   [`MaterialMesh`] and [`PolygonMesh`]es whose arrays C++ reads as slices.
+//!   [`MaterialMesh`] and [`PolygonMesh`]es with their named [`OutputArrays`] (names, association,
+//!   types and values decided by the core, [`diamonds::material::outputs`]), which C++ copies into
+//!   VTK arrays in a loop.
 //!
-//! Every function runs inside [`guard`] (no panic crosses into C++), and every result is checked for
-//! the consistency C++ relies on when it indexes with it ([`check_material_mesh_arrays`],
-//! [`check_polygon_arrays`], through [`check_core`]).
+//! Every function that can fail runs inside [`guard`] (no panic crosses into C++), and every result
+//! is checked for the consistency C++ relies on when it indexes with it
+//! ([`check_material_mesh_arrays`], [`check_polygon_arrays`], through [`check_core`]); plain getters
+//! of what was checked are infallible.
 //!
 //! User interface meshes arrive as one triangle soup: points, triangles, a material pair per
 //! triangle (two integers: the materials on either side) and optionally normals (per triangle, or
@@ -25,11 +29,13 @@
 
 use std::pin::Pin;
 
+use diamonds::material::outputs::{self, ArrayValues, Association};
+use diamonds::material::selection::{self, select_arrays, InputArray, SelectionOptions};
 use diamonds::material::{self, InterfaceMesh, MaterialField, MaterialInput, MaterialQuery};
 use diamonds::validate::{check_material_mesh_arrays, check_polygon_arrays};
 use diamonds::Grid;
 
-use crate::ffi::{self, GridSpec, MaterialQuerySpec, PlaneSpec};
+use crate::ffi::{self, ArrayAssociation, ArrayType, GridSpec, MaterialQuerySpec, PlaneSpec};
 use crate::{check_core, guard};
 
 /// Collects the input of a [`MaterialModel`]: the grid, the fractions, fields and per-material fields
@@ -55,14 +61,17 @@ pub struct MaterialModel {
 /// Opaque handle on a [`material::MaterialMesh`] for C++, checked before it is handed over.
 pub struct MaterialMesh {
     mesh: material::MaterialMesh,
-    /// `pairs` flattened: `a0, b0, a1, b1, …`.
-    pairs: Vec<u8>,
-    /// Whether the per-material fields (ghost values) are there.
-    ghost_values: bool,
 }
 
-/// Opaque handle on a [`material::PolygonMesh`] for C++, checked before it is handed over.
-pub struct PolygonMesh(material::PolygonMesh);
+/// Opaque handle on a [`material::PolygonMesh`] for C++, checked before it is handed over, with its
+/// named arrays.
+pub struct PolygonMesh {
+    polygons: material::PolygonMesh,
+    arrays: OutputArrays,
+}
+
+/// The named arrays of one output (see [`diamonds::material::outputs`]), read by C++ one by one.
+pub struct OutputArrays(Vec<outputs::OutputArray>);
 
 fn grid_of(spec: &GridSpec) -> Grid {
     Grid {
@@ -217,31 +226,60 @@ impl MaterialBuilder {
     }
 }
 
-/// The material names of the volume-fraction arrays (see [`diamonds::material::material_names`]).
-pub fn material_names(arrays: &[String]) -> Result<Vec<String>, String> {
-    guard("naming the materials", || {
-        Ok(material::material_names(arrays))
-    })
-}
-
-/// The fields of the per-material field arrays and the (field, material) of each, flattened (`f0, m0,
-/// f1, m1, …`): `arrays[i]` is named `"<field> for <materials[m]>"` or `"<field> (<materials[m]>)"`,
-/// `<field>` one of `fields` or else a field defined by the arrays, listed after `fields` in order of
-/// first appearance; an error names the array that matches nothing and lists the accepted names (see
-/// [`diamonds::material::material_fields`]).
-pub fn material_fields(
+/// The arrays to read for the selected VolumeFractionArrays, FieldArrays and MaterialFieldArrays
+/// (see [`diamonds::material::selection::select_arrays`]; `input`: the input's numeric arrays,
+/// point data first).
+pub fn select_material_arrays(
+    input: &[ffi::InputArrayInfo],
+    fractions: &[String],
     fields: &[String],
-    materials: &[String],
-    arrays: &[String],
-) -> Result<ffi::MaterialFields, String> {
-    guard("matching the per-material field arrays", || {
-        let matched = material::material_fields(fields, materials, arrays)?;
-        Ok(ffi::MaterialFields {
-            fields: matched.fields,
-            pairs: matched
-                .pairs
-                .into_iter()
-                .flat_map(|(f, m)| [f, m])
+    material_fields: &[String],
+) -> Result<ffi::ArraySelection, String> {
+    guard("selecting the material arrays", || {
+        let input: Vec<InputArray> = input
+            .iter()
+            .map(|a| InputArray {
+                name: &a.name,
+                components: a.components,
+                cell: a.cell,
+            })
+            .collect();
+        let options = SelectionOptions {
+            fractions: "VolumeFractionArrays",
+            fields: "FieldArrays",
+            material_fields: "MaterialFieldArrays",
+        };
+        let s = select_arrays(&input, fractions, fields, material_fields, &options)?;
+        let array = |a: &selection::SelectedArray| ffi::SelectedArray {
+            name: a.name.clone(),
+            cell: a.cell,
+        };
+        Ok(ffi::ArraySelection {
+            materials: s.materials,
+            fractions: s.fractions.iter().map(array).collect(),
+            fields: s
+                .fields
+                .iter()
+                .map(|f| ffi::SelectedField {
+                    name: f.name.clone(),
+                    from_materials: f.array.is_none(),
+                    array: f.array.as_ref().map_or(
+                        ffi::SelectedArray {
+                            name: String::new(),
+                            cell: false,
+                        },
+                        array,
+                    ),
+                })
+                .collect(),
+            material_fields: s
+                .material_fields
+                .iter()
+                .map(|m| ffi::SelectedMaterialField {
+                    array: array(&m.array),
+                    field: m.field,
+                    material: m.material,
+                })
                 .collect(),
         })
     })
@@ -263,23 +301,6 @@ pub fn interface_meshes(
 }
 
 impl MaterialModel {
-    /// Number of materials (volume fraction arrays) of the model.
-    pub fn number_of_materials(&self) -> Result<usize, String> {
-        guard("reading the material model", || Ok(self.materials))
-    }
-
-    /// Number of fields of the model.
-    pub fn number_of_fields(&self) -> Result<usize, String> {
-        guard("reading the material model", || Ok(self.fields))
-    }
-
-    /// Number of interface meshes (reconstructed or given).
-    pub fn number_of_interfaces(&self) -> Result<usize, String> {
-        guard("reading the material model", || {
-            Ok(self.model.interfaces().len())
-        })
-    }
-
     /// Refines to `query` with the C++ progress observer.
     pub fn refine(
         &self,
@@ -310,138 +331,51 @@ impl MaterialModel {
             self.fields,
             query.ghost_values,
         ))?;
-        Ok(MaterialMesh {
-            pairs: mesh.pairs.iter().flat_map(|&(a, b)| [a, b]).collect(),
-            mesh,
-            ghost_values: query.ghost_values,
-        })
+        Ok(MaterialMesh { mesh })
     }
-}
-
-/// Index `i` of `list` or an error naming what was asked.
-fn nth<'a>(list: &'a [Vec<f32>], i: usize, what: &str) -> Result<&'a [f32], String> {
-    list.get(i)
-        .map(Vec::as_slice)
-        .ok_or_else(|| format!("{what} {i} asked for, but there are {}", list.len()))
 }
 
 impl MaterialMesh {
-    pub fn number_of_materials(&self) -> Result<usize, String> {
-        guard("reading the material mesh", || Ok(self.mesh.materials))
+    pub fn points(&self) -> &[f64] {
+        self.mesh.points.as_flattened()
     }
 
-    pub fn number_of_fields(&self) -> Result<usize, String> {
-        guard("reading the material mesh", || Ok(self.mesh.fields))
+    pub fn tets(&self) -> &[u32] {
+        self.mesh.tets.as_flattened()
     }
 
-    pub fn number_of_pairs(&self) -> Result<usize, String> {
-        guard("reading the material mesh", || Ok(self.mesh.pairs.len()))
+    pub fn max_interface_error(&self) -> f64 {
+        self.mesh.max_interface_error
     }
 
-    pub fn points(&self) -> Result<&[f64], String> {
-        guard("reading the material mesh", || {
-            Ok(self.mesh.points.as_flattened())
+    pub fn max_field_error(&self) -> f64 {
+        self.mesh.max_field_error
+    }
+
+    /// The name of each interface, `"<a>|<b>"` (see [`outputs::interface_names`]).
+    pub fn interface_names(&self, materials: &[String]) -> Vec<String> {
+        outputs::interface_names(materials, &self.mesh.pairs)
+    }
+
+    /// The named arrays of the tetrahedra (see [`outputs::tetrahedra_arrays`]).
+    pub fn tetrahedra_arrays(
+        &self,
+        materials: &[String],
+        fields: &[String],
+        query: &MaterialQuerySpec,
+    ) -> Result<Box<OutputArrays>, String> {
+        guard("naming the tetrahedra arrays", || {
+            let query = MaterialQuery {
+                interface_tolerance: query.interface_tolerance,
+                field_tolerance: query.field_tolerance,
+                ghost_values: query.ghost_values,
+            };
+            let arrays = outputs::tetrahedra_arrays(&self.mesh, materials, fields, &query)?;
+            Ok(Box::new(OutputArrays::new(arrays)))
         })
     }
 
-    pub fn tets(&self) -> Result<&[u32], String> {
-        guard("reading the material mesh", || {
-            Ok(self.mesh.tets.as_flattened())
-        })
-    }
-
-    pub fn levels(&self) -> Result<&[u8], String> {
-        guard("reading the material mesh", || Ok(&self.mesh.levels[..]))
-    }
-
-    pub fn point_material(&self) -> Result<&[u8], String> {
-        guard("reading the material mesh", || {
-            Ok(&self.mesh.point_material[..])
-        })
-    }
-
-    pub fn pairs(&self) -> Result<&[u8], String> {
-        guard("reading the material mesh", || Ok(&self.pairs[..]))
-    }
-
-    pub fn interface_distance(&self, pair: usize) -> Result<&[f32], String> {
-        guard("reading the material mesh", || {
-            nth(&self.mesh.interface_distance, pair, "interface distance")
-        })
-    }
-
-    pub fn material_distance(&self, material: usize) -> Result<&[f32], String> {
-        guard("reading the material mesh", || {
-            nth(&self.mesh.material_distance, material, "material distance")
-        })
-    }
-
-    pub fn mixed_field(&self, field: usize) -> Result<&[f32], String> {
-        guard("reading the material mesh", || {
-            nth(&self.mesh.mixed, field, "mixed field")
-        })
-    }
-
-    pub fn has_material_fields(&self) -> Result<bool, String> {
-        guard("reading the material mesh", || {
-            Ok(self.ghost_values && !self.mesh.material_field.is_empty())
-        })
-    }
-
-    pub fn material_field(&self, field: usize, material: usize) -> Result<&[f32], String> {
-        guard("reading the material mesh", || {
-            let m = self.mesh.materials;
-            if material >= m || field >= self.mesh.fields {
-                return Err(format!(
-                    "material field ({field}, {material}) asked for, but there are {} fields and {m} materials",
-                    self.mesh.fields
-                ));
-            }
-            nth(
-                &self.mesh.material_field,
-                field * m + material,
-                "material field",
-            )
-        })
-    }
-
-    pub fn interface_error(&self) -> Result<&[f32], String> {
-        guard("reading the material mesh", || {
-            Ok(&self.mesh.interface_error[..])
-        })
-    }
-
-    pub fn field_error(&self) -> Result<&[f32], String> {
-        guard("reading the material mesh", || {
-            Ok(&self.mesh.field_error[..])
-        })
-    }
-
-    pub fn tet_materials(&self) -> Result<&[u32], String> {
-        guard("reading the material mesh", || {
-            Ok(&self.mesh.tet_materials[..])
-        })
-    }
-
-    pub fn max_interface_error(&self) -> Result<f64, String> {
-        guard("reading the material mesh", || {
-            Ok(self.mesh.max_interface_error)
-        })
-    }
-
-    pub fn max_field_error(&self) -> Result<f64, String> {
-        guard("reading the material mesh", || {
-            Ok(self.mesh.max_field_error)
-        })
-    }
-
-    pub fn interface_tetrahedra(&self) -> Result<usize, String> {
-        guard("reading the material mesh", || {
-            Ok(self.mesh.interface_tetrahedra)
-        })
-    }
-
-    /// The approximated interfaces, labelled by pair index.
+    /// The approximated interfaces, labelled by pair index, with their arrays.
     pub fn interface_polygons(&self) -> Result<Box<PolygonMesh>, String> {
         guard("extracting the interface polygons", || {
             let polygons = self.mesh.interface_polygons();
@@ -451,12 +385,14 @@ impl MaterialMesh {
                 false,
                 0,
             ))?;
-            Ok(Box::new(PolygonMesh(polygons)))
+            let arrays = OutputArrays::new(outputs::interface_arrays(&self.mesh, &polygons));
+            Ok(Box::new(PolygonMesh { polygons, arrays }))
         })
     }
 
-    /// The cut by `plane`, labelled by material, with each field of the polygon's material.
-    pub fn slice(&self, plane: &PlaneSpec) -> Result<Box<PolygonMesh>, String> {
+    /// The cut by `plane`, labelled by material, with each field (named by `fields`) of the
+    /// polygon's material.
+    pub fn slice(&self, plane: &PlaneSpec, fields: &[String]) -> Result<Box<PolygonMesh>, String> {
         guard("slicing the material mesh", || {
             let polygons = self
                 .mesh
@@ -468,7 +404,13 @@ impl MaterialMesh {
                 true,
                 self.mesh.fields,
             ))?;
-            Ok(Box::new(PolygonMesh(polygons)))
+            let arrays = OutputArrays::new(outputs::slice_arrays(
+                &polygons,
+                fields,
+                plane.origin,
+                plane.normal,
+            ));
+            Ok(Box::new(PolygonMesh { polygons, arrays }))
         })
     }
 
@@ -479,41 +421,83 @@ impl MaterialMesh {
 }
 
 impl PolygonMesh {
-    pub fn number_of_polygons(&self) -> Result<usize, String> {
-        guard("reading the polygons", || Ok(self.0.labels.len()))
+    pub fn points(&self) -> &[f64] {
+        self.polygons.points.as_flattened()
     }
 
-    pub fn points(&self) -> Result<&[f64], String> {
-        guard("reading the polygons", || Ok(self.0.points.as_flattened()))
+    /// One offset per polygon plus one into `connectivity()` (empty when there is no polygon).
+    pub fn offsets(&self) -> &[u32] {
+        &self.polygons.offsets
     }
 
-    /// `number_of_polygons() + 1` offsets into `connectivity()` (empty when there is no polygon).
-    pub fn offsets(&self) -> Result<&[u32], String> {
-        guard("reading the polygons", || Ok(&self.0.offsets[..]))
+    pub fn connectivity(&self) -> &[u32] {
+        &self.polygons.connectivity
     }
 
-    pub fn connectivity(&self) -> Result<&[u32], String> {
-        guard("reading the polygons", || Ok(&self.0.connectivity[..]))
-    }
-
-    /// Two materials per polygon (see [`material::PolygonMesh::labels`]).
-    pub fn labels(&self) -> Result<&[u8], String> {
-        guard("reading the polygons", || Ok(self.0.labels.as_flattened()))
-    }
-
-    pub fn number_of_value_arrays(&self) -> Result<usize, String> {
-        guard("reading the polygons", || Ok(self.0.values.len()))
-    }
-
-    pub fn values(&self, field: usize) -> Result<&[f32], String> {
-        guard("reading the polygons", || {
-            nth(&self.0.values, field, "value array")
-        })
+    pub fn arrays(&self) -> &OutputArrays {
+        &self.arrays
     }
 
     /// The polygons as the core returned them.
     pub fn inner(&self) -> &material::PolygonMesh {
-        &self.0
+        &self.polygons
+    }
+}
+
+impl OutputArrays {
+    fn new(arrays: Vec<outputs::OutputArray>) -> Self {
+        Self(arrays)
+    }
+
+    pub fn len(&self) -> usize {
+        self.0.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.0.is_empty()
+    }
+
+    fn nth(&self, i: usize) -> Result<&outputs::OutputArray, String> {
+        self.0
+            .get(i)
+            .ok_or_else(|| format!("output array {i} asked for, but there are {}", self.0.len()))
+    }
+
+    pub fn info(&self, i: usize) -> Result<ffi::OutputArrayInfo, String> {
+        guard("reading the output arrays", || {
+            let a = self.nth(i)?;
+            Ok(ffi::OutputArrayInfo {
+                name: a.name.clone(),
+                association: match a.association {
+                    Association::Point => ArrayAssociation::Point,
+                    Association::Cell => ArrayAssociation::Cell,
+                    Association::Field => ArrayAssociation::Field,
+                },
+                components: a.components,
+                value_type: match a.values {
+                    ArrayValues::U8(_) => ArrayType::U8,
+                    ArrayValues::I32(_) => ArrayType::I32,
+                    ArrayValues::U32(_) => ArrayType::U32,
+                    ArrayValues::I64(_) => ArrayType::I64,
+                    ArrayValues::F32(_) => ArrayType::F32,
+                    ArrayValues::F64(_) => ArrayType::F64,
+                },
+                active_scalars: a.active_scalars,
+            })
+        })
+    }
+
+    pub fn bytes(&self, i: usize) -> Result<&[u8], String> {
+        guard("reading the output arrays", || {
+            Ok(match &self.nth(i)?.values {
+                ArrayValues::U8(v) => v,
+                ArrayValues::I32(v) => bytemuck::cast_slice(v),
+                ArrayValues::U32(v) => bytemuck::cast_slice(v),
+                ArrayValues::I64(v) => bytemuck::cast_slice(v),
+                ArrayValues::F32(v) => bytemuck::cast_slice(v),
+                ArrayValues::F64(v) => bytemuck::cast_slice(v),
+            })
+        })
     }
 }
 
@@ -616,23 +600,31 @@ mod tests {
     }
 
     #[test]
-    fn accessors_index_safely() {
-        let mesh = MaterialMesh {
-            pairs: vec![0, 1],
-            mesh: tiny_mesh(),
+    fn output_arrays_read_in_place() {
+        let mesh = MaterialMesh { mesh: tiny_mesh() };
+        assert_eq!(mesh.points().len(), 12);
+        assert_eq!(mesh.tets(), &[0, 1, 2, 3]);
+        let names = |list: &[&str]| list.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+        let (materials, fields) = (names(&["A", "B"]), names(&["F"]));
+        assert_eq!(mesh.interface_names(&materials), ["A|B"]);
+        let query = MaterialQuerySpec {
+            interface_tolerance: 0.5,
+            field_tolerance: 1.0,
             ghost_values: true,
         };
-        assert_eq!(mesh.points().unwrap().len(), 12);
-        assert_eq!(mesh.tets().unwrap(), &[0, 1, 2, 3]);
-        assert_eq!(mesh.pairs().unwrap(), &[0, 1]);
-        assert!(mesh.interface_distance(0).is_ok());
-        assert!(mesh.interface_distance(1).is_err());
-        assert!(mesh.material_distance(2).is_err());
-        assert!(mesh.mixed_field(1).is_err());
-        assert!(mesh.material_field(0, 1).is_ok());
-        assert!(mesh.material_field(0, 2).is_err());
-        assert!(mesh.material_field(1, 0).is_err());
-        assert!(mesh.has_material_fields().unwrap());
+        let arrays = mesh.tetrahedra_arrays(&materials, &fields, &query).unwrap();
+        let material = arrays.info(0).unwrap();
+        assert_eq!(material.name, "Material");
+        assert_eq!(material.association, ArrayAssociation::Point);
+        assert_eq!(material.value_type, ArrayType::I32);
+        assert!(material.active_scalars);
+        assert_eq!(
+            arrays.bytes(0).unwrap(),
+            bytemuck::cast_slice::<i32, u8>(&[0, 0, 1, 1])
+        );
+        assert!(arrays.info(arrays.len()).is_err());
+        assert!(arrays.bytes(arrays.len()).is_err());
+        assert!(mesh.tetrahedra_arrays(&fields, &fields, &query).is_err());
     }
 
     /// The impact case through the bridge, as the filter drives it. Needs the core's material
@@ -646,8 +638,7 @@ mod tests {
         }
         b.add_field(&case.density).unwrap();
         let model = b.build().unwrap();
-        assert_eq!(model.number_of_materials().unwrap(), 3);
-        assert!(model.number_of_interfaces().unwrap() >= 2);
+        assert!(model.model.interfaces().len() >= 2);
         let query = MaterialQuerySpec {
             interface_tolerance: 0.3,
             field_tolerance: 3.0,
@@ -662,19 +653,24 @@ mod tests {
             })
             .unwrap();
         assert!(reports > 0);
-        let n_points = mesh.points().unwrap().len() / 3;
-        let n_tets = mesh.tets().unwrap().len() / 4;
+        let n_points = mesh.points().len() / 3;
+        let n_tets = mesh.tets().len() / 4;
         assert!(n_points > 0 && n_tets > 0);
-        assert!(mesh.max_interface_error().unwrap() <= 0.3 + 1e-9);
-        assert!(mesh.max_field_error().unwrap() <= 3.0 + 1e-9);
+        assert!(mesh.max_interface_error() <= 0.3 + 1e-9);
+        assert!(mesh.max_field_error() <= 3.0 + 1e-9);
         assert!(mesh
-            .interface_error()
-            .unwrap()
+            .inner()
+            .interface_error
             .iter()
             .all(|&e| e <= 0.3 + 1e-6));
-        assert_eq!(mesh.material_field(0, 2).unwrap().len(), n_points);
+        assert_eq!(mesh.inner().material_field[2].len(), n_points);
         let interfaces = mesh.interface_polygons().unwrap();
-        assert!(interfaces.number_of_polygons().unwrap() > 0);
+        assert!(!interfaces.inner().labels.is_empty());
+        let cell_arrays = (0..interfaces.arrays().len())
+            .map(|i| interfaces.arrays().info(i).unwrap())
+            .filter(|a| a.association == ArrayAssociation::Cell)
+            .count();
+        assert_eq!(cell_arrays, 3, "Interface, MaterialA, MaterialB");
         let b = case.grid.bounds();
         let plane = PlaneSpec {
             origin: [
@@ -684,10 +680,11 @@ mod tests {
             ],
             normal: [0.0, 1.0, 0.0],
         };
-        let slice = mesh.slice(&plane).unwrap();
-        assert!(slice.number_of_polygons().unwrap() > 0);
-        assert_eq!(slice.number_of_value_arrays().unwrap(), 1);
-        for p in slice.points().unwrap().chunks(3) {
+        let slice = mesh.slice(&plane, &["Density".to_string()]).unwrap();
+        assert!(!slice.inner().labels.is_empty());
+        assert_eq!(slice.inner().values.len(), 1);
+        assert_eq!(slice.arrays().info(1).unwrap().name, "Density");
+        for p in slice.points().chunks(3) {
             assert!((p[1] - plane.origin[1]).abs() < 1e-9);
         }
         // Abort: an error, no mesh.
@@ -706,17 +703,46 @@ mod tests {
     #[test]
     fn per_material_fields_through_the_bridge() {
         let case = impact_case([16, 16, 26]);
-        let names: Vec<String> = case.names.iter().map(|s| s.to_string()).collect();
-        let arrays: Vec<String> = names.iter().map(|m| format!("Density for {m}")).collect();
+        let fractions: Vec<String> = case
+            .names
+            .iter()
+            .map(|m| format!("Volume Fraction for {m}"))
+            .collect();
+        let arrays: Vec<String> = case
+            .names
+            .iter()
+            .map(|m| format!("Density for {m}"))
+            .collect();
+        let input: Vec<ffi::InputArrayInfo> = fractions
+            .iter()
+            .chain(&arrays)
+            .map(|name| ffi::InputArrayInfo {
+                name: name.clone(),
+                components: 1,
+                cell: false,
+            })
+            .collect();
         let fields = vec!["Density".to_string()];
-        let pairs = material_fields(&fields, &names, &arrays).unwrap().pairs;
-        assert_eq!(pairs, [0, 0, 0, 1, 0, 2]);
+        // The field is not an input array: computed from the per-material arrays.
+        let selected = select_material_arrays(&input, &[], &fields, &arrays).unwrap();
+        assert_eq!(selected.materials, case.names);
+        assert_eq!(selected.fractions.len(), 3);
+        assert!(selected.fields[0].from_materials);
+        let pairs: Vec<[usize; 2]> = selected
+            .material_fields
+            .iter()
+            .map(|m| [m.field, m.material])
+            .collect();
+        assert_eq!(pairs, [[0, 0], [0, 1], [0, 2]]);
         // Without the field: the arrays define it.
-        let implicit = material_fields(&[], &names, &arrays).unwrap();
-        assert_eq!(implicit.fields, fields);
-        assert_eq!(implicit.pairs, pairs);
-        let e = material_fields(&fields, &names, &["Density for Steel".to_string()]).unwrap_err();
-        assert!(e.contains("Density for Steel") && e.contains("\"Density (Projectile)\""));
+        let implicit = select_material_arrays(&input, &fractions, &[], &arrays).unwrap();
+        assert_eq!(implicit.fields[0].name, "Density");
+        let e = select_material_arrays(&input, &[], &fields, &["Density for Steel".to_string()])
+            .unwrap_err();
+        assert!(
+            e.starts_with("MaterialFieldArrays: ") && e.contains("\"Density (Projectile)\""),
+            "{e}"
+        );
         let query = MaterialQuerySpec {
             interface_tolerance: 0.3,
             field_tolerance: 3.0,
@@ -740,8 +766,8 @@ mod tests {
         };
         let given = builder(true, &[0, 1, 2]).build().unwrap();
         let mesh = given.refine_with(&query, &mut |_| true).unwrap();
-        assert!(mesh.max_field_error().unwrap() <= 3.0);
-        let void = mesh.material_field(0, 0).unwrap();
+        assert!(mesh.max_field_error() <= 3.0);
+        let void = &mesh.inner().material_field[0];
         assert!(void.iter().all(|&d| d == 0.0));
         // Only per material, void left out (it counts 0): the mixed field is the generated density
         // (compared through plain interpolation, which uses the mixed field only).
@@ -752,13 +778,8 @@ mod tests {
         };
         let d = derived.refine_with(&plain, &mut |_| true).unwrap();
         let m = given.refine_with(&plain, &mut |_| true).unwrap();
-        assert_eq!(d.tets().unwrap(), m.tets().unwrap());
-        for (a, b) in d
-            .mixed_field(0)
-            .unwrap()
-            .iter()
-            .zip(m.mixed_field(0).unwrap())
-        {
+        assert_eq!(d.tets(), m.tets());
+        for (a, b) in d.inner().mixed[0].iter().zip(&m.inner().mixed[0]) {
             assert!((a - b).abs() < 1e-4, "{a} vs {b}");
         }
         // Errors: no array for a per-material-only field, a field or material out of range, a

@@ -18,12 +18,11 @@ use crate::read::{read_structured, Geometry, Structured, StructuredGrid};
 use crate::write::{write_image, write_polygons, write_tets, Polygons, TetGrid};
 use crate::{bail, Array, Result};
 use diamonds::fields::impact_case;
-use diamonds::material::{
-    material_fields, MaterialField, MaterialFieldMatch, MaterialInput, MaterialModel,
-    MaterialQuery, PolygonMesh,
+use diamonds::material::outputs::{
+    interface_arrays, slice_arrays, tetrahedra_arrays, ArrayValues, Association, OutputArray,
 };
-/// The material names of the ParaView filter, from the fraction array names (shared with the core).
-pub use diamonds::material::{material_name, material_names};
+use diamonds::material::selection::{select_arrays, InputArray, SelectedArray, SelectionOptions};
+use diamonds::material::{MaterialField, MaterialInput, MaterialModel, MaterialQuery, PolygonMesh};
 use diamonds::Grid;
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -259,36 +258,20 @@ pub fn resample(coords: &[Vec<f64>; 3], values: &[f32]) -> Vec<f32> {
     out
 }
 
-/// The point values of array `name` (point data, else cell data converted), as `f32`.
-fn point_values(data: &Structured, name: &str, what: &str) -> Result<Vec<f32>> {
-    let listing = |arrays: &[Array]| {
-        arrays
-            .iter()
-            .map(Array::describe)
-            .collect::<Vec<_>>()
-            .join(", ")
+/// The point values of the selected array (point data, else cell data converted), as `f32`.
+fn point_values(data: &Structured, array: &SelectedArray) -> Result<Vec<f32>> {
+    let (arrays, what) = if array.cell {
+        (&data.cell_data, "cell")
+    } else {
+        (&data.point_data, "point")
     };
-    let (array, cell) = match data.point_data.iter().find(|a| a.name == name) {
-        Some(a) => (a, false),
-        None => match data.cell_data.iter().find(|a| a.name == name) {
-            Some(a) => (a, true),
-            None => bail!(
-                "no point or cell array named '{name}' ({what}); point arrays: [{}], cell arrays: [{}]",
-                listing(&data.point_data),
-                listing(&data.cell_data)
-            ),
-        },
+    let Some(found) = arrays.iter().find(|a| a.name == array.name) else {
+        bail!("no {what} array named '{}'", array.name);
     };
-    if array.components != 1 {
-        bail!(
-            "array '{name}' ({what}) has {} components; one value per point or cell is needed",
-            array.components
-        );
-    }
-    let values: Vec<f32> = (0..array.data.len())
-        .map(|k| array.value(k) as f32)
+    let values: Vec<f32> = (0..found.data.len())
+        .map(|k| found.value(k) as f32)
         .collect();
-    Ok(if cell {
+    Ok(if array.cell {
         cell_to_point(data.dims, &values)
     } else {
         values
@@ -344,88 +327,59 @@ pub fn material(opts: &MaterialOptions) -> Result<MaterialSummary> {
         }
         (Err(e), _) => return Err(in_file(e)),
     };
-    let fractions: Vec<String> = if opts.fractions.is_empty() {
-        let named: Vec<String> = data
-            .point_data
-            .iter()
-            .chain(&data.cell_data)
-            .filter(|a| a.components == 1 && a.name.to_ascii_lowercase().contains("fraction"))
-            .map(|a| a.name.clone())
-            .fold(Vec::new(), |mut v, n| {
-                if !v.contains(&n) {
-                    v.push(n);
-                }
-                v
-            });
-        if named.len() < 2 {
-            bail!(
-                "'{}': give the volume-fraction arrays with --fractions A,B,...; {} array(s) are named like a fraction",
-                opts.input.display(),
-                named.len()
-            );
-        }
-        named
-    } else {
-        opts.fractions.clone()
-    };
-    let all: Vec<&String> = fractions
+    let input: Vec<InputArray> = data
+        .point_data
         .iter()
-        .chain(&opts.fields)
-        .chain(&opts.material_fields)
+        .map(|a| (a, false))
+        .chain(data.cell_data.iter().map(|a| (a, true)))
+        .map(|(a, cell)| InputArray {
+            name: &a.name,
+            components: a.components,
+            cell,
+        })
         .collect();
-    if let Some((_, a)) = all
-        .iter()
-        .enumerate()
-        .find(|(i, a)| all[i + 1..].contains(a))
-    {
-        bail!("array '{a}' is given twice (--fractions, --fields and --material-fields must name different arrays)");
-    }
-    let names = material_names(&fractions);
-    // The given fields, then those defined only by per-material arrays.
-    let MaterialFieldMatch { fields, pairs } =
-        material_fields(&opts.fields, &names, &opts.material_fields)
-            .map_err(|e| in_file(crate::Error(format!("--material-fields: {e}"))))?;
+    let selection = select_arrays(
+        &input,
+        &opts.fractions,
+        &opts.fields,
+        &opts.material_fields,
+        &SelectionOptions {
+            fractions: "--fractions",
+            fields: "--fields",
+            material_fields: "--material-fields",
+        },
+    )
+    .map_err(|e| in_file(crate::Error(e)))?;
     let rectilinear = match &data.geometry {
         Geometry::Rectilinear(c) if opts.resample && data.grid().is_err() => Some(c),
         _ => None,
     };
-    let load = |name: &String, what: &str| -> Result<Vec<f32>> {
-        let v = point_values(&data, name, what).map_err(in_file)?;
+    let load = |array: &SelectedArray| -> Result<Vec<f32>> {
+        let v = point_values(&data, array).map_err(in_file)?;
         Ok(match rectilinear {
             Some(c) => resample(c, &v),
             None => v,
         })
     };
-    let fraction_values: Vec<Vec<f32>> = fractions
+    let fraction_values: Vec<Vec<f32>> = selection
+        .fractions
         .iter()
-        .map(|n| load(n, "--fractions"))
+        .map(load)
         .collect::<Result<_>>()?;
     // (field, material, values) of each per-material array.
-    let material_values: Vec<(usize, u8, Vec<f32>)> = pairs
+    let material_values: Vec<(usize, u8, Vec<f32>)> = selection
+        .material_fields
         .iter()
-        .zip(&opts.material_fields)
-        .map(|(&(field, material), n)| Ok((field, material as u8, load(n, "--material-fields")?)))
+        .map(|m| Ok((m.field, m.material as u8, load(&m.array)?)))
         .collect::<Result<_>>()?;
-    let in_input = |n: &String| {
-        data.point_data
-            .iter()
-            .chain(&data.cell_data)
-            .any(|a| &a.name == n)
-    };
-    // A field defined by the per-material arrays, or given but no input array and with per-material
-    // arrays: `None`, the core computes it as Σ fraction × own value.
-    let field_values: Vec<Option<Vec<f32>>> = fields
+    // `None`: a field computed by the core as Σ fraction × own value.
+    let field_values: Vec<Option<Vec<f32>>> = selection
+        .fields
         .iter()
-        .enumerate()
-        .map(|(f, n)| {
-            let per_material = pairs.iter().any(|&(g, _)| g == f);
-            if f >= opts.fields.len() || (!in_input(n) && per_material) {
-                Ok(None)
-            } else {
-                load(n, "--fields").map(Some)
-            }
-        })
+        .map(|f| f.array.as_ref().map(load).transpose())
         .collect::<Result<_>>()?;
+    let fields = selection.field_names();
+    let names = selection.materials;
 
     let start = Instant::now();
     let model = MaterialModel::new(&MaterialInput {
@@ -449,14 +403,12 @@ pub fn material(opts: &MaterialOptions) -> Result<MaterialSummary> {
         opts.field_tolerance.unwrap_or(0.0)
     };
     let start = Instant::now();
-    let mesh = model.refine(
-        &MaterialQuery {
-            interface_tolerance,
-            field_tolerance,
-            ghost_values: opts.ghost_values,
-        },
-        &mut |_| true,
-    )?;
+    let query = MaterialQuery {
+        interface_tolerance,
+        field_tolerance,
+        ghost_values: opts.ghost_values,
+    };
+    let mesh = model.refine(&query, &mut |_| true)?;
     let refine_seconds = start.elapsed().as_secs_f64();
     let slice = opts.slice.unwrap_or([
         0.5 * (b[0] + b[1]),
@@ -472,73 +424,9 @@ pub fn material(opts: &MaterialOptions) -> Result<MaterialSummary> {
         [slice[3], slice[4], slice[5]],
     )?;
 
-    // ---- The tetrahedra, with the ParaView filter's array names.
-    let pair_names: Vec<String> = mesh
-        .pairs
-        .iter()
-        .map(|&(a, b)| format!("{}|{}", names[a as usize], names[b as usize]))
-        .collect();
-    let mut point_data = vec![Array::scalars(
-        "Material",
-        mesh.point_material
-            .iter()
-            .map(|&m| m as i32)
-            .collect::<Vec<_>>(),
-    )];
-    for (name, d) in pair_names.iter().zip(&mesh.interface_distance) {
-        point_data.push(Array::scalars(format!("SignedDistance {name}"), d.clone()));
-    }
-    for (name, d) in names.iter().zip(&mesh.material_distance) {
-        point_data.push(Array::scalars(format!("SignedDistance {name}"), d.clone()));
-    }
-    let per_material = opts.ghost_values && !mesh.material_field.is_empty();
-    for (f, field) in fields.iter().enumerate() {
-        point_data.push(Array::scalars(field, mesh.mixed[f].clone()));
-        if per_material {
-            for (m, name) in names.iter().enumerate() {
-                point_data.push(Array::scalars(
-                    format!("{field} ({name})"),
-                    mesh.material_field[f * names.len() + m].clone(),
-                ));
-            }
-        }
-    }
-    if per_material {
-        for (m, name) in names.iter().enumerate() {
-            point_data.push(Array::scalars(
-                format!("IsGhost ({name})"),
-                mesh.point_material
-                    .iter()
-                    .map(|&p| (p as usize != m) as u8)
-                    .collect::<Vec<_>>(),
-            ));
-        }
-    }
-    let cell_data = vec![
-        Array::scalars("InterfaceError", mesh.interface_error.clone()),
-        Array::scalars("FieldError", mesh.field_error.clone()),
-        Array::scalars("Materials", mesh.tet_materials.clone()),
-        Array::scalars(
-            "NumberOfMaterials",
-            mesh.tet_materials
-                .iter()
-                .map(|m| m.count_ones() as u8)
-                .collect::<Vec<_>>(),
-        ),
-        Array::scalars("Level", mesh.levels.clone()),
-    ];
-    let field_data = vec![
-        Array::scalars("InterfaceTolerance", vec![interface_tolerance]),
-        Array::scalars("FieldTolerance", vec![field_tolerance]),
-        Array::scalars("MaximumInterfaceError", vec![mesh.max_interface_error]),
-        Array::scalars("MaximumFieldError", vec![mesh.max_field_error]),
-        Array::scalars("NumberOfTetrahedra", vec![mesh.tets.len() as i64]),
-        Array::scalars(
-            "InterfaceTetrahedra",
-            vec![mesh.interface_tetrahedra as i64],
-        ),
-        Array::scalars("UseGhostValues", vec![opts.ghost_values as i32]),
-    ];
+    // ---- The three outputs, with the ParaView filter's arrays.
+    let [point_data, cell_data, field_data] =
+        by_association(tetrahedra_arrays(&mesh, &names, &fields, &query).map_err(crate::Error)?);
     write_tets(
         &outputs[0],
         TetGrid {
@@ -549,71 +437,15 @@ pub fn material(opts: &MaterialOptions) -> Result<MaterialSummary> {
             field_data,
         },
     )?;
-
-    // ---- The interfaces.
-    let interface_index: Vec<i32> = interfaces
-        .labels
-        .iter()
-        .map(|&[a, b]| {
-            mesh.pairs
-                .iter()
-                .position(|&p| p == (a, b))
-                .map_or(-1, |i| i as i32)
-        })
-        .collect();
-    write_polygon_mesh(
-        &outputs[1],
-        &interfaces,
-        vec![],
-        vec![
-            Array::scalars("Interface", interface_index),
-            Array::scalars(
-                "MaterialA",
-                interfaces
-                    .labels
-                    .iter()
-                    .map(|l| l[0] as i32)
-                    .collect::<Vec<_>>(),
-            ),
-            Array::scalars(
-                "MaterialB",
-                interfaces
-                    .labels
-                    .iter()
-                    .map(|l| l[1] as i32)
-                    .collect::<Vec<_>>(),
-            ),
-        ],
-        vec![Array::scalars(
-            "NumberOfPolygons",
-            vec![interfaces.labels.len() as i64],
-        )],
-    )?;
-
-    // ---- The slice.
-    let slice_values = cut
-        .values
-        .iter()
-        .zip(&fields)
-        .map(|(v, name)| Array::scalars(name, v.clone()))
-        .collect();
-    write_polygon_mesh(
-        &outputs[2],
+    let [point_data, cell_data, field_data] = by_association(interface_arrays(&mesh, &interfaces));
+    write_polygon_mesh(&outputs[1], &interfaces, point_data, cell_data, field_data)?;
+    let [point_data, cell_data, field_data] = by_association(slice_arrays(
         &cut,
-        slice_values,
-        vec![Array::scalars(
-            "Material",
-            cut.labels
-                .iter()
-                .map(|l| if l[0] == u8::MAX { -1 } else { l[0] as i32 })
-                .collect::<Vec<_>>(),
-        )],
-        vec![Array {
-            name: "SlicePlane".into(),
-            components: 6,
-            data: slice.to_vec().into(),
-        }],
-    )?;
+        &fields,
+        [slice[0], slice[1], slice[2]],
+        [slice[3], slice[4], slice[5]],
+    ));
+    write_polygon_mesh(&outputs[2], &cut, point_data, cell_data, field_data)?;
 
     Ok(MaterialSummary {
         dims: grid.dims,
@@ -634,6 +466,31 @@ pub fn material(opts: &MaterialOptions) -> Result<MaterialSummary> {
         build_seconds,
         refine_seconds,
     })
+}
+
+/// The point, cell and field data of an output, as the writer takes them.
+fn by_association(arrays: Vec<OutputArray>) -> [Vec<Array>; 3] {
+    let mut out: [Vec<Array>; 3] = Default::default();
+    for a in arrays {
+        let slot = match a.association {
+            Association::Point => 0,
+            Association::Cell => 1,
+            Association::Field => 2,
+        };
+        out[slot].push(Array {
+            name: a.name,
+            components: a.components,
+            data: match a.values {
+                ArrayValues::U8(v) => v.into(),
+                ArrayValues::I32(v) => v.into(),
+                ArrayValues::U32(v) => v.into(),
+                ArrayValues::I64(v) => v.into(),
+                ArrayValues::F32(v) => v.into(),
+                ArrayValues::F64(v) => v.into(),
+            },
+        });
+    }
+    out
 }
 
 fn write_polygon_mesh(

@@ -12,7 +12,8 @@
 //! of that material is its per-material value when given, else the mixed value; ghost values and the
 //! field error (with ghost values) use these own values, plain interpolation the mixed fields only.
 //! [`naming`] matches per-material arrays to (field, material) by name, as the ParaView filter and the
-//! CLI name them.
+//! CLI name them; [`selection`] chooses the input arrays and [`outputs`] names the output arrays, the
+//! same way for both.
 //!
 //! Pipeline: point volume fractions → material of each sample (largest fraction) → interface triangle
 //! meshes, one per pair of touching materials ([`reconstruct`], or given by the user) → spatial index for
@@ -35,8 +36,10 @@
 pub mod distance;
 mod model;
 pub mod naming;
+pub mod outputs;
 mod polygons;
 pub mod reconstruct;
+pub mod selection;
 mod soup;
 #[cfg(test)]
 mod tests;
