@@ -147,7 +147,7 @@ int vtkAdaptiveIsosurface::RequestUpdateExtent(
 //------------------------------------------------------------------------------
 vtkIdType vtkAdaptiveIsosurface::GetHierarchyMemorySize()
 {
-  return this->Internals->Cache.GetMemorySize(this);
+  return this->Internals->Cache.GetMemorySize();
 }
 
 //------------------------------------------------------------------------------
@@ -284,19 +284,18 @@ int vtkAdaptiveIsosurface::RequestData(
   std::optional<rust::Box<bridge::Surface>> surface;
   try
   {
-    bridge::IsoState& state = cache.GetIsoState();
-    surface.emplace(cache.GetHierarchy().isosurface(state, cache.GetSampleType(),
+    surface.emplace(cache.GetHierarchy().isosurface(cache.GetIsoState(), cache.GetSampleType(),
       cache.GetSamples(), rust::Slice<const double>(isovalues.data(), isovalues.size()), spec));
-    if (state.reused())
-    {
-      ++this->NumberOfReusedMeshes;
-    }
   }
   catch (const rust::Error& e)
   {
     vtkErrorMacro(<< "Adaptive Isosurface extraction failed for array \"" << name
                   << "\": " << e.what());
     return 0;
+  }
+  if (cache.GetIsoState().reused())
+  {
+    ++this->NumberOfReusedMeshes;
   }
   this->UpdateProgress(0.9);
   if (this->CheckAbort())
@@ -305,24 +304,11 @@ int vtkAdaptiveIsosurface::RequestData(
   }
 
   // ---- Output port 0: the surface.
-  rust::Slice<const double> xyz;
-  rust::Slice<const float> normals;
-  rust::Slice<const std::uint32_t> triangles;
-  rust::Slice<const double> values;
-  double errorBound = 0.0;
-  try
-  {
-    xyz = (*surface)->points();
-    normals = (*surface)->normals();
-    triangles = (*surface)->triangles();
-    values = (*surface)->values();
-    errorBound = (*surface)->error_bound();
-  }
-  catch (const rust::Error& e)
-  {
-    vtkErrorMacro(<< e.what());
-    return 0;
-  }
+  const rust::Slice<const double> xyz = (*surface)->points();
+  const rust::Slice<const float> normals = (*surface)->normals();
+  const rust::Slice<const std::uint32_t> triangles = (*surface)->triangles();
+  const rust::Slice<const double> values = (*surface)->values();
+  const double errorBound = (*surface)->error_bound();
   const vtkIdType numPoints = static_cast<vtkIdType>(values.size());
   const vtkIdType numTriangles = static_cast<vtkIdType>(triangles.size() / 3);
 
@@ -382,17 +368,10 @@ int vtkAdaptiveIsosurface::RequestData(
       output->Initialize();
       return 0;
     }
-    vtkIdType numTets = 0;
-    double maxError = 0.0;
-    if (!vtkDiamonds::MeshToUnstructuredGrid(
-          this, **mesh, input, "IsosurfaceError", carrier, numTets, maxError))
-    {
-      output->Initialize();
-      carrier->Initialize();
-      return 0;
-    }
-    carrier->GetFieldData()->AddArray(OneValue<vtkIdTypeArray>("NumberOfTetrahedra", numTets));
-    carrier->GetFieldData()->AddArray(OneValue<vtkDoubleArray>("MaximumError", maxError));
+    vtkDiamonds::MeshToUnstructuredGrid(**mesh, input, "IsosurfaceError", carrier);
+    carrier->GetFieldData()->AddArray(
+      OneValue<vtkIdTypeArray>("NumberOfTetrahedra", carrier->GetNumberOfCells()));
+    carrier->GetFieldData()->AddArray(OneValue<vtkDoubleArray>("MaximumError", (*mesh)->max_error()));
   }
 
   this->UpdateProgress(1.0);

@@ -82,7 +82,7 @@ int vtkAdaptiveTetrahedra::RequestUpdateExtent(
 //------------------------------------------------------------------------------
 vtkIdType vtkAdaptiveTetrahedra::GetHierarchyMemorySize()
 {
-  return this->Internals->Cache.GetMemorySize(this);
+  return this->Internals->Cache.GetMemorySize();
 }
 
 //------------------------------------------------------------------------------
@@ -196,20 +196,13 @@ int vtkAdaptiveTetrahedra::RequestData(
   this->UpdateProgress(0.9);
 
   // ---- Output.
-  vtkIdType numTets = 0;
-  double maxError = 0.0;
-  if (!vtkDiamonds::MeshToUnstructuredGrid(
-        this, **mesh, input, "ApproximationError", output, numTets, maxError))
-  {
-    output->Initialize();
-    return 0;
-  }
-
+  vtkDiamonds::MeshToUnstructuredGrid(**mesh, input, "ApproximationError", output);
   vtkFieldData* fieldData = output->GetFieldData();
   fieldData->PassData(input->GetFieldData());
   fieldData->AddArray(OneValue<vtkDoubleArray>("Tolerance", this->Tolerance));
-  fieldData->AddArray(OneValue<vtkIdTypeArray>("NumberOfTetrahedra", numTets));
-  fieldData->AddArray(OneValue<vtkDoubleArray>("MaximumError", maxError));
+  fieldData->AddArray(
+    OneValue<vtkIdTypeArray>("NumberOfTetrahedra", output->GetNumberOfCells()));
+  fieldData->AddArray(OneValue<vtkDoubleArray>("MaximumError", (*mesh)->max_error()));
 
   this->UpdateProgress(1.0);
   return 1;

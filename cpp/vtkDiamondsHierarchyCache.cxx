@@ -425,30 +425,15 @@ void AddOutputArrays(const bridge::OutputArrays& arrays, vtkDataSet* output)
 }
 
 //------------------------------------------------------------------------------
-bool MeshToUnstructuredGrid(vtkAlgorithm* filter, bridge::Mesh& mesh, vtkImageData* input,
-  const char* errorName, vtkUnstructuredGrid* output, vtkIdType& numberOfTetrahedra,
-  double& maximumError)
+void MeshToUnstructuredGrid(
+  bridge::Mesh& mesh, vtkImageData* input, const char* errorName, vtkUnstructuredGrid* output)
 {
-  rust::Slice<const std::size_t> pointIds;
-  rust::Slice<const std::uint32_t> tets;
-  rust::Slice<const std::uint8_t> levels;
-  rust::Slice<const float> errors;
-  try
-  {
-    pointIds = mesh.point_ids();
-    tets = mesh.tets();
-    levels = mesh.levels();
-    errors = mesh.errors();
-    maximumError = mesh.max_error();
-  }
-  catch (const rust::Error& e)
-  {
-    vtkErrorWithObjectMacro(filter, << e.what());
-    return false;
-  }
+  const rust::Slice<const std::size_t> pointIds = mesh.point_ids();
+  const rust::Slice<const std::uint32_t> tets = mesh.tets();
+  const rust::Slice<const std::uint8_t> levels = mesh.levels();
+  const rust::Slice<const float> errors = mesh.errors();
   const vtkIdType numPoints = static_cast<vtkIdType>(pointIds.size());
   const vtkIdType numTets = static_cast<vtkIdType>(tets.size() / 4);
-  numberOfTetrahedra = numTets;
 
   const ImageGeometry image(input);
   const int* extent = image.Extent;
@@ -487,22 +472,13 @@ bool MeshToUnstructuredGrid(vtkAlgorithm* filter, bridge::Mesh& mesh, vtkImageDa
 
   vtkSmartPointer<vtkCellArray> cells = FixedSizeCells(4, tets, numPoints);
   // The connectivity is copied: free the core's copy before more arrays are allocated.
-  try
-  {
-    mesh.release_tets();
-  }
-  catch (const rust::Error& e)
-  {
-    vtkErrorWithObjectMacro(filter, << e.what());
-    return false;
-  }
+  mesh.release_tets();
   output->SetCells(VTK_TETRA, cells);
 
   output->GetCellData()->AddArray(
     NamedArray<vtkUnsignedCharArray>("Level", numTets, levels.data()));
   output->GetCellData()->AddArray(
     NamedArray<vtkFloatArray>(errorName, numTets, errors.data()));
-  return true;
 }
 
 //------------------------------------------------------------------------------
@@ -530,21 +506,9 @@ rust::Slice<const std::uint8_t> HierarchyCache::GetSamples() const
       this->Samples->GetDataTypeSize());
 }
 
-vtkIdType HierarchyCache::GetMemorySize(vtkAlgorithm* reporter) const
+vtkIdType HierarchyCache::GetMemorySize() const
 {
-  if (!this->Hierarchy)
-  {
-    return 0;
-  }
-  try
-  {
-    return static_cast<vtkIdType>((*this->Hierarchy)->metadata_bytes());
-  }
-  catch (const rust::Error& e)
-  {
-    vtkErrorWithObjectMacro(reporter, << e.what());
-    return 0;
-  }
+  return this->Hierarchy ? static_cast<vtkIdType>((*this->Hierarchy)->metadata_bytes()) : 0;
 }
 
 void HierarchyCache::Release()
@@ -639,7 +603,6 @@ HierarchyCache::Status HierarchyCache::Update(vtkAlgorithm* filter, const Filter
     rust::Box<bridge::Hierarchy> hierarchy = this->Purpose == Use::Isosurfaces
       ? bridge::build_isosurface_hierarchy(grid, *type, slice)
       : bridge::build_hierarchy(grid, *type, slice, progress);
-    this->IsoState.emplace(bridge::new_iso_state());
     this->Hierarchy.emplace(std::move(hierarchy));
   }
   catch (const rust::Error& e)
@@ -653,6 +616,7 @@ HierarchyCache::Status HierarchyCache::Update(vtkAlgorithm* filter, const Filter
       << text.Name << " cannot " << text.Verb << " array \"" << name << "\": " << e.what());
     return Status::Failed;
   }
+  this->IsoState.emplace(bridge::new_iso_state());
   this->Built = key;
   this->SampleType = *type;
   if (this->Purpose == Use::Isosurfaces)

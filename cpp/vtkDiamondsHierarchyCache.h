@@ -98,11 +98,9 @@ void RequestNoGhostLevels(vtkInformationVector** inputVector);
 // Fills `output` with the tetrahedra of `mesh` over `input`: points at the sample positions, every
 // input point array passed through, cell data "Level" and the mesh's per-tetrahedron errors named
 // `errorName` ("ApproximationError" for Adaptive Tetrahedra, "IsosurfaceError" for carriers). The mesh's
-// tetrahedra are released as soon as they are copied (lower peak memory). Reports an error on
-// `filter` and returns false if the mesh cannot be read.
-bool MeshToUnstructuredGrid(vtkAlgorithm* filter, bridge::Mesh& mesh, vtkImageData* input,
-  const char* errorName, vtkUnstructuredGrid* output, vtkIdType& numberOfTetrahedra,
-  double& maximumError);
+// tetrahedra are released as soon as they are copied (lower peak memory).
+void MeshToUnstructuredGrid(
+  bridge::Mesh& mesh, vtkImageData* input, const char* errorName, vtkUnstructuredGrid* output);
 
 // Quoted, comma-separated names of the arrays of `data`, for messages.
 std::string ArrayNames(vtkFieldData* data);
@@ -144,8 +142,8 @@ public:
   rust::Slice<const std::uint8_t> GetSamples() const;
   bridge::ScalarType GetSampleType() const { return this->SampleType; }
 
-  // Bytes of per-diamond data held by the hierarchy (0 when none); errors reported on `reporter`.
-  vtkIdType GetMemorySize(vtkAlgorithm* reporter) const;
+  // Bytes of per-diamond data held by the hierarchy (0 when none).
+  vtkIdType GetMemorySize() const;
   void Release();
 
 private:
