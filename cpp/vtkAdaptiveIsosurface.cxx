@@ -20,9 +20,12 @@
 #include "vtkTypeInt64Array.h"
 #include "vtkUnstructuredGrid.h"
 
-// The hierarchy cache and the cxx bridge (shared with vtkAdaptiveTetrahedra). Kept out of the
-// public header: the VTK wrappers parse that one.
+// The module's internal helpers and the cxx bridge. Kept out of the public header: the VTK
+// wrappers parse that one.
+#include "vtkDiamondsArraySelection.h"
 #include "vtkDiamondsHierarchyCache.h"
+#include "vtkDiamondsImageGeometry.h"
+#include "vtkDiamondsOutput.h"
 
 #include <algorithm>
 #include <cmath>

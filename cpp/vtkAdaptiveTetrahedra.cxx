@@ -12,9 +12,12 @@
 #include "vtkStreamingDemandDrivenPipeline.h"
 #include "vtkUnstructuredGrid.h"
 
-// The hierarchy cache and the cxx bridge (shared with vtkAdaptiveIsosurface). Kept out of the
-// public header: the VTK wrappers parse that one.
+// The module's internal helpers and the cxx bridge. Kept out of the public header: the VTK
+// wrappers parse that one.
+#include "vtkDiamondsArraySelection.h"
 #include "vtkDiamondsHierarchyCache.h"
+#include "vtkDiamondsImageGeometry.h"
+#include "vtkDiamondsOutput.h"
 
 #include <algorithm>
 #include <cmath>

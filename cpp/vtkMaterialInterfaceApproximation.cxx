@@ -21,8 +21,11 @@
 #include "vtkStringArray.h"
 #include "vtkUnstructuredGrid.h"
 
-// The cxx bridge and the shared helpers. Kept out of the public header: the VTK wrappers parse it.
-#include "vtkDiamondsHierarchyCache.h"
+// The module's internal helpers and the cxx bridge. Kept out of the public header: the VTK
+// wrappers parse it.
+#include "vtkDiamondsArraySelection.h"
+#include "vtkDiamondsOutput.h"
+#include "vtkDiamondsProgress.h"
 
 #include <algorithm>
 #include <array>

@@ -1,7 +1,7 @@
 //! # diamonds-bridge
 //!
 //! The one boundary between the Diamonds core (crate `diamonds-core`, lib `diamonds`) and C++.
-//! It is the only Rust staticlib linked into the VTK module `Diamonds::AdaptiveTetrahedra` (and so
+//! It is the only Rust staticlib linked into the VTK module `Diamonds::Filters` (and so
 //! into the ParaView plugin): linking two Rust staticlibs into one binary duplicates the Rust
 //! runtime symbols.
 //!

@@ -1,0 +1,38 @@
+// Internal to the Diamonds VTK module (not installed, not wrapped): the array a filter processes and
+// how its messages name the filter and the input's arrays.
+#ifndef vtkDiamondsArraySelection_h
+#define vtkDiamondsArraySelection_h
+
+#include <string>
+
+class vtkAlgorithm;
+class vtkDataArray;
+class vtkFieldData;
+class vtkImageData;
+
+namespace vtkDiamonds
+{
+// How a filter names itself and its array in messages, e.g. { "Adaptive Tetrahedra",
+// "approximate", "approximates", "Scalars" }.
+struct FilterText
+{
+  const char* Name;
+  const char* Verb;
+  const char* Verbs;
+  const char* ArrayProperty;
+};
+
+// The array to process, from what the filter's GetInputArrayToProcess(0, ...) returned
+// (`selected`, of `association`): that array, or the active point scalars when nothing is selected
+// (ParaView leaves the selection empty until the input has been updated once). Reports an error on
+// `filter` and returns nullptr when there is none, it is not point data, or it has more than one
+// component.
+vtkDataArray* SelectPointArray(vtkAlgorithm* filter, const FilterText& text, vtkImageData* input,
+  vtkDataArray* selected, int association);
+
+// Quoted, comma-separated names of the arrays of `data`, for messages.
+std::string ArrayNames(vtkFieldData* data);
+
+} // namespace vtkDiamonds
+
+#endif

@@ -1,0 +1,46 @@
+// Internal to the Diamonds VTK module (not installed, not wrapped): the geometry of an input image or
+// image piece: its extent, origin and spacing, axis alignment, the whole image's bounds across
+// pieces, a region of interest checked against them, and no ghost levels.
+#ifndef vtkDiamondsImageGeometry_h
+#define vtkDiamondsImageGeometry_h
+
+class vtkAlgorithm;
+class vtkImageData;
+class vtkInformationVector;
+
+namespace vtkDiamonds
+{
+struct FilterText;
+
+// The geometry of an image (or image piece) as VTK reports it.
+struct ImageGeometry
+{
+  int Extent[6];
+  int Dims[3];
+  double Origin[3];
+  double Spacing[3];
+
+  explicit ImageGeometry(vtkImageData* input);
+};
+
+// Reports an error on `filter` and returns false when the image has a non-identity direction
+// matrix.
+bool CheckAxisAligned(vtkAlgorithm* filter, const FilterText& text, vtkImageData* input);
+
+// World bounds of the whole image (WHOLE_EXTENT when the pipeline gives it, else the input's own
+// extent): regions of interest and relative tolerances refer to the whole data set, not a piece.
+void WholeBounds(vtkInformationVector** inputVector, vtkImageData* input, double bounds[6]);
+
+// Checks `roi` (finite, min <= max, touching the whole image); reports an error on `filter` and
+// returns false otherwise. `touchesPiece` tells whether it touches this process's piece.
+bool CheckRegionOfInterest(vtkAlgorithm* filter, const double roi[6],
+  vtkInformationVector** inputVector, vtkImageData* input, bool& touchesPiece);
+
+// Asks the filter's input for no ghost levels: each piece is processed over its own extent (a ghost
+// layer would be processed twice, once by each neighbouring piece; pieces of an image share their
+// boundary plane of points, so nothing is lost).
+void RequestNoGhostLevels(vtkInformationVector** inputVector);
+
+} // namespace vtkDiamonds
+
+#endif

@@ -1,0 +1,208 @@
+#include "vtkDiamondsOutput.h"
+
+#include "vtkDiamondsImageGeometry.h"
+
+#include "vtkCellArray.h"
+#include "vtkCellData.h"
+#include "vtkDataSet.h"
+#include "vtkDoubleArray.h"
+#include "vtkFieldData.h"
+#include "vtkFloatArray.h"
+#include "vtkIdList.h"
+#include "vtkIdTypeArray.h"
+#include "vtkImageData.h"
+#include "vtkIntArray.h"
+#include "vtkPointData.h"
+#include "vtkPoints.h"
+#include "vtkStringArray.h"
+#include "vtkTypeInt32Array.h"
+#include "vtkTypeInt64Array.h"
+#include "vtkTypeUInt32Array.h"
+#include "vtkUnsignedCharArray.h"
+#include "vtkUnstructuredGrid.h"
+
+#include <algorithm>
+#include <limits>
+
+namespace vtkDiamonds
+{
+vtkSmartPointer<vtkCellArray> FixedSizeCells(
+  int size, rust::Slice<const std::uint32_t> ids, vtkIdType numPoints)
+{
+  auto cells = vtkSmartPointer<vtkCellArray>::New();
+  const auto n = static_cast<vtkIdType>(ids.size());
+  if (numPoints <= std::numeric_limits<vtkTypeInt32>::max())
+  {
+    cells->SetData(size, NamedArray<vtkTypeInt32Array>(nullptr, n, ids.data()));
+  }
+  else
+  {
+    vtkNew<vtkTypeInt64Array> connectivity;
+    connectivity->SetNumberOfValues(n);
+    std::copy(ids.begin(), ids.end(), connectivity->GetPointer(0));
+    cells->SetData(size, connectivity);
+  }
+  return cells;
+}
+
+//------------------------------------------------------------------------------
+vtkSmartPointer<vtkPoints> PointsFrom(rust::Slice<const double> xyz)
+{
+  vtkNew<vtkDoubleArray> data;
+  data->SetNumberOfComponents(3);
+  data->SetNumberOfTuples(static_cast<vtkIdType>(xyz.size() / 3));
+  std::copy(xyz.begin(), xyz.end(), data->GetPointer(0));
+  auto points = vtkSmartPointer<vtkPoints>::New();
+  points->SetData(data);
+  return points;
+}
+
+vtkSmartPointer<vtkCellArray> CellsFrom(
+  rust::Slice<const std::uint32_t> offsets, rust::Slice<const std::uint32_t> connectivity)
+{
+  auto cells = vtkSmartPointer<vtkCellArray>::New();
+  if (offsets.size() < 2)
+  {
+    return cells;
+  }
+  vtkNew<vtkTypeInt64Array> off;
+  off->SetNumberOfValues(static_cast<vtkIdType>(offsets.size()));
+  std::copy(offsets.begin(), offsets.end(), off->GetPointer(0));
+  vtkNew<vtkTypeInt64Array> conn;
+  conn->SetNumberOfValues(static_cast<vtkIdType>(connectivity.size()));
+  std::copy(connectivity.begin(), connectivity.end(), conn->GetPointer(0));
+  cells->SetData(off, conn);
+  return cells;
+}
+
+vtkSmartPointer<vtkStringArray> Strings(const char* name, const std::vector<std::string>& values)
+{
+  auto a = vtkSmartPointer<vtkStringArray>::New();
+  a->SetName(name);
+  a->SetNumberOfValues(static_cast<vtkIdType>(values.size()));
+  for (std::size_t i = 0; i < values.size(); ++i)
+  {
+    a->SetValue(static_cast<vtkIdType>(i), values[i]);
+  }
+  return a;
+}
+
+namespace
+{
+// An empty array of the VTK class the core's type is written with.
+vtkSmartPointer<vtkDataArray> NewArray(bridge::ArrayType type)
+{
+  static_assert(sizeof(vtkIdType) == 8, "64-bit output arrays are written as vtkIdType");
+  switch (type)
+  {
+    case bridge::ArrayType::U8:
+      return vtkSmartPointer<vtkUnsignedCharArray>::New();
+    case bridge::ArrayType::I32:
+      return vtkSmartPointer<vtkIntArray>::New();
+    case bridge::ArrayType::U32:
+      return vtkSmartPointer<vtkTypeUInt32Array>::New();
+    case bridge::ArrayType::I64:
+      return vtkSmartPointer<vtkIdTypeArray>::New();
+    case bridge::ArrayType::F32:
+      return vtkSmartPointer<vtkFloatArray>::New();
+    default:
+      return vtkSmartPointer<vtkDoubleArray>::New();
+  }
+}
+} // namespace
+
+void AddOutputArrays(const bridge::OutputArrays& arrays, vtkDataSet* output)
+{
+  for (std::size_t i = 0; i < arrays.len(); ++i)
+  {
+    const bridge::OutputArrayInfo info = arrays.info(i);
+    const rust::Slice<const std::uint8_t> bytes = arrays.bytes(i);
+    vtkSmartPointer<vtkDataArray> array = NewArray(info.value_type);
+    const std::string name(info.name);
+    array->SetName(name.c_str());
+    array->SetNumberOfComponents(static_cast<int>(info.components));
+    array->SetNumberOfTuples(
+      static_cast<vtkIdType>(bytes.size() / (array->GetDataTypeSize() * info.components)));
+    if (!bytes.empty())
+    {
+      std::memcpy(array->GetVoidPointer(0), bytes.data(), bytes.size());
+    }
+    vtkDataSetAttributes* attributes = nullptr;
+    switch (info.association)
+    {
+      case bridge::ArrayAssociation::Point:
+        attributes = output->GetPointData();
+        break;
+      case bridge::ArrayAssociation::Cell:
+        attributes = output->GetCellData();
+        break;
+      default:
+        output->GetFieldData()->AddArray(array);
+        continue;
+    }
+    attributes->AddArray(array);
+    if (info.active_scalars)
+    {
+      attributes->SetActiveScalars(name.c_str());
+    }
+  }
+}
+
+//------------------------------------------------------------------------------
+void MeshToUnstructuredGrid(
+  bridge::Mesh& mesh, vtkImageData* input, const char* errorName, vtkUnstructuredGrid* output)
+{
+  const rust::Slice<const std::size_t> pointIds = mesh.point_ids();
+  const rust::Slice<const std::uint32_t> tets = mesh.tets();
+  const rust::Slice<const std::uint8_t> levels = mesh.levels();
+  const rust::Slice<const float> errors = mesh.errors();
+  const vtkIdType numPoints = static_cast<vtkIdType>(pointIds.size());
+  const vtkIdType numTets = static_cast<vtkIdType>(tets.size() / 4);
+
+  const ImageGeometry image(input);
+  const int* extent = image.Extent;
+  const int* dims = image.Dims;
+  const double* origin = image.Origin;
+  const double* spacing = image.Spacing;
+
+  // Points at the exact input sample positions (the formula vtkImageData uses for its bounds),
+  // and the input ids to copy point data from.
+  vtkNew<vtkPoints> points;
+  points->SetDataTypeToDouble();
+  points->SetNumberOfPoints(numPoints);
+  double* xyz = vtkDoubleArray::SafeDownCast(points->GetData())->GetPointer(0);
+  vtkNew<vtkIdList> inputIds;
+  inputIds->SetNumberOfIds(numPoints);
+  const std::size_t nx = static_cast<std::size_t>(dims[0]);
+  const std::size_t nxy = nx * static_cast<std::size_t>(dims[1]);
+  for (vtkIdType i = 0; i < numPoints; ++i)
+  {
+    const std::size_t id = pointIds[i];
+    const std::size_t ijk[3] = { id % nx, (id % nxy) / nx, id / nxy };
+    for (int axis = 0; axis < 3; ++axis)
+    {
+      xyz[3 * i + axis] =
+        origin[axis] + (extent[2 * axis] + static_cast<double>(ijk[axis])) * spacing[axis];
+    }
+    inputIds->SetId(i, static_cast<vtkIdType>(id));
+  }
+  output->SetPoints(points);
+
+  // Every input point-data array, tuple by tuple from the matching input point.
+  vtkPointData* inPD = input->GetPointData();
+  vtkPointData* outPD = output->GetPointData();
+  outPD->CopyAllocate(inPD, numPoints);
+  outPD->CopyData(inPD, inputIds, vtkIdType(0));
+
+  vtkSmartPointer<vtkCellArray> cells = FixedSizeCells(4, tets, numPoints);
+  // The connectivity is copied: free the core's copy before more arrays are allocated.
+  mesh.release_tets();
+  output->SetCells(VTK_TETRA, cells);
+
+  output->GetCellData()->AddArray(
+    NamedArray<vtkUnsignedCharArray>("Level", numTets, levels.data()));
+  output->GetCellData()->AddArray(
+    NamedArray<vtkFloatArray>(errorName, numTets, errors.data()));
+}
+
+} // namespace vtkDiamonds

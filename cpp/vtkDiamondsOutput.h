@@ -1,0 +1,73 @@
+// Internal to the Diamonds VTK module (not installed, not wrapped): the core's results as VTK data
+// (points, cells, named arrays, tetrahedral meshes over the input image).
+#ifndef vtkDiamondsOutput_h
+#define vtkDiamondsOutput_h
+
+#include "vtkDiamondsBridge.h"
+
+#include "vtkSmartPointer.h"
+#include "vtkType.h"
+
+#include <cstdint>
+#include <cstring>
+#include <string>
+#include <vector>
+
+class vtkCellArray;
+class vtkDataSet;
+class vtkImageData;
+class vtkPoints;
+class vtkStringArray;
+class vtkUnstructuredGrid;
+
+namespace vtkDiamonds
+{
+// Fills `output` with the tetrahedra of `mesh` over `input`: points at the sample positions, every
+// input point array passed through, cell data "Level" and the mesh's per-tetrahedron errors named
+// `errorName` ("ApproximationError" for Adaptive Tetrahedra, "IsosurfaceError" for carriers). The mesh's
+// tetrahedra are released as soon as they are copied (lower peak memory).
+void MeshToUnstructuredGrid(
+  bridge::Mesh& mesh, vtkImageData* input, const char* errorName, vtkUnstructuredGrid* output);
+
+// A named array of `n` values copied from `values`.
+template <typename ArrayT>
+vtkSmartPointer<ArrayT> NamedArray(const char* name, vtkIdType n, const void* values)
+{
+  auto array = vtkSmartPointer<ArrayT>::New();
+  array->SetName(name);
+  array->SetNumberOfValues(n);
+  if (n > 0)
+  {
+    std::memcpy(array->GetPointer(0), values, n * sizeof(typename ArrayT::ValueType));
+  }
+  return array;
+}
+
+// Cells of `size` points each from `ids` (point indices below `numPoints`, `size` per cell): 32-bit
+// connectivity when the point count allows (half the memory), else 64-bit.
+vtkSmartPointer<vtkCellArray> FixedSizeCells(
+  int size, rust::Slice<const std::uint32_t> ids, vtkIdType numPoints);
+
+// Points from three coordinates per point.
+vtkSmartPointer<vtkPoints> PointsFrom(rust::Slice<const double> xyz);
+
+// Polygons from core offsets (one per polygon plus one, or empty for none) and connectivity.
+vtkSmartPointer<vtkCellArray> CellsFrom(
+  rust::Slice<const std::uint32_t> offsets, rust::Slice<const std::uint32_t> connectivity);
+
+// A named string array.
+vtkSmartPointer<vtkStringArray> Strings(const char* name, const std::vector<std::string>& values);
+
+// Adds the core's named arrays to the point, cell or field data of `output`, in order, and makes
+// the arrays marked so the active scalars.
+void AddOutputArrays(const bridge::OutputArrays& arrays, vtkDataSet* output);
+
+// A named one-value array (field data).
+template <typename ArrayT>
+vtkSmartPointer<ArrayT> OneValue(const char* name, typename ArrayT::ValueType value)
+{
+  return NamedArray<ArrayT>(name, 1, &value);
+}
+} // namespace vtkDiamonds
+
+#endif
