@@ -30,7 +30,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
-#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -53,6 +52,12 @@ class vtkAdaptiveIsosurface::vtkInternals
 public:
   // The extraction reads the samples again: keep them with the hierarchy.
   vtkDiamonds::HierarchyCache Cache{ vtkDiamonds::HierarchyCache::Use::Isosurfaces };
+
+  // The isovalues, once they, Tolerance and MaximumNumberOfTriangles are checked.
+  std::optional<std::vector<double>> CheckParameters(vtkAdaptiveIsosurface* self);
+  // The surface as points, triangles and, when asked for, normals and scalars (of `array`'s type).
+  void FillSurface(vtkAdaptiveIsosurface* self, const bridge::Surface& surface,
+    vtkDataArray* array, vtkPolyData* output);
 };
 
 //------------------------------------------------------------------------------
@@ -160,6 +165,82 @@ void vtkAdaptiveIsosurface::ReleaseHierarchy()
 }
 
 //------------------------------------------------------------------------------
+std::optional<std::vector<double>> vtkAdaptiveIsosurface::vtkInternals::CheckParameters(
+  vtkAdaptiveIsosurface* self)
+{
+  vtkContourValues* contours = self->ContourValues;
+  const int numValues = static_cast<int>(contours->GetNumberOfContours());
+  if (numValues < 1)
+  {
+    vtkErrorWithObjectMacro(
+      self, << "No isovalue: add at least one value to Isosurfaces (SetValue).");
+    return std::nullopt;
+  }
+  std::vector<double> isovalues(contours->GetValues(), contours->GetValues() + numValues);
+  for (int i = 0; i < numValues; ++i)
+  {
+    if (!std::isfinite(isovalues[i]))
+    {
+      vtkErrorWithObjectMacro(self,
+        << "Isosurfaces value " << i << " is " << isovalues[i]
+        << "; every isovalue must be a finite number.");
+      return std::nullopt;
+    }
+  }
+  if (!std::isfinite(self->Tolerance) || self->Tolerance < 0.0)
+  {
+    vtkErrorWithObjectMacro(self,
+      << "Tolerance must be a finite number >= 0 (got " << self->Tolerance
+      << "); it is in world units, 0 gives the full-resolution surface.");
+    return std::nullopt;
+  }
+  if (self->MaximumNumberOfTriangles < 0)
+  {
+    vtkErrorWithObjectMacro(self,
+      << "MaximumNumberOfTriangles must be >= 0 (got " << self->MaximumNumberOfTriangles
+      << "); 0 means no limit.");
+    return std::nullopt;
+  }
+  return isovalues;
+}
+
+//------------------------------------------------------------------------------
+void vtkAdaptiveIsosurface::vtkInternals::FillSurface(vtkAdaptiveIsosurface* self,
+  const bridge::Surface& surface, vtkDataArray* array, vtkPolyData* output)
+{
+  const rust::Slice<const std::uint32_t> triangles = surface.triangles();
+  const rust::Slice<const double> values = surface.values();
+  const vtkIdType numPoints = static_cast<vtkIdType>(values.size());
+  vtkSmartPointer<vtkPoints> points = vtkDiamonds::PointsFrom(surface.points());
+  output->SetPoints(points);
+  output->SetPolys(FixedSizeCells(3, triangles, numPoints));
+  if (self->ComputeNormals)
+  {
+    const rust::Slice<const float> normals = surface.normals();
+    vtkNew<vtkFloatArray> normalArray;
+    normalArray->SetName("Normals");
+    normalArray->SetNumberOfComponents(3);
+    normalArray->SetNumberOfTuples(numPoints);
+    std::copy(normals.begin(), normals.end(), normalArray->GetPointer(0));
+    output->GetPointData()->SetNormals(normalArray);
+  }
+  if (self->ComputeScalars)
+  {
+    // Of the input array's type, as vtkFlyingEdges3D does.
+    vtkSmartPointer<vtkDataArray> scalars =
+      vtkSmartPointer<vtkDataArray>::Take(vtkDataArray::CreateDataArray(array->GetDataType()));
+    scalars->SetName(array->GetName());
+    scalars->SetNumberOfComponents(1);
+    scalars->SetNumberOfTuples(numPoints);
+    for (vtkIdType i = 0; i < numPoints; ++i)
+    {
+      scalars->SetComponent(i, 0, values[i]);
+    }
+    output->GetPointData()->SetScalars(scalars);
+  }
+}
+
+//------------------------------------------------------------------------------
 int vtkAdaptiveIsosurface::RequestData(
   vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
 {
@@ -176,38 +257,12 @@ int vtkAdaptiveIsosurface::RequestData(
   carrier->Initialize();
   this->RelativeTolerance = 0.0;
 
-  // ---- Parameters.
-  const int numValues = static_cast<int>(this->ContourValues->GetNumberOfContours());
-  if (numValues < 1)
+  // ---- Parameters, geometry, the array to contour.
+  const std::optional<std::vector<double>> isovalues = this->Internals->CheckParameters(this);
+  if (!isovalues)
   {
-    vtkErrorMacro(<< "No isovalue: add at least one value to Isosurfaces (SetValue).");
     return 0;
   }
-  std::vector<double> isovalues(this->ContourValues->GetValues(),
-    this->ContourValues->GetValues() + numValues);
-  for (int i = 0; i < numValues; ++i)
-  {
-    if (!std::isfinite(isovalues[i]))
-    {
-      vtkErrorMacro(<< "Isosurfaces value " << i << " is " << isovalues[i]
-                    << "; every isovalue must be a finite number.");
-      return 0;
-    }
-  }
-  if (!std::isfinite(this->Tolerance) || this->Tolerance < 0.0)
-  {
-    vtkErrorMacro(<< "Tolerance must be a finite number >= 0 (got " << this->Tolerance
-                  << "); it is in world units, 0 gives the full-resolution surface.");
-    return 0;
-  }
-  if (this->MaximumNumberOfTriangles < 0)
-  {
-    vtkErrorMacro(<< "MaximumNumberOfTriangles must be >= 0 (got "
-                  << this->MaximumNumberOfTriangles << "); 0 means no limit.");
-    return 0;
-  }
-
-  // ---- Geometry.
   if (input->GetNumberOfPoints() == 0)
   {
     // Not an error: e.g. an empty piece when a parallel run has more ranks than image slabs.
@@ -223,8 +278,6 @@ int vtkAdaptiveIsosurface::RequestData(
   const double diagonal = std::sqrt(std::pow(wholeBounds[1] - wholeBounds[0], 2) +
     std::pow(wholeBounds[3] - wholeBounds[2], 2) + std::pow(wholeBounds[5] - wholeBounds[4], 2));
   const double relativeTolerance = diagonal > 0.0 ? this->Tolerance / diagonal : 0.0;
-
-  // ---- The array to contour.
   int association = vtkDataObject::FIELD_ASSOCIATION_POINTS;
   vtkDataArray* selected = this->GetInputArrayToProcess(0, inputVector, association);
   vtkDataArray* array = vtkDiamonds::SelectPointArray(this, Text, input, selected, association);
@@ -232,7 +285,6 @@ int vtkAdaptiveIsosurface::RequestData(
   {
     return 0;
   }
-  const std::string name = array->GetName() ? array->GetName() : "";
 
   // ---- Hierarchy: built only when the array or the geometry changed.
   vtkDiamonds::HierarchyCache& cache = this->Internals->Cache;
@@ -254,45 +306,28 @@ int vtkAdaptiveIsosurface::RequestData(
     return 1;
   }
 
-  // ---- Extraction.
+  // ---- Extraction. The cache's isosurface state belongs to its hierarchy (recreated with every
+  // build): the adaptive mesh of the previous execution is reused when only ComputeNormals,
+  // ComputeScalars or GenerateCarrierTetrahedra changed; otherwise it is refined from the root.
   bridge::IsoSpec spec;
   spec.tolerance = this->Tolerance;
   spec.max_triangles = static_cast<std::size_t>(this->MaximumNumberOfTriangles);
-  spec.use_region_of_interest = false;
-  std::copy(this->RegionOfInterest, this->RegionOfInterest + 6, spec.region_of_interest.begin());
   spec.compute_normals = this->ComputeNormals != 0;
   spec.carrier_tetrahedra = this->GenerateCarrierTetrahedra != 0;
-  if (this->UseRegionOfInterest)
+  if (!vtkDiamonds::SetRegionOfInterest(
+        this, this->UseRegionOfInterest, this->RegionOfInterest, inputVector, input, spec))
   {
-    bool touchesPiece = false;
-    if (!vtkDiamonds::CheckRegionOfInterest(
-          this, this->RegionOfInterest, inputVector, input, touchesPiece))
-    {
-      return 0;
-    }
-    if (touchesPiece)
-    {
-      spec.use_region_of_interest = true;
-    }
-    else
-    {
-      // The region misses this piece: no diamond here is of interest, i.e. the coarsest surface.
-      spec.tolerance = std::numeric_limits<double>::max();
-    }
+    return 0;
   }
-
-  // The cache's isosurface state belongs to its hierarchy (recreated with every build): the
-  // adaptive mesh of the previous execution is reused when only ComputeNormals, ComputeScalars or
-  // GenerateCarrierTetrahedra changed; otherwise the mesh is refined from the root.
   std::optional<rust::Box<bridge::Surface>> surface;
   try
   {
     surface.emplace(cache.GetHierarchy().isosurface(cache.GetIsoState(), cache.GetSampleType(),
-      cache.GetSamples(), rust::Slice<const double>(isovalues.data(), isovalues.size()), spec));
+      cache.GetSamples(), rust::Slice<const double>(isovalues->data(), isovalues->size()), spec));
   }
   catch (const rust::Error& e)
   {
-    vtkErrorMacro(<< "Adaptive Isosurface extraction failed for array \"" << name
+    vtkErrorMacro(<< "Adaptive Isosurface extraction failed for array \"" << array->GetName()
                   << "\": " << e.what());
     return 0;
   }
@@ -307,53 +342,12 @@ int vtkAdaptiveIsosurface::RequestData(
   }
 
   // ---- Output port 0: the surface.
-  const rust::Slice<const double> xyz = (*surface)->points();
-  const rust::Slice<const float> normals = (*surface)->normals();
-  const rust::Slice<const std::uint32_t> triangles = (*surface)->triangles();
-  const rust::Slice<const double> values = (*surface)->values();
-  const double errorBound = (*surface)->error_bound();
-  const vtkIdType numPoints = static_cast<vtkIdType>(values.size());
-  const vtkIdType numTriangles = static_cast<vtkIdType>(triangles.size() / 3);
-
-  vtkNew<vtkDoubleArray> pointArray;
-  pointArray->SetNumberOfComponents(3);
-  pointArray->SetNumberOfTuples(numPoints);
-  std::copy(xyz.begin(), xyz.end(), pointArray->GetPointer(0));
-  vtkNew<vtkPoints> points;
-  points->SetData(pointArray);
-  output->SetPoints(points);
-
-  output->SetPolys(FixedSizeCells(3, triangles, numPoints));
-
-  if (this->ComputeNormals)
-  {
-    vtkNew<vtkFloatArray> normalArray;
-    normalArray->SetName("Normals");
-    normalArray->SetNumberOfComponents(3);
-    normalArray->SetNumberOfTuples(numPoints);
-    std::copy(normals.begin(), normals.end(), normalArray->GetPointer(0));
-    output->GetPointData()->SetNormals(normalArray);
-  }
-  if (this->ComputeScalars)
-  {
-    // Of the input array's type, as vtkFlyingEdges3D does.
-    vtkSmartPointer<vtkDataArray> scalars =
-      vtkSmartPointer<vtkDataArray>::Take(vtkDataArray::CreateDataArray(array->GetDataType()));
-    scalars->SetName(name.c_str());
-    scalars->SetNumberOfComponents(1);
-    scalars->SetNumberOfTuples(numPoints);
-    for (vtkIdType i = 0; i < numPoints; ++i)
-    {
-      scalars->SetComponent(i, 0, values[i]);
-    }
-    output->GetPointData()->SetScalars(scalars);
-  }
-
+  this->Internals->FillSurface(this, **surface, array, output);
   this->RelativeTolerance = relativeTolerance;
   vtkFieldData* fieldData = output->GetFieldData();
   fieldData->PassData(input->GetFieldData());
-  fieldData->AddArray(OneValue<vtkDoubleArray>("ErrorBound", errorBound));
-  fieldData->AddArray(OneValue<vtkIdTypeArray>("NumberOfTriangles", numTriangles));
+  fieldData->AddArray(OneValue<vtkDoubleArray>("ErrorBound", (*surface)->error_bound()));
+  fieldData->AddArray(OneValue<vtkIdTypeArray>("NumberOfTriangles", output->GetNumberOfCells()));
   fieldData->AddArray(OneValue<vtkDoubleArray>("Tolerance", this->Tolerance));
   fieldData->AddArray(OneValue<vtkDoubleArray>("RelativeTolerance", relativeTolerance));
 

@@ -22,7 +22,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
-#include <limits>
 #include <optional>
 
 vtkStandardNewMacro(vtkAdaptiveTetrahedra);
@@ -165,27 +164,11 @@ int vtkAdaptiveTetrahedra::RequestData(
   bridge::QuerySpec query;
   query.tolerance = this->Tolerance;
   query.max_tetrahedra = static_cast<std::size_t>(this->MaximumNumberOfTetrahedra);
-  query.use_region_of_interest = false;
-  std::copy(this->RegionOfInterest, this->RegionOfInterest + 6, query.region_of_interest.begin());
-  if (this->UseRegionOfInterest)
+  if (!vtkDiamonds::SetRegionOfInterest(
+        this, this->UseRegionOfInterest, this->RegionOfInterest, inputVector, input, query))
   {
-    bool touchesPiece = false;
-    if (!vtkDiamonds::CheckRegionOfInterest(
-          this, this->RegionOfInterest, inputVector, input, touchesPiece))
-    {
-      return 0;
-    }
-    if (touchesPiece)
-    {
-      query.use_region_of_interest = true;
-    }
-    else
-    {
-      // The region misses this piece: no diamond here is of interest, i.e. the coarsest mesh.
-      query.tolerance = std::numeric_limits<double>::max();
-    }
+    return 0;
   }
-
   std::optional<rust::Box<bridge::Mesh>> mesh;
   try
   {

@@ -4,6 +4,9 @@
 #ifndef vtkDiamondsImageGeometry_h
 #define vtkDiamondsImageGeometry_h
 
+#include <algorithm>
+#include <limits>
+
 class vtkAlgorithm;
 class vtkImageData;
 class vtkInformationVector;
@@ -35,6 +38,36 @@ void WholeBounds(vtkInformationVector** inputVector, vtkImageData* input, double
 // returns false otherwise. `touchesPiece` tells whether it touches this process's piece.
 bool CheckRegionOfInterest(vtkAlgorithm* filter, const double roi[6],
   vtkInformationVector** inputVector, vtkImageData* input, bool& touchesPiece);
+
+// Sets the region of interest of a query (`spec`: bridge::QuerySpec or bridge::IsoSpec) from the
+// filter's UseRegionOfInterest and RegionOfInterest: when used, `roi` is checked (an error is reported
+// on `filter` and false returned otherwise), and a region that misses this piece makes no diamond
+// here of interest (tolerance infinite: the coarsest mesh or surface).
+template <typename Spec>
+bool SetRegionOfInterest(vtkAlgorithm* filter, int use, const double roi[6],
+  vtkInformationVector** inputVector, vtkImageData* input, Spec& spec)
+{
+  spec.use_region_of_interest = false;
+  std::copy(roi, roi + 6, spec.region_of_interest.begin());
+  bool touchesPiece = false;
+  if (!use)
+  {
+    return true;
+  }
+  if (!CheckRegionOfInterest(filter, roi, inputVector, input, touchesPiece))
+  {
+    return false;
+  }
+  if (touchesPiece)
+  {
+    spec.use_region_of_interest = true;
+  }
+  else
+  {
+    spec.tolerance = std::numeric_limits<double>::max();
+  }
+  return true;
+}
 
 // Asks the filter's input for no ghost levels: each piece is processed over its own extent (a ghost
 // layer would be processed twice, once by each neighbouring piece; pieces of an image share their
