@@ -53,7 +53,7 @@
  * execution reuses it and skips the refinement (GetNumberOfReusedMeshes() counts those); a change
  * of the contour values, Tolerance, the budget or the region refines from the root, which was
  * measured never slower than starting from the previous mesh (Gregorski §6.1; see
- * Hierarchy::isosurface_from in the core).
+ * IsoState::extract in the core, diamonds::isosurface::state).
  *
  * Options:
  * - contour values (SetValue / SetNumberOfContours / GenerateValues, as vtkFlyingEdges3D): one
@@ -74,7 +74,7 @@
  *   value at every point is the point's isovalue.
  * - GenerateCarrierTetrahedra (default off): fills output port 1 with the tetrahedra of the adaptive
  *   mesh that carry the surface, as a vtkUnstructuredGrid like vtkAdaptiveTetrahedra's output
- *   (VTK_TETRA, input point data passed through, cell data "Level" and "IsosurfaceError" — the
+ *   (VTK_TETRA, input point data passed through, cell data "BisectionDepth" and "IsosurfaceError" — the
  *   isosurface error of the tetrahedron's diamond in world units —, field data "NumberOfTetrahedra"
  *   and "MaximumError", the largest IsosurfaceError). Port 1 is an empty vtkUnstructuredGrid
  *   otherwise.

@@ -51,8 +51,8 @@
  * re-runs only the query; GetNumberOfHierarchyBuilds() counts the builds.
  *
  * Output: points in double precision at the input sample positions; cells VTK_TETRA, positively
- * oriented; all input point data passed through; cell data "Level" (unsigned char, bisection
- * depth, 0 = the six root tetrahedra; Gregorski's level is Level/3, the phase Level%3) and
+ * oriented; all input point data passed through; cell data "BisectionDepth" (unsigned char, 0 =
+ * the six root tetrahedra; Gregorski's level is BisectionDepth / 3, the phase BisectionDepth % 3) and
  * "ApproximationError" (float, the error bound of the tetrahedron's diamond, in data units); field
  * data "Tolerance", "NumberOfTetrahedra" and "MaximumError" (the largest ApproximationError),
  * next to the input's field data.

@@ -154,7 +154,7 @@ void MeshToUnstructuredGrid(
 {
   const rust::Slice<const std::size_t> pointIds = mesh.point_ids();
   const rust::Slice<const std::uint32_t> tets = mesh.tets();
-  const rust::Slice<const std::uint8_t> levels = mesh.levels();
+  const rust::Slice<const std::uint8_t> levels = mesh.depths();
   const rust::Slice<const float> errors = mesh.errors();
   const vtkIdType numPoints = static_cast<vtkIdType>(pointIds.size());
   const vtkIdType numTets = static_cast<vtkIdType>(tets.size() / 4);
@@ -200,7 +200,7 @@ void MeshToUnstructuredGrid(
   output->SetCells(VTK_TETRA, cells);
 
   output->GetCellData()->AddArray(
-    NamedArray<vtkUnsignedCharArray>("Level", numTets, levels.data()));
+    NamedArray<vtkUnsignedCharArray>("BisectionDepth", numTets, levels.data()));
   output->GetCellData()->AddArray(
     NamedArray<vtkFloatArray>(errorName, numTets, errors.data()));
 }

@@ -23,7 +23,7 @@ class vtkUnstructuredGrid;
 namespace vtkDiamonds
 {
 // Fills `output` with the tetrahedra of `mesh` over `input`: points at the sample positions, every
-// input point array passed through, cell data "Level" and the mesh's per-tetrahedron errors named
+// input point array passed through, cell data "BisectionDepth" and the mesh's per-tetrahedron errors named
 // `errorName` ("ApproximationError" for Adaptive Tetrahedra, "IsosurfaceError" for carriers). The mesh's
 // tetrahedra are released as soon as they are copied (lower peak memory).
 void MeshToUnstructuredGrid(

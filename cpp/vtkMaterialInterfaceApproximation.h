@@ -49,7 +49,7 @@
  *   "<field> (<M>)" per field and material (M's own value at vertices of M, a ghost value elsewhere)
  *   and "IsGhost (<M>)" (unsigned char, 1 where the values of M are ghost values, i.e. Material != M).
  * - Cell data: "InterfaceError" (world units), "FieldError" (data units), "Materials" (bit mask of the
- *   materials present), "NumberOfMaterials", "Level" (bisection depth).
+ *   materials present), "NumberOfMaterials", "BisectionDepth" (bisection depth).
  * - Field data: "InterfaceTolerance", "FieldTolerance", "MaximumInterfaceError", "MaximumFieldError",
  *   "NumberOfTetrahedra", "InterfaceTetrahedra" (after the interface pass alone),
  *   "UseGhostValues", and the string arrays "MaterialNames", "InterfaceNames", "FieldNames".

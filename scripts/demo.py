@@ -5,9 +5,9 @@
 Generates the Wavelet source at 65^3 points (embedded: no data file needed), runs Adaptive
 Tetrahedra at Tolerance 8 (about 3 % of the data range), compares the tetrahedron count with
 ParaView's Tetrahedralize, and writes
-    out/demo.vtu   the adaptive mesh (all input point data + cell data Level, ApproximationError)
+    out/demo.vtu   the adaptive mesh (all input point data + cell data BisectionDepth, ApproximationError)
     out/demo.png   a screenshot: the mesh cut open by a crinkle clip, surface with edges, coloured
-                   by Level (bisection depth), so the refinement inside the volume shows.
+                   by BisectionDepth, so the refinement inside the volume shows.
 The plugin is taken from PV_PLUGIN_PATH, or else from build/ (or build/install/) of this checkout.
 """
 
@@ -102,15 +102,15 @@ def main():
     display = simple.Show(clip, view)
     display.SetRepresentationType("Surface With Edges")
     display.EdgeColor = [0.15, 0.15, 0.15]
-    simple.ColorBy(display, ("CELLS", "Level"))
-    lut = simple.GetColorTransferFunction("Level")
+    simple.ColorBy(display, ("CELLS", "BisectionDepth"))
+    lut = simple.GetColorTransferFunction("BisectionDepth")
     lut.ApplyPreset("Viridis (matplotlib)", True)
-    levels = mesh.GetCellData().GetArray("Level").GetRange()
+    levels = mesh.GetCellData().GetArray("BisectionDepth").GetRange()
     lut.RescaleTransferFunction(levels[0], levels[1])
     lut.Discretize = 1
     lut.NumberOfTableValues = max(1, int(levels[1] - levels[0]) + 1)
     bar = simple.GetScalarBar(lut, view)
-    bar.Title = "Level (bisection depth)"
+    bar.Title = "Bisection depth"
     bar.ComponentTitle = ""
     bar.AutomaticLabelFormat = 0
     bar.LabelFormat = "%.0f"

@@ -125,7 +125,7 @@ int main()
   Check(sameBounds, "output bounds equal input bounds");
   Check(PassThroughEqual(image, out, "RTData"), "RTData passed through (equal at every point)");
   Check(PassThroughEqual(image, out, "Twice"), "Twice passed through (equal at every point)");
-  Check(out->GetCellData()->GetArray("Level") != nullptr, "cell data Level");
+  Check(out->GetCellData()->GetArray("BisectionDepth") != nullptr, "cell data BisectionDepth");
   vtkDataArray* err = out->GetCellData()->GetArray("ApproximationError");
   Check(err != nullptr && err->GetRange()[1] <= 4.0, "cell data ApproximationError <= Tolerance");
   vtkDataArray* count = out->GetFieldData()->GetArray("NumberOfTetrahedra");

@@ -274,7 +274,7 @@ if ctets is not None and len(ctets):
     V = cp[ctets]
     vol = np.linalg.det(V[:, 1:] - V[:, :1]) / 6.0
     dc.check((vol > 0).all(), "carrier tetrahedra positively oriented")
-    dc.check(carrier.GetCellData().GetArray("Level") is not None and carrier.GetCellData().GetArray("IsosurfaceError") is not None, "carrier cell data Level and IsosurfaceError")
+    dc.check(carrier.GetCellData().GetArray("BisectionDepth") is not None and carrier.GetCellData().GetArray("IsosurfaceError") is not None, "carrier cell data BisectionDepth and IsosurfaceError")
     dc.check(dc.field_value(carrier, "NumberOfTetrahedra") == carrier.GetNumberOfCells(), "carrier field data NumberOfTetrahedra")
     ie = vtk_to_numpy(carrier.GetCellData().GetArray("IsosurfaceError"))
     dc.check(ie.max() == dc.field_value(surface, "ErrorBound") and ie.max() <= carrier_filter.Tolerance, f"carrier IsosurfaceError: largest {ie.max()} = the surface's ErrorBound, within Tolerance {carrier_filter.Tolerance}")

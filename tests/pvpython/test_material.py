@@ -225,7 +225,7 @@ dc.check(fe.max() <= 3.0 * (1 + 1e-6), f"FieldError <= 3 on every tetrahedron (m
 mask = get_array(tets_out, "Materials", True).astype(np.int64)
 count = get_array(tets_out, "NumberOfMaterials", True)
 dc.check((np.array([bin(int(v)).count("1") for v in mask]) == count).all() and (mask > 0).all() and (mask < 8).all(), "Materials bit masks and NumberOfMaterials agree")
-dc.check(get_array(tets_out, "Level", True) is not None, "cell data Level")
+dc.check(get_array(tets_out, "BisectionDepth", True) is not None, "cell data BisectionDepth")
 for name in ["Material", "SignedDistance Void|Block", "SignedDistance Projectile", "Density", "Density (Block)", "IsGhost (Projectile)"]:
     dc.check(tets_out.GetPointData().GetArray(name) is not None, f"point array '{name}'")
 check_tets(tets_out, BOX, "impact tetrahedra")

@@ -42,14 +42,14 @@ dc.check(
 )
 
 # ---- Cell and field data.
-level = mesh.GetCellData().GetArray("Level")
+level = mesh.GetCellData().GetArray("BisectionDepth")
 err = mesh.GetCellData().GetArray("ApproximationError")
-dc.check(level is not None and level.GetDataTypeAsString() == "unsigned char", "cell data Level (unsigned char)")
+dc.check(level is not None and level.GetDataTypeAsString() == "unsigned char", "cell data BisectionDepth (unsigned char)")
 dc.check(err is not None and err.GetDataTypeAsString() == "float", "cell data ApproximationError (float)")
 lv, ev = vtk_to_numpy(level), vtk_to_numpy(err)
-dc.check(len(lv) == n and len(ev) == n, "one Level and one ApproximationError per tetrahedron")
+dc.check(len(lv) == n and len(ev) == n, "one BisectionDepth and one ApproximationError per tetrahedron")
 dc.check(ev.min() >= 0 and ev.max() <= 4.0, f"0 <= ApproximationError <= Tolerance (max {ev.max():g})")
-dc.check(lv.max() <= 3 * 5 + 2, f"Level within the depth of a 33^3 lattice (max {lv.max()})")
+dc.check(lv.max() <= 3 * 5 + 2, f"BisectionDepth within the depth of a 33^3 lattice (max {lv.max()})")
 dc.check(dc.field_value(mesh, "Tolerance") == 4.0, "field data Tolerance == 4")
 dc.check(dc.field_value(mesh, "NumberOfTetrahedra") == n, "field data NumberOfTetrahedra == number of cells")
 max_error = dc.field_value(mesh, "MaximumError")
@@ -115,7 +115,7 @@ centers = corners.mean(1)
 volumes = np.abs(np.linalg.det(corners[:, 1:] - corners[:, :1])) / 6.0
 inside = np.all((centers >= roi[0::2]) & (centers <= roi[1::2]), axis=1)
 far = np.all(centers > 4.0, axis=1)  # the octant opposite the region
-levels = vtk_to_numpy(part.GetCellData().GetArray("Level"))
+levels = vtk_to_numpy(part.GetCellData().GetArray("BisectionDepth"))
 print(
     f"ROI: {inside.sum()} tetrahedra inside (mean volume {volumes[inside].mean():.3g}), "
     f"{(~inside).sum()} outside (mean volume {volumes[~inside].mean():.3g}); "

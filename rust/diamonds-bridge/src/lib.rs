@@ -239,7 +239,7 @@ mod ffi {
         /// Four point indices per tetrahedron, positively oriented (VTK_TETRA order).
         fn tets(self: &Mesh) -> &[u32];
         /// Bisection depth of each tetrahedron.
-        fn levels(self: &Mesh) -> &[u8];
+        fn depths(self: &Mesh) -> &[u8];
         /// The error of each tetrahedron's diamond: for a `query` mesh its approximation error
         /// bound, in data units; for carrier tetrahedra its isosurface error, in world units.
         fn errors(self: &Mesh) -> &[f32];
@@ -653,8 +653,8 @@ impl Mesh {
         self.0.tets.as_flattened()
     }
 
-    fn levels(&self) -> &[u8] {
-        &self.0.levels
+    fn depths(&self) -> &[u8] {
+        &self.0.depths
     }
 
     fn errors(&self) -> &[f32] {
@@ -799,7 +799,7 @@ mod tests {
         let mesh = h.query(&query).unwrap();
         let n = mesh.tets().len() / 4;
         assert!(n > 0);
-        assert_eq!(mesh.levels().len(), n);
+        assert_eq!(mesh.depths().len(), n);
         assert_eq!(mesh.errors().len(), n);
         assert_eq!(mesh.max_error(), 0.0);
         let ids = mesh.point_ids();
@@ -827,10 +827,10 @@ mod tests {
     #[test]
     fn a_core_violation_becomes_an_error() {
         assert_eq!(check_core(Ok(())), Ok(()));
-        let e = check_core(Err("3 tetrahedra but 2 levels".into())).unwrap_err();
+        let e = check_core(Err("3 tetrahedra but 2 depths".into())).unwrap_err();
         assert_eq!(
             e,
-            "internal error in the Diamonds core: 3 tetrahedra but 2 levels"
+            "internal error in the Diamonds core: 3 tetrahedra but 2 depths"
         );
     }
 

@@ -583,7 +583,7 @@ mod tests {
             fields: 1,
             points: vec![[0.0; 3]; 4],
             tets: vec![[0, 1, 2, 3]],
-            levels: vec![0],
+            depths: vec![0],
             point_material: vec![0, 0, 1, 1],
             pairs: vec![(0, 1)],
             interface_distance: vec![vec![0.0; 4]],

@@ -74,7 +74,7 @@ fn check_tolerance_value(tolerance: f64) -> Result<()> {
 }
 
 /// The data of the output mesh: `point_arrays` (input point data, one tuple per input point) at the
-/// mesh points, cell data `Level` and `ApproximationError`, field data `Tolerance`,
+/// mesh points, cell data `BisectionDepth` and `ApproximationError`, field data `Tolerance`,
 /// `NumberOfTetrahedra` and `MaximumError`.
 pub fn mesh_arrays<'a>(
     point_arrays: impl IntoIterator<Item = &'a Array>,
@@ -86,7 +86,7 @@ pub fn mesh_arrays<'a>(
         .map(|a| a.gather(&mesh.point_ids))
         .collect();
     let cell_data = vec![
-        Array::scalars("Level", mesh.levels.clone()),
+        Array::scalars("BisectionDepth", mesh.depths.clone()),
         Array::scalars("ApproximationError", mesh.errors.clone()),
     ];
     let field_data = vec![
@@ -658,7 +658,7 @@ pub fn verify(
             .chunks_exact(4)
             .map(|t| [t[0] as u32, t[1] as u32, t[2] as u32, t[3] as u32])
             .collect(),
-        levels: match cell_values("Level") {
+        depths: match cell_values("BisectionDepth") {
             Some(a) => (0..n_cells).map(|c| a.value(c) as u8).collect(),
             None => vec![0; n_cells],
         },

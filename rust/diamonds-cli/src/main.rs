@@ -29,7 +29,7 @@ enum Command {
     /// Build an adaptive tetrahedral mesh (.vtu) of a volume (.vti or legacy .vtk).
     ///
     /// The output holds VTK_TETRA cells whose points are input samples, every input point-data array
-    /// at those points, cell data Level and ApproximationError, and field data Tolerance,
+    /// at those points, cell data BisectionDepth and ApproximationError, and field data Tolerance,
     /// NumberOfTetrahedra and MaximumError.
     Tetra {
         /// Input image: VTK XML ImageData (.vti) or legacy VTK STRUCTURED_POINTS (.vtk).
@@ -117,7 +117,7 @@ enum Command {
         #[arg(long)]
         scalars: bool,
         /// Also write the tetrahedra that carry the surface to this unstructured grid (.vtu), with the
-        /// point data of `tetra`'s output, cell data Level and IsosurfaceError (the isosurface error
+        /// point data of `tetra`'s output, cell data BisectionDepth and IsosurfaceError (the isosurface error
         /// of each tetrahedron's diamond, world units) and field data NumberOfTetrahedra and
         /// MaximumError (the largest IsosurfaceError).
         #[arg(long, value_name = "MESH")]

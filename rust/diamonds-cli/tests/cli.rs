@@ -66,7 +66,7 @@ fn round_trip(dir: &TempDir, input: &std::path::Path, label: &str) -> Vec<usize>
                 "{label}: tolerance 0 must reproduce the samples"
             );
         }
-        let levels = cell_array(&mesh, "Level");
+        let levels = cell_array(&mesh, "BisectionDepth");
         let errors = cell_array(&mesh, "ApproximationError");
         assert_eq!((levels.data.len(), errors.data.len()), (n, n));
         let largest = (0..n).map(|c| errors.value(c)).fold(0.0, f64::max);

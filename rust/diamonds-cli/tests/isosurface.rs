@@ -360,7 +360,7 @@ fn carrier_tetrahedra_region_of_interest_and_no_normals() {
             "carrier tetrahedron {t:?} misses the surface"
         );
     }
-    assert!(mesh.cell_data.iter().any(|a| a.name == "Level"));
+    assert!(mesh.cell_data.iter().any(|a| a.name == "BisectionDepth"));
     // The isosurface error of each carrier's diamond, world units: within the tolerance, the
     // largest is the surface's ErrorBound; no data-unit ApproximationError.
     let errors = mesh

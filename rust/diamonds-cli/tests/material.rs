@@ -148,7 +148,7 @@ fn impact_case_meets_both_tolerances_with_fewer_tets_than_plain_interpolation() 
         let worst = e.iter().copied().fold(0.0, f64::max);
         assert!(worst <= tol * (1.0 + 1e-6), "{name} {worst} > {tol}");
     }
-    for name in ["Materials", "NumberOfMaterials", "Level"] {
+    for name in ["Materials", "NumberOfMaterials", "BisectionDepth"] {
         assert_eq!(array(&mesh.cell_data, name).tuples(), n_tets, "{name}");
     }
     let point_names = names(&mesh.point_data);

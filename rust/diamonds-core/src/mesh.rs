@@ -19,7 +19,7 @@ pub struct TetMesh {
     pub tets: Vec<[u32; 4]>,
     /// Bisection depth of each tetrahedron (0 = the six base tetrahedra; Gregorski's level is depth / 3,
     /// the phase depth mod 3).
-    pub levels: Vec<u8>,
+    pub depths: Vec<u8>,
     /// Error bound of each tetrahedron: the exact max error of its diamond, rounded up (data units).
     pub errors: Vec<f32>,
     /// Largest value of `errors`.
@@ -171,18 +171,18 @@ pub(crate) fn extract(
     // Pass 2: each subtree fills its own slices of the output arrays.
     let n: usize = counts.iter().sum();
     let mut tets = vec![[0u32; 4]; n];
-    let mut levels = vec![0u8; n];
+    let mut depths = vec![0u8; n];
     let mut errors = vec![0f32; n];
     let mut jobs = Vec::with_capacity(roots.len());
-    let (mut t_rest, mut l_rest, mut e_rest) = (&mut tets[..], &mut levels[..], &mut errors[..]);
+    let (mut t_rest, mut d_rest, mut e_rest) = (&mut tets[..], &mut depths[..], &mut errors[..]);
     for (&root, &count) in roots.iter().zip(&counts) {
         let (t, tr) = t_rest.split_at_mut(count);
-        let (l, lr) = l_rest.split_at_mut(count);
+        let (d, dr) = d_rest.split_at_mut(count);
         let (e, er) = e_rest.split_at_mut(count);
-        jobs.push((root, t, l, e));
-        (t_rest, l_rest, e_rest) = (tr, lr, er);
+        jobs.push((root, t, d, e));
+        (t_rest, d_rest, e_rest) = (tr, dr, er);
     }
-    jobs.into_par_iter().for_each(|(root, t, l, e)| {
+    jobs.into_par_iter().for_each(|(root, t, d, e)| {
         let mut k = 0;
         walk(lattice, split, root, &mut |leaf| {
             let mut leaf = *leaf;
@@ -196,7 +196,7 @@ pub(crate) fn extract(
                 None => (3 * lattice.levels, 0.0),
             };
             t[k] = leaf.map(|p| id(lattice.index(p)));
-            l[k] = depth as u8;
+            d[k] = depth as u8;
             e[k] = error;
             k += 1;
         });
@@ -206,7 +206,7 @@ pub(crate) fn extract(
         point_ids,
         points,
         tets,
-        levels,
+        depths,
         errors,
         max_error,
     }

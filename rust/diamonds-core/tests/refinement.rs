@@ -165,7 +165,7 @@ fn region_of_interest_refines_inside_only() {
         .collect();
     let sub = diamonds::TetMesh {
         tets: inside.iter().map(|&c| m.tets[c]).collect(),
-        levels: inside.iter().map(|&c| m.levels[c]).collect(),
+        depths: inside.iter().map(|&c| m.depths[c]).collect(),
         errors: inside.iter().map(|&c| m.errors[c]).collect(),
         ..m.clone()
     };

@@ -147,7 +147,7 @@ fn written_meshes_read_back_exactly() {
     let tets = [[0, 1, 2, 3], [1, 4, 2, 3]];
     let point_data = vec![Array::scalars("value", vec![1u8, 2, 3, 4, 5])];
     let cell_data = vec![
-        Array::scalars("Level", vec![3u8, 4]),
+        Array::scalars("BisectionDepth", vec![3u8, 4]),
         Array::scalars("ApproximationError", vec![0.5f32, 0.25]),
     ];
     let field_data = vec![

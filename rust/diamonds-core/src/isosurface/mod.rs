@@ -263,7 +263,7 @@ fn carrier_mesh(h: &Hierarchy, tets: &[Tet], error_of: impl Fn(&Tet) -> f64) -> 
         let depth = Diamond::of_tet(&t).map_or(3 * lattice.levels, |d| d.depth(lattice));
         let error = error_of(&t) as f32;
         mesh.tets.push(t.map(id));
-        mesh.levels.push(depth as u8);
+        mesh.depths.push(depth as u8);
         mesh.errors.push(error);
         mesh.max_error = mesh.max_error.max(error as f64);
     }

@@ -135,7 +135,7 @@ pub struct MaterialMesh {
     /// Positively oriented tetrahedra (VTK_TETRA order).
     pub tets: Vec<[u32; 4]>,
     /// Bisection depth of each tetrahedron.
-    pub levels: Vec<u8>,
+    pub depths: Vec<u8>,
     /// Material at each vertex.
     pub point_material: Vec<u8>,
     /// Interface pairs present in the input, in the order of `interface_distance`.

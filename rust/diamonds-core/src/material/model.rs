@@ -721,7 +721,7 @@ impl MaterialModel {
                 .map(|&i| self.world(lattice_point(i)).to_array())
                 .collect(),
             tets: leaves.iter().map(|t| t.map(id)).collect(),
-            levels: leaves
+            depths: leaves
                 .iter()
                 .map(|t| Diamond::of_tet(t).map_or(3 * lattice.levels, |d| d.depth(lattice)) as u8)
                 .collect(),

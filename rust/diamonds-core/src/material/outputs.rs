@@ -5,7 +5,7 @@
 //! - tetrahedra ([`tetrahedra_arrays`]): point data `Material`, `SignedDistance <a>|<b>` per interface,
 //!   `SignedDistance <m>` per material, each field and, with ghost values, `<field> (<m>)` per
 //!   material, then `IsGhost (<m>)`; cell data `InterfaceError`, `FieldError`, `Materials`,
-//!   `NumberOfMaterials`, `Level`; field data the tolerances, the errors reached and the counts;
+//!   `NumberOfMaterials`, `BisectionDepth`; field data the tolerances, the errors reached and the counts;
 //! - interfaces ([`interface_arrays`]): cell data `Interface` (index of the polygon's pair among the
 //!   mesh's pairs, named by [`interface_names`]), `MaterialA`, `MaterialB`; field data
 //!   `NumberOfPolygons`;
@@ -175,7 +175,7 @@ pub fn tetrahedra_arrays<S: AsRef<str>>(
                 .map(|m| m.count_ones() as u8)
                 .collect()),
         ),
-        OutputArray::new("Level", Cell, U8(mesh.levels.clone())),
+        OutputArray::new("BisectionDepth", Cell, U8(mesh.depths.clone())),
         OutputArray::new(
             "InterfaceTolerance",
             Field,
@@ -277,7 +277,7 @@ mod tests {
             fields: 1,
             points: vec![[0.0; 3]; 4],
             tets: vec![[0, 1, 2, 3]],
-            levels: vec![5],
+            depths: vec![5],
             point_material: vec![0, 0, 1, 1],
             pairs: vec![(0, 1)],
             interface_distance: vec![vec![0.5; 4]],
@@ -337,7 +337,7 @@ mod tests {
                 "FieldError",
                 "Materials",
                 "NumberOfMaterials",
-                "Level"
+                "BisectionDepth"
             ]
         );
         assert_eq!(names(&arrays, Association::Field).len(), 7);

@@ -24,7 +24,7 @@ pub struct MeshReport {
 pub fn check_mesh(mesh: &TetMesh, grid: &Grid) -> Result<MeshReport, String> {
     let n = mesh.points.len();
     if mesh.point_ids.len() != n
-        || mesh.levels.len() != mesh.tets.len()
+        || mesh.depths.len() != mesh.tets.len()
         || mesh.errors.len() != mesh.tets.len()
     {
         return Err("array lengths disagree".into());
@@ -176,10 +176,10 @@ fn match_faces(
 /// input points.
 pub fn check_mesh_arrays(mesh: &TetMesh, grid_points: usize) -> Result<(), String> {
     let n_tets = mesh.tets.len();
-    if mesh.levels.len() != n_tets || mesh.errors.len() != n_tets {
+    if mesh.depths.len() != n_tets || mesh.errors.len() != n_tets {
         return Err(format!(
-            "{n_tets} tetrahedra but {} levels and {} errors",
-            mesh.levels.len(),
+            "{n_tets} tetrahedra but {} depths and {} errors",
+            mesh.depths.len(),
             mesh.errors.len()
         ));
     }
@@ -210,7 +210,7 @@ pub fn check_material_mesh_arrays(
         ));
     }
     let per_tet = [
-        ("levels", mesh.levels.len()),
+        ("depths", mesh.depths.len()),
         ("interface errors", mesh.interface_error.len()),
         ("field errors", mesh.field_error.len()),
         ("material masks", mesh.tet_materials.len()),
@@ -345,7 +345,7 @@ mod tests {
         // A missing tetrahedron: a hole.
         let mut holed = mesh.clone();
         holed.tets.pop();
-        holed.levels.pop();
+        holed.depths.pop();
         holed.errors.pop();
         assert!(check_mesh(&holed, &grid).unwrap_err().contains("sum"));
         // An inverted tetrahedron.
@@ -372,7 +372,7 @@ mod tests {
             point_ids: vec![0, 1, 2, 3],
             points: vec![[0.0; 3]; 4],
             tets: vec![[0, 1, 2, 3]],
-            levels: vec![0],
+            depths: vec![0],
             errors: vec![0.0],
             max_error: 0.0,
         }
@@ -391,8 +391,8 @@ mod tests {
             .unwrap_err()
             .contains("refers past the 4 points"));
         let mut bad = good;
-        bad.levels.clear();
-        assert!(check_mesh_arrays(&bad, 8).unwrap_err().contains("0 levels"));
+        bad.depths.clear();
+        assert!(check_mesh_arrays(&bad, 8).unwrap_err().contains("0 depths"));
     }
 
     /// The unit cube cut into six tetrahedra around its diagonal (0,0,0)–(1,1,1), positively oriented.
@@ -447,7 +447,7 @@ mod tests {
             fields: 1,
             points: vec![[0.0; 3]; 4],
             tets: vec![[0, 1, 2, 3]],
-            levels: vec![0],
+            depths: vec![0],
             point_material: vec![0, 0, 1, 1],
             pairs: vec![(0, 1)],
             interface_distance: vec![vec![0.0; 4]],
