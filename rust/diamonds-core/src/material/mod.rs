@@ -42,7 +42,7 @@ pub mod reconstruct;
 pub mod selection;
 mod soup;
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;
 
 pub use model::{MaterialModel, MAX_MATERIALS};
 pub use naming::{

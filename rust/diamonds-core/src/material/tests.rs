@@ -9,6 +9,36 @@ use crate::validate::{check_conforming, check_crack_free};
 use crate::Error;
 use glam::DVec3;
 
+/// A one-tetrahedron mesh of two materials and one field, with distinct values per array (for the
+/// tests of the output arrays and of their validation); `ghost_values` decides whether each material
+/// has its own field values.
+pub(crate) fn one_tetrahedron_mesh(ghost_values: bool) -> MaterialMesh {
+    MaterialMesh {
+        materials: 2,
+        fields: 1,
+        points: vec![[0.0; 3]; 4],
+        tets: vec![[0, 1, 2, 3]],
+        depths: vec![5],
+        point_material: vec![0, 0, 1, 1],
+        pairs: vec![(0, 1)],
+        interface_distance: vec![vec![0.5; 4]],
+        material_distance: vec![vec![1.0; 4]; 2],
+        mixed: vec![vec![2.0; 4]],
+        material_field: if ghost_values {
+            vec![vec![3.0; 4]; 2]
+        } else {
+            vec![]
+        },
+        interface_error: vec![0.1],
+        field_error: vec![0.2],
+        tet_materials: vec![3],
+        max_interface_error: 0.1,
+        max_field_error: 0.2,
+        interface_tetrahedra: 1,
+        ghost_values,
+    }
+}
+
 fn noop() -> impl FnMut(f64) -> bool {
     |_| true
 }

@@ -441,31 +441,9 @@ mod tests {
             .contains("not conforming"));
     }
 
-    fn tiny_material_mesh() -> MaterialMesh {
-        MaterialMesh {
-            materials: 2,
-            fields: 1,
-            points: vec![[0.0; 3]; 4],
-            tets: vec![[0, 1, 2, 3]],
-            depths: vec![0],
-            point_material: vec![0, 0, 1, 1],
-            pairs: vec![(0, 1)],
-            interface_distance: vec![vec![0.0; 4]],
-            material_distance: vec![vec![0.0; 4]; 2],
-            mixed: vec![vec![0.0; 4]],
-            material_field: vec![vec![0.0; 4]; 2],
-            interface_error: vec![0.0],
-            field_error: vec![0.0],
-            tet_materials: vec![3],
-            interface_tetrahedra: 1,
-            ghost_values: true,
-            ..Default::default()
-        }
-    }
-
     #[test]
     fn check_material_mesh_arrays_catches_inconsistent_meshes() {
-        let good = tiny_material_mesh();
+        let good = crate::material::tests::one_tetrahedron_mesh(true);
         assert!(check_material_mesh_arrays(&good, 2, 1, true).is_ok());
         assert!(check_material_mesh_arrays(&good, 2, 1, false).is_ok());
         assert!(check_material_mesh_arrays(&good, 3, 1, true).is_err());
