@@ -6,7 +6,9 @@ use crate::write::{
     checked_extension, write_image, write_tets, write_triangles, TetGrid, Triangles,
 };
 use crate::{bail, Array, AsScalarSlice, Result};
-use diamonds::validate::{check_mesh, check_surface, check_tolerance, check_unit_normals};
+use diamonds::validate::{
+    check_mesh, check_surface, check_tolerance, check_unit_normals, surface_distances,
+};
 use diamonds::{fields, with_volume, Grid, Hierarchy, IsoQuery, Query, TetMesh};
 use rayon::prelude::*;
 use std::fmt;
@@ -751,20 +753,50 @@ fn finish_as(mut report: VerifyReport, command: &str) -> VerifyReport {
     report
 }
 
+/// The full-resolution comparison of `diamonds verify-surface`: the surface against the
+/// full-resolution marching-tetrahedra surface of its image's `array` at `isovalue`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SurfaceBound {
+    pub isovalue: f64,
+    /// Point-data array of the image [default: the active scalars, else the first scalar array].
+    pub array: Option<String>,
+    /// Fail when either one-sided Hausdorff distance exceeds it; `None`: report them only.
+    pub tolerance: Option<f64>,
+}
+
 /// `diamonds verify-surface`: checks a triangle surface (`.vtp`): triangles with three distinct points,
-/// every edge in exactly two triangles traversed in opposite directions (watertight and consistently
+/// every edge in two triangles traversed in opposite directions (watertight and consistently
 /// oriented), except edges on a face of `image`'s bounds, which may border one triangle; unit `Normals`
-/// when the file has them (the checks of `diamonds::validate::surfaces`). Unreadable input is an error;
+/// when the file has them (the checks of `diamonds::validate::surfaces`). With `bound` (and `image`),
+/// also both one-sided Hausdorff distances between the surface and the image's full-resolution
+/// surface (`diamonds::validate::hausdorff`), failed above the tolerance. Unreadable input is an error;
 /// a failed check is reported in [`VerifyReport`].
-pub fn verify_surface(mesh_path: &Path, image: Option<&Path>) -> Result<VerifyReport> {
-    let bounds = match image {
+pub fn verify_surface(
+    mesh_path: &Path,
+    image: Option<&Path>,
+    bound: Option<&SurfaceBound>,
+) -> Result<VerifyReport> {
+    let image = match image {
         Some(path) => {
-            let grid = read_image(path)?.grid;
-            grid.validate()?;
-            Some(grid.bounds())
+            let image = read_image(path)?;
+            image.grid.validate()?;
+            Some((path, image))
+        }
+        None if bound.is_some() => {
+            bail!("--isovalue needs --image: the volume the surface was extracted from")
         }
         None => None,
     };
+    if let Some(b) = bound {
+        if !b.isovalue.is_finite() {
+            bail!("the isovalue must be a finite number (got {})", b.isovalue);
+        }
+        if let Some(t) = b.tolerance.filter(|t| !t.is_finite() || *t < 0.0) {
+            bail!("the tolerance must be a finite number >= 0 in world units (got {t})");
+        }
+    }
+    let bounds = image.as_ref().map(|(_, image)| image.grid.bounds());
+    let image_path = image.as_ref().map(|(path, _)| *path);
     let surface = read_polydata(mesh_path)?;
     let n = surface.offsets.len();
     let mut report = VerifyReport {
@@ -772,7 +804,7 @@ pub fn verify_surface(mesh_path: &Path, image: Option<&Path>) -> Result<VerifyRe
             "verify-surface '{}' ({n} polygons, {} points){}",
             mesh_path.display(),
             surface.points.len(),
-            match image {
+            match image_path {
                 Some(path) => format!(", open only on the bounds of '{}'", path.display()),
                 None => ", closed".to_string(),
             }
@@ -802,14 +834,14 @@ pub fn verify_surface(mesh_path: &Path, image: Option<&Path>) -> Result<VerifyRe
             .chunks_exact(3)
             .map(|t| Ok([corner(t[0])?, corner(t[1])?, corner(t[2])?]))
             .collect::<std::result::Result<Vec<[u32; 3]>, String>>()?;
-        check_surface(&surface.points, &triangles, bounds)
+        check_surface(&surface.points, &triangles, bounds).map(|report| (report, triangles))
     })();
     let described = checked.as_ref().map_err(Clone::clone);
     report.check(
         "triangles",
         described.map(|_| format!("{n} triangles, three distinct points each")),
     );
-    let Ok(checked) = checked else {
+    let Ok((checked, triangles)) = checked else {
         return Ok(finish_as(report, "verify-surface"));
     };
     report.check(
@@ -845,6 +877,38 @@ pub fn verify_surface(mesh_path: &Path, image: Option<&Path>) -> Result<VerifyRe
                 "normals",
                 check_unit_normals(vectors, 1e-3).map(|count| format!("{count} unit normals")),
             );
+        }
+    }
+    if let (Some(b), Some((_, image))) = (bound, &image) {
+        let array = image.scalars(b.array.as_deref())?;
+        let isovalues = [b.isovalue];
+        let d = with_volume!(image.grid, array.scalar_slice()?, |v| surface_distances(
+            &v,
+            &isovalues,
+            &surface.points,
+            &triangles
+        ));
+        let measured = format!(
+            "full-resolution surface of '{}' at {} ({} triangles): from its {} vertices to the surface {}, from the surface's {} vertices and samples to it {} (every point of the surface within {:.4} more)",
+            array.name,
+            b.isovalue,
+            d.fine_triangles,
+            d.fine_vertices,
+            d.fine_to_surface.distance,
+            d.surface_samples,
+            d.surface_to_fine.distance,
+            d.slack
+        );
+        match b.tolerance {
+            Some(t) => {
+                report.check(
+                    "distance",
+                    d.check(t)
+                        .map(|()| format!("{measured}; both within the tolerance {t}"))
+                        .map_err(|e| format!("{e}; {measured}")),
+                );
+            }
+            None => report.lines.push(format!("  distance: {measured}")),
         }
     }
     Ok(finish_as(report, "verify-surface"))

@@ -219,12 +219,15 @@ enum Command {
         #[arg(long, value_name = "T", allow_negative_numbers = true)]
         tolerance: f64,
     },
-    /// Check a surface (.vtp) written by `iso`: watertight, consistently oriented, unit normals.
+    /// Check a surface (.vtp) written by `iso`: watertight, consistently oriented, unit normals and,
+    /// with --isovalue, its distance to the full-resolution surface.
     ///
     /// Checks that every polygon is a triangle of three distinct points, that every edge is in exactly
     /// two triangles traversing it in opposite directions (except, with --image, edges on a face of the
-    /// image's bounds, which may be in one) and that the Normals, if any, have unit length. Exit code 1
-    /// when a check fails.
+    /// image's bounds, which may be in one) and that the Normals, if any, have unit length. With
+    /// --isovalue, reports both one-sided Hausdorff distances to the image's full-resolution
+    /// marching-tetrahedra surface (the surface `iso --tolerance 0` writes) and, with --tolerance, fails
+    /// when either exceeds it. Exit code 1 when a check fails.
     VerifySurface {
         /// Surface (.vtp) to check.
         mesh: PathBuf,
@@ -232,6 +235,28 @@ enum Command {
         /// [default: the surface must be closed].
         #[arg(long, value_name = "IMAGE")]
         image: Option<PathBuf>,
+        /// Also measure both one-sided Hausdorff distances (exact point-triangle distances) between the
+        /// surface and the image's full-resolution marching-tetrahedra surface at this isovalue: from
+        /// every vertex of that surface to ours, and from every vertex of ours and samples of its
+        /// triangles spaced at most one voxel to it.
+        #[arg(
+            long,
+            value_name = "V",
+            requires = "image",
+            allow_negative_numbers = true
+        )]
+        isovalue: Option<f64>,
+        /// Fail when either distance exceeds this bound (world units).
+        #[arg(
+            long,
+            value_name = "T",
+            requires = "isovalue",
+            allow_negative_numbers = true
+        )]
+        tolerance: Option<f64>,
+        /// Point-data array of the image [default: as for iso].
+        #[arg(long, value_name = "NAME", requires = "isovalue")]
+        array: Option<String>,
     },
 }
 
@@ -375,8 +400,19 @@ fn run(cli: Cli) -> diamonds_cli::Result<ExitCode> {
                 return Ok(ExitCode::from(1));
             }
         }
-        Command::VerifySurface { mesh, image } => {
-            let report = commands::verify_surface(&mesh, image.as_deref())?;
+        Command::VerifySurface {
+            mesh,
+            image,
+            isovalue,
+            tolerance,
+            array,
+        } => {
+            let bound = isovalue.map(|isovalue| commands::SurfaceBound {
+                isovalue,
+                array,
+                tolerance,
+            });
+            let report = commands::verify_surface(&mesh, image.as_deref(), bound.as_ref())?;
             for line in &report.lines {
                 println!("{line}");
             }

@@ -56,7 +56,7 @@ fn cell_data_and_vector_only_images_are_refused_for_meshing() {
 fn vtk_written_surfaces_verify() {
     // A closed, consistently oriented surface with unit normals.
     for name in ["surface_ascii.vtp", "surface_appended_zlib_blocks.vtp"] {
-        let report = verify_surface(&fixture(name), None).unwrap();
+        let report = verify_surface(&fixture(name), None, None).unwrap();
         assert!(report.passed, "{name}: {:#?}", report.lines);
     }
 }
@@ -68,7 +68,7 @@ fn corrupt_files_are_errors_not_panics() {
     let good = std::fs::read(fixture("surface_appended_zlib_blocks.vtp")).unwrap();
     for cut in (0..good.len()).step_by(13) {
         std::fs::write(&surface, &good[..cut]).unwrap();
-        let _ = verify_surface(&surface, None); // error, never a panic
+        let _ = verify_surface(&surface, None, None); // error, never a panic
     }
     let legacy = dir.join("bad.vtk");
     let good = std::fs::read(fixture("legacy_binary.vtk")).unwrap();

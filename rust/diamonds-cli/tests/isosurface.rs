@@ -506,6 +506,49 @@ fn verify_surface_catches_holes_flips_degenerate_triangles_and_bad_normals() {
 }
 
 #[test]
+fn verify_surface_measures_both_distances_to_the_full_resolution_surface() {
+    let dir = TempDir::new("iso");
+    let input = generate(&dir, "torus", "u8", [29, 25, 27]);
+    let full = dir.join("full.vtp");
+    iso(&input, &full, &["--isovalue", "127.5", "--tolerance", "0"]);
+    let with = |surface: &Path, extra: &[&str]| {
+        let mut args = vec!["verify-surface", s(surface), "--image", s(&input)];
+        args.extend_from_slice(extra);
+        diamonds(args)
+    };
+    // The full-resolution surface is at distance 0 from itself, within rounding.
+    let run = with(&full, &["--isovalue", "127.5", "--tolerance", "0"]);
+    assert_eq!(run.code, 0, "{run:#?}");
+    assert!(
+        run.stdout
+            .contains("  distance: OK (full-resolution surface of"),
+        "{run:#?}"
+    );
+    // Another isovalue's surface is far from it: reported without --tolerance, failed with one.
+    let run = with(&full, &["--isovalue", "120.5"]);
+    assert_eq!(run.code, 0, "{run:#?}");
+    assert!(
+        run.stdout
+            .contains("  distance: full-resolution surface of"),
+        "{run:#?}"
+    );
+    let run = with(&full, &["--isovalue", "120.5", "--tolerance", "0.01"]);
+    assert_eq!(run.code, 1, "{run:#?}");
+    assert!(
+        run.stdout
+            .contains("distance: FAILED: a vertex of the full-resolution surface lies")
+            && run.stdout.contains("verify-surface: FAILED"),
+        "{run:#?}"
+    );
+    // --isovalue needs --image; a tolerance must be a number >= 0.
+    let run = diamonds(["verify-surface", s(&full), "--isovalue", "1"]);
+    assert_eq!(run.code, 2, "{run:#?}");
+    assert!(with(&full, &["--isovalue", "1", "--tolerance", "-1"])
+        .user_error()
+        .contains("tolerance"));
+}
+
+#[test]
 fn isovalues_equal_to_samples_keep_a_consistent_orientation() {
     let dir = TempDir::new("iso");
     let input = generate(&dir, "sphere", "u8", [33, 33, 33]);

@@ -14,6 +14,7 @@
 //! - [`diamond`]: the implicit diamond encoding from the central vertex (Weiss & De Floriani §4, Eq. 1).
 //! - [`scan`]: integer point enumeration inside a tetrahedron and its exact interpolation error
 //!   (Marchesin §4.1).
+//! - [`geometry`]: exact point–triangle distances, triangles in R-trees, samples of triangles.
 //! - [`refine`]: the split set, the [`refine::SplitQueue`] and selective refinement with closure.
 //! - [`mesh`]: extraction of the current mesh as deduplicated points and tetrahedra.
 //! - [`hierarchy`]: the precomputed per-diamond records (error, min, max) in 4 bytes per voxel
@@ -32,6 +33,7 @@
 
 pub mod diamond;
 pub mod fields;
+pub mod geometry;
 pub mod hierarchy;
 pub mod isosurface;
 pub mod lattice;

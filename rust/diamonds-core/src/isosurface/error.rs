@@ -248,7 +248,7 @@ fn set_bit(bits: &[AtomicU64], i: usize) -> bool {
 }
 
 /// The distinct corners of the cells whose lower corners are `cells`, as point indices.
-fn corners_of(dims: [usize; 3], cells: &[u32]) -> Vec<u32> {
+pub(super) fn corners_of(dims: [usize; 3], cells: &[u32]) -> Vec<u32> {
     let seen = bits(dims[0] * dims[1] * dims[2]);
     let (sx, sy) = (1, dims[0]);
     let sz = dims[0] * dims[1];

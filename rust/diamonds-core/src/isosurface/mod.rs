@@ -39,10 +39,12 @@ mod bricks;
 mod cache;
 mod criterion;
 mod error;
+mod fine;
 mod hidden;
 mod marching;
 mod state;
 
+pub use fine::{full_resolution_triangles, full_resolution_vertices};
 pub use marching::marching_tetrahedra;
 pub use state::{IsoStart, IsoState, IsoStats};
 

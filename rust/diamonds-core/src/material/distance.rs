@@ -3,19 +3,20 @@
 //! point points toward the vertex).
 //!
 //! Each mesh gets an R-tree of its triangles ([`rstar`]); a query is a nearest-neighbour search with
-//! the exact point–triangle distance (closest point on a triangle by Voronoi regions, Ericson,
-//! *Real-Time Collision Detection*, §5.1.5). The side is decided by the normal of the *feature* that
-//! holds the closest point: the face normal inside a triangle, the sum of the unit normals of the faces
-//! sharing an edge on an edge, and the angle-weighted pseudo-normal (Bærentzen & Aanæs 2005) at a vertex.
+//! the exact point–triangle distance ([`crate::geometry::closest_point_on_triangle`]). The side is
+//! decided by the normal of the *feature* that holds the closest point: the face normal inside a
+//! triangle, the sum of the unit normals of the faces sharing an edge on an edge, and the
+//! angle-weighted pseudo-normal (Bærentzen & Aanæs 2005) at a vertex.
 //! These pseudo-normals give the correct side for every point off a closed, consistently oriented mesh,
 //! also when the closest point is an edge or a vertex, where the face normals of the incident triangles
 //! may disagree. Vertices with identical coordinates are welded for this adjacency, so triangle soups
 //! work too.
 
 use super::InterfaceMesh;
+use crate::geometry::{closest_point_on_triangle, Feature, Triangle};
 use glam::DVec3;
 use rayon::prelude::*;
-use rstar::{PointDistance, RTree, RTreeObject, AABB};
+use rstar::RTree;
 use rustc_hash::FxHashMap;
 
 /// The closest point of one interface mesh to a query point.
@@ -45,111 +46,6 @@ struct MeshIndex {
     edge_normal: Vec<[DVec3; 3]>,
     /// Per triangle: the pseudo-normals of its three vertices.
     vertex_normal: Vec<[DVec3; 3]>,
-}
-
-/// A triangle in the R-tree: its index in the mesh and its corners.
-#[derive(Clone, Debug)]
-struct Triangle {
-    id: u32,
-    corners: [DVec3; 3],
-}
-
-impl RTreeObject for Triangle {
-    type Envelope = AABB<[f64; 3]>;
-
-    fn envelope(&self) -> Self::Envelope {
-        let [a, b, c] = self.corners;
-        AABB::from_corners(a.min(b).min(c).to_array(), a.max(b).max(c).to_array())
-    }
-}
-
-impl PointDistance for Triangle {
-    fn distance_2(&self, point: &[f64; 3]) -> f64 {
-        let p = DVec3::from_array(*point);
-        let [a, b, c] = self.corners;
-        closest_point_on_triangle(p, a, b, c).0.distance_squared(p)
-    }
-}
-
-/// Which part of a triangle holds a closest point.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Feature {
-    /// Corner 0, 1 or 2.
-    Vertex(usize),
-    /// Edge `e` joins corners `e` and `(e + 1) % 3`.
-    Edge(usize),
-    Face,
-}
-
-/// The point of triangle `abc` closest to `p`, and the feature it lies on (Ericson 2005, §5.1.5:
-/// the Voronoi regions of the vertices, then of the edges, then the face). Degenerate triangles are
-/// handled as their longest side.
-fn closest_point_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> (DVec3, Feature) {
-    let ab = b - a;
-    let ac = c - a;
-    let ap = p - a;
-    let d1 = ab.dot(ap);
-    let d2 = ac.dot(ap);
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return (a, Feature::Vertex(0));
-    }
-    let bp = p - b;
-    let d3 = ab.dot(bp);
-    let d4 = ac.dot(bp);
-    if d3 >= 0.0 && d4 <= d3 {
-        return (b, Feature::Vertex(1));
-    }
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 && d1 - d3 > 0.0 {
-        let v = d1 / (d1 - d3);
-        return (a + v * ab, Feature::Edge(0));
-    }
-    let cp = p - c;
-    let d5 = ab.dot(cp);
-    let d6 = ac.dot(cp);
-    if d6 >= 0.0 && d5 <= d6 {
-        return (c, Feature::Vertex(2));
-    }
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 && d2 - d6 > 0.0 {
-        let w = d2 / (d2 - d6);
-        return (a + w * ac, Feature::Edge(2));
-    }
-    let va = d3 * d6 - d5 * d4;
-    let (e, f) = (d4 - d3, d5 - d6);
-    if va <= 0.0 && e >= 0.0 && f >= 0.0 && e + f > 0.0 {
-        let w = e / (e + f);
-        return (b + w * (c - b), Feature::Edge(1));
-    }
-    let sum = va + vb + vc;
-    if sum > 0.0 && sum.is_finite() {
-        let v = vb / sum;
-        let w = vc / sum;
-        return (a + ab * v + ac * w, Feature::Face);
-    }
-    // Degenerate (collinear corners): the closest of the three sides.
-    let corners = [a, b, c];
-    (0..3)
-        .map(|e| {
-            let (s, t) = (corners[e], corners[(e + 1) % 3]);
-            let d = t - s;
-            let len2 = d.length_squared();
-            let u = if len2 > 0.0 {
-                ((p - s).dot(d) / len2).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-            let feature = if u == 0.0 {
-                Feature::Vertex(e)
-            } else if u == 1.0 {
-                Feature::Vertex((e + 1) % 3)
-            } else {
-                Feature::Edge(e)
-            };
-            (s + u * d, feature)
-        })
-        .min_by(|x, y| x.0.distance_squared(p).total_cmp(&y.0.distance_squared(p)))
-        .expect("three sides")
 }
 
 impl MeshIndex {

@@ -6,6 +6,8 @@
 //! - [`surfaces`]: a triangle surface given as plain arrays (watertight and consistently oriented,
 //!   optionally open on the faces of a box; unit normals), and the array consistency of a
 //!   [`crate::IsoSurface`];
+//! - [`hausdorff`]: both one-sided Hausdorff distances between a surface and the full-resolution
+//!   marching-tetrahedra surface of a volume (the isosurface bound), exact point–triangle distances;
 //! - [`polygons`]: crack-free polygons (material interfaces) and the array consistency of a
 //!   [`crate::material::PolygonMesh`].
 //!
@@ -14,10 +16,12 @@
 //! over. The others are *geometric* and used by the tests and the CLI's `verify` and `verify-surface`.
 //! Every check returns `Err` with a message naming the first violation found.
 
+pub mod hausdorff;
 pub mod polygons;
 pub mod surfaces;
 pub mod tetrahedra;
 
+pub use hausdorff::{surface_distances, Farthest, SurfaceDistances};
 pub use polygons::{check_crack_free, check_polygon_arrays};
 pub use surfaces::{check_isosurface_arrays, check_surface, check_unit_normals, SurfaceReport};
 pub use tetrahedra::{
@@ -57,8 +61,13 @@ fn faces_of_bounds(points: &[[f64; 3]], bounds: &[f64; 6], eps: f64) -> Vec<u8> 
 
 /// A tolerance for "on a face of `bounds`": a millionth of its diagonal.
 fn bounds_eps(bounds: &[f64; 6]) -> f64 {
+    1e-6 * diagonal(bounds)
+}
+
+/// The length of the diagonal of `bounds` (`[xmin, xmax, ymin, ymax, zmin, zmax]`).
+fn diagonal(bounds: &[f64; 6]) -> f64 {
     let d = (0..3).map(|a| (bounds[2 * a + 1] - bounds[2 * a]).powi(2));
-    1e-6 * d.sum::<f64>().sqrt()
+    d.sum::<f64>().sqrt()
 }
 
 /// Every edge of the closed `polygons` (lists of point ids) as `(smaller id, larger id, whether the

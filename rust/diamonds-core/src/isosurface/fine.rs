@@ -1,0 +1,271 @@
+//! The full-resolution surface `F` that the isosurface bound is relative to: the level set of the
+//! piecewise-linear interpolant on the finest tetrahedra of the hierarchy, i.e. the surface a query
+//! at tolerance 0 draws, computed here straight from the grid, without the hierarchy.
+//!
+//! The finest tetrahedra are the children of the finest diamonds (Gregorski §3, Fig. 1: the 2 → 0
+//! bisection of an edge diamond): every unit cell is split into the six Kuhn (Freudenthal)
+//! tetrahedra around the diagonal from its corner with all coordinates even to the opposite corner,
+//! all odd. Their edges are the cell edges, the face diagonals joining the two corners whose varying
+//! coordinates have equal parity, and those cell diagonals. `F` is what marching tetrahedra makes of
+//! them: a point on every such edge whose ends lie on either side of the isovalue (a value equal to
+//! the isovalue counts as above, as in [`super::marching`]).
+//!
+//! This is not the trilinear surface of marching cubes or Flying Edges: both interpolate the same
+//! samples linearly along the cell edges, but inside a cell the two differ, by less than the cell
+//! (one voxel diagonal).
+
+use crate::lattice::Tet;
+use crate::volume::{Sample, Volume};
+use arrayvec::ArrayVec;
+use glam::{DVec3, IVec3};
+use rayon::prelude::*;
+
+/// The six finest tetrahedra of the grid cell with lower corner `c`.
+pub(crate) fn cell_tets(c: IVec3) -> [Tet; 6] {
+    let odd = c & IVec3::ONE;
+    let even = c + odd;
+    let d = IVec3::ONE - 2 * odd;
+    let axis = |a: usize| {
+        let mut v = IVec3::ZERO;
+        v[a] = d[a];
+        v
+    };
+    [(0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1)].map(|(i, j)| {
+        let p = even + axis(i);
+        [even, p, p + axis(j), even + d]
+    })
+}
+
+/// Is the segment from lattice point `p` to `p + o` (`o` in {−1, 0, 1}³, not zero) an edge of the
+/// finest tetrahedra?
+#[inline]
+fn is_fine_edge(p: IVec3, o: IVec3) -> bool {
+    let parity = p & IVec3::ONE;
+    match o.abs().element_sum() {
+        1 => true,
+        2 => {
+            let [i, j] = [0, 1, 2]
+                .into_iter()
+                .filter(|&a| o[a] != 0)
+                .collect::<ArrayVec<usize, 2>>()
+                .into_inner()
+                .expect("two axes");
+            parity[i] == parity[j]
+        }
+        _ => parity.x == parity.y && parity.y == parity.z,
+    }
+}
+
+/// The 13 offsets to the lattice neighbours that come "after" a point (first non-zero component
+/// positive): every segment between neighbours is listed once, from one of its ends.
+const FORWARD: [IVec3; 13] = [
+    IVec3::new(1, 0, 0),
+    IVec3::new(0, 1, 0),
+    IVec3::new(0, 0, 1),
+    IVec3::new(1, 1, 0),
+    IVec3::new(1, -1, 0),
+    IVec3::new(1, 0, 1),
+    IVec3::new(1, 0, -1),
+    IVec3::new(0, 1, 1),
+    IVec3::new(0, 1, -1),
+    IVec3::new(1, 1, 1),
+    IVec3::new(1, 1, -1),
+    IVec3::new(1, -1, 1),
+    IVec3::new(1, -1, -1),
+];
+
+/// The point of the isovalue `v` on the segment `a`–`b` (values `fa`, `fb` on either side of it).
+#[inline]
+fn crossing(a: DVec3, b: DVec3, fa: f64, fb: f64, v: f64) -> DVec3 {
+    a + (v - fa) / (fb - fa) * (b - a)
+}
+
+/// The vertices of `F` for isovalue `v` on the edges from the lattice points `points` (indices; each
+/// crossing edge is found from one of its ends, so `points` must hold the corners of every grid cell
+/// `v` crosses: [`super::bricks::Bricks::cells_crossed`]), in world coordinates.
+pub(crate) fn vertices_from<T: Sample>(
+    volume: &Volume<'_, T>,
+    v: f64,
+    points: &[u32],
+) -> Vec<DVec3> {
+    let grid = &volume.grid;
+    let hi = IVec3::from(grid.dims.map(|d| d as i32 - 1));
+    points
+        .par_iter()
+        .flat_map_iter(|&i| {
+            let p = IVec3::from(grid.ijk(i as usize).map(|c| c as i32));
+            let fp = volume.at_index(i as usize);
+            let wp = super::world(volume, p);
+            FORWARD.iter().filter_map(move |&o| {
+                let q = p + o;
+                if q.cmplt(IVec3::ZERO).any() || q.cmpgt(hi).any() || !is_fine_edge(p, o) {
+                    return None;
+                }
+                let fq = super::value(volume, q);
+                ((fp >= v) != (fq >= v)).then(|| crossing(wp, super::world(volume, q), fp, fq, v))
+            })
+        })
+        .collect()
+}
+
+/// The triangles (unoriented) that marching tetrahedra makes of the tetrahedron with corners `p`
+/// (world) and values `f` for the isovalue `v`.
+pub(crate) fn tet_triangles(p: [DVec3; 4], f: [f64; 4], v: f64) -> ArrayVec<[DVec3; 3], 2> {
+    let mut above = ArrayVec::<usize, 4>::new();
+    let mut below = ArrayVec::<usize, 4>::new();
+    for (i, &fi) in f.iter().enumerate() {
+        if fi >= v {
+            above.push(i);
+        } else {
+            below.push(i);
+        }
+    }
+    let x = |a: usize, b: usize| crossing(p[a], p[b], f[a], f[b], v);
+    let mut out = ArrayVec::new();
+    match (above.len(), below.len()) {
+        (1, 3) => out.push([0, 1, 2].map(|k| x(above[0], below[k]))),
+        (3, 1) => out.push([0, 1, 2].map(|k| x(above[k], below[0]))),
+        (2, 2) => {
+            let ([a, b], [c, d]) = ([above[0], above[1]], [below[0], below[1]]);
+            let q = [x(a, c), x(a, d), x(b, d), x(b, c)];
+            out.push([q[0], q[1], q[2]]);
+            out.push([q[0], q[2], q[3]]);
+        }
+        _ => {}
+    }
+    out
+}
+
+/// The triangles of `F` for isovalue `v` in the grid cell with lower corner `c`.
+pub(crate) fn cell_triangles<T: Sample>(
+    volume: &Volume<'_, T>,
+    c: IVec3,
+    v: f64,
+) -> ArrayVec<[DVec3; 3], 12> {
+    let mut out = ArrayVec::new();
+    for t in cell_tets(c) {
+        let f = t.map(|q| super::value(volume, q));
+        out.extend(tet_triangles(t.map(|q| super::world(volume, q)), f, v));
+    }
+    out
+}
+
+/// The full-resolution surface `F` of `isovalues` as a triangle soup (world coordinates, unoriented):
+/// the triangles a query at tolerance 0 draws, as sets of points.
+pub fn full_resolution_triangles<T: Sample>(
+    volume: &Volume<'_, T>,
+    isovalues: &[f64],
+) -> Vec<[[f64; 3]; 3]> {
+    let bricks = super::bricks::Bricks::new(volume);
+    let grid = &volume.grid;
+    isovalues
+        .iter()
+        .flat_map(|&v| {
+            bricks
+                .cells_crossed(volume, v)
+                .par_iter()
+                .flat_map_iter(|&i| {
+                    let c = IVec3::from(grid.ijk(i as usize).map(|c| c as i32));
+                    cell_triangles(volume, c, v)
+                        .into_iter()
+                        .map(|t| t.map(|p| p.to_array()))
+                })
+                .collect::<Vec<_>>()
+        })
+        .collect()
+}
+
+/// The vertices of the full-resolution surface `F` of `isovalues` (world coordinates, each once).
+pub fn full_resolution_vertices<T: Sample>(
+    volume: &Volume<'_, T>,
+    isovalues: &[f64],
+) -> Vec<[f64; 3]> {
+    let bricks = super::bricks::Bricks::new(volume);
+    isovalues
+        .iter()
+        .flat_map(|&v| {
+            let cells = bricks.cells_crossed(volume, v);
+            let points = super::error::corners_of(volume.grid.dims, &cells);
+            vertices_from(volume, v, &points)
+        })
+        .map(|p| p.to_array())
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::diamond::signed_volume6;
+    use crate::fields::{marschner_lobb, sample, unit_grid};
+    use crate::hierarchy::Hierarchy;
+    use crate::isosurface::{extract, IsoQuery};
+    use crate::volume::ScalarSlice;
+
+    #[test]
+    fn cell_tets_tile_the_cell() {
+        for c in [IVec3::ZERO, IVec3::new(1, 0, 0), IVec3::new(3, 4, 7)] {
+            let tets = cell_tets(c);
+            let volume: i64 = tets.iter().map(|t| signed_volume6(t).abs()).sum();
+            assert_eq!(volume, 6, "{c:?}");
+            for t in tets {
+                assert!(t
+                    .iter()
+                    .all(|&p| (p - c).cmpge(IVec3::ZERO).all() && (p - c).cmple(IVec3::ONE).all()));
+                for a in 0..4 {
+                    for b in a + 1..4 {
+                        let (p, q) = if t[a].to_array() < t[b].to_array() {
+                            (t[a], t[b])
+                        } else {
+                            (t[b], t[a])
+                        };
+                        assert!(is_fine_edge(p, q - p), "{p:?}-{q:?}");
+                    }
+                }
+            }
+        }
+    }
+
+    /// The points of a surface, sorted, rounded to 1e-9.
+    fn rounded(points: impl IntoIterator<Item = [f64; 3]>) -> Vec<[i64; 3]> {
+        let mut p: Vec<[i64; 3]> = points
+            .into_iter()
+            .map(|p| p.map(|c| (c * 1e9).round() as i64))
+            .collect();
+        p.sort_unstable();
+        p.dedup();
+        p
+    }
+
+    #[test]
+    fn f_is_the_surface_at_tolerance_0() {
+        // Grids with and without a far-face band, isovalues between samples and equal to samples.
+        for dims in [[17, 17, 17], [20, 13, 11], [33, 29, 41]] {
+            let grid = unit_grid(dims);
+            let v: Vec<f32> = sample(&grid, |x, y, z| marschner_lobb(x, y, z) as f32)
+                .into_iter()
+                .map(|f| (f * 16.0).round() / 16.0)
+                .collect();
+            let volume = Volume::new(grid, &v[..]).unwrap();
+            let h = Hierarchy::build_for_isosurfaces(grid, ScalarSlice::F32(&v)).unwrap();
+            for isovalues in [vec![0.5], vec![0.3, 0.71]] {
+                let s = extract(
+                    &h,
+                    ScalarSlice::F32(&v),
+                    &IsoQuery {
+                        isovalues: isovalues.clone(),
+                        ..IsoQuery::new(0.0, 0.0)
+                    },
+                )
+                .unwrap();
+                let fine = full_resolution_vertices(&volume, &isovalues);
+                assert_eq!(rounded(s.points.clone()), rounded(fine.clone()), "{dims:?}");
+                // One point per crossed edge, as the extraction's.
+                assert_eq!(fine.len(), s.points.len(), "{dims:?} {isovalues:?}");
+                let soup = full_resolution_triangles(&volume, &isovalues);
+                assert_eq!(soup.len(), s.triangles.len(), "{dims:?} {isovalues:?}");
+                let corners = soup.iter().flatten().copied();
+                assert_eq!(rounded(corners), rounded(s.points.clone()));
+            }
+        }
+    }
+}

@@ -1,0 +1,188 @@
+//! Both one-sided Hausdorff distances between a triangle surface `S` and the full-resolution surface
+//! `F` of a volume ([`crate::isosurface::full_resolution_triangles`]: marching tetrahedra on the
+//! finest tetrahedra, what a query at tolerance 0 draws), with exact point–triangle distances
+//! ([`crate::geometry::closest_point_on_triangle`]) found through [`rstar`] R-trees of the triangles.
+//!
+//! - `F → S`: the largest distance from a vertex of `F` to `S`;
+//! - `S → F`: the largest distance to `F` from the vertices of `S` and from samples of its triangles
+//!   spaced at most one voxel (`h`, the smallest grid spacing, [`crate::geometry::triangle_samples`]).
+//!   Every point of `S` lies within `h / √3` of a sample, so every point of `S` is within this
+//!   distance plus `h / √3` of `F` (the *slack*).
+//!
+//! The isosurface bound ([`crate::isosurface`]) is that both are at most the tolerance.
+
+use super::diagonal;
+use crate::geometry::{triangle_samples, Triangle};
+use crate::isosurface::{full_resolution_triangles, full_resolution_vertices};
+use crate::volume::{Sample, Volume};
+use glam::DVec3;
+use rayon::prelude::*;
+use rstar::{PointDistance, RTree};
+
+/// The largest distance found in one direction and the point it was found at.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Farthest {
+    /// Exact distance (infinite when the other surface is empty and this one is not).
+    pub distance: f64,
+    /// The point of the surface measured from.
+    pub point: [f64; 3],
+}
+
+/// What [`surface_distances`] measured.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceDistances {
+    /// The largest distance from a vertex of `F` to `S`.
+    pub fine_to_surface: Farthest,
+    /// The largest distance from a vertex or sample of `S` to `F`.
+    pub surface_to_fine: Farthest,
+    /// Vertices and triangles of `F`.
+    pub fine_vertices: usize,
+    pub fine_triangles: usize,
+    /// Vertices and samples of `S` measured.
+    pub surface_samples: usize,
+    /// Every point of `S` lies within this distance of a measured sample (`h / √3`).
+    pub slack: f64,
+    /// Rounding allowed by [`SurfaceDistances::check`]: a billionth of the volume's diagonal.
+    pub rounding: f64,
+}
+
+impl SurfaceDistances {
+    /// Both distances within `tolerance` (plus [`SurfaceDistances::rounding`]), or a message naming
+    /// the one that is not and where.
+    pub fn check(&self, tolerance: f64) -> Result<(), String> {
+        let side = |name: &str, f: &Farthest| {
+            if f.distance <= tolerance + self.rounding {
+                Ok(())
+            } else {
+                Err(format!(
+                    "{name} {} > tolerance {tolerance} at {:?}",
+                    f.distance, f.point
+                ))
+            }
+        };
+        side(
+            "a vertex of the full-resolution surface lies",
+            &self.fine_to_surface,
+        )
+        .and(side(
+            "a point of the surface lies (from the full-resolution surface)",
+            &self.surface_to_fine,
+        ))
+    }
+}
+
+/// The largest distance from `points` to the triangles of `tree` (infinite if it is empty while
+/// `points` is not).
+fn farthest(points: &[DVec3], tree: &RTree<Triangle>) -> Farthest {
+    points
+        .par_iter()
+        .map(|p| {
+            let p = p.to_array();
+            let distance = tree
+                .nearest_neighbor(&p)
+                .map_or(f64::INFINITY, |t| t.distance_2(&p).sqrt());
+            Farthest { distance, point: p }
+        })
+        .reduce(
+            || Farthest {
+                distance: 0.0,
+                point: [0.0; 3],
+            },
+            |a, b| if b.distance > a.distance { b } else { a },
+        )
+}
+
+/// An R-tree of `triangles`.
+fn tree(triangles: impl Iterator<Item = [DVec3; 3]>) -> RTree<Triangle> {
+    let triangles: Vec<Triangle> = triangles
+        .enumerate()
+        .map(|(id, corners)| Triangle {
+            id: id as u32,
+            corners,
+        })
+        .collect();
+    RTree::bulk_load(triangles)
+}
+
+/// Both one-sided distances between the surface made of `triangles` (corners indexing `points`) and
+/// the full-resolution surface of `isovalues` in `volume`.
+pub fn surface_distances<T: Sample>(
+    volume: &Volume<'_, T>,
+    isovalues: &[f64],
+    points: &[[f64; 3]],
+    triangles: &[[u32; 3]],
+) -> SurfaceDistances {
+    let h = volume
+        .grid
+        .spacing
+        .into_iter()
+        .fold(f64::INFINITY, f64::min);
+    let corners = |t: &[u32; 3]| t.map(|i| DVec3::from(points[i as usize]));
+    let fine: Vec<DVec3> = full_resolution_vertices(volume, isovalues)
+        .into_iter()
+        .map(DVec3::from)
+        .collect();
+    let surface = tree(triangles.iter().map(corners));
+    let fine_to_surface = farthest(&fine, &surface);
+    drop(surface);
+    let fine_triangles = full_resolution_triangles(volume, isovalues);
+    let n_fine = fine_triangles.len();
+    let fine_tree = tree(fine_triangles.into_iter().map(|t| t.map(DVec3::from)));
+    let samples: Vec<DVec3> = points
+        .iter()
+        .map(|&p| DVec3::from(p))
+        .chain(
+            triangles
+                .iter()
+                .flat_map(|t| triangle_samples(corners(t), h)),
+        )
+        .collect();
+    SurfaceDistances {
+        fine_to_surface,
+        surface_to_fine: farthest(&samples, &fine_tree),
+        fine_vertices: fine.len(),
+        fine_triangles: n_fine,
+        surface_samples: samples.len(),
+        slack: h / 3f64.sqrt(),
+        rounding: 1e-9 * diagonal(&volume.grid.bounds()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fields::{sample, sphere_distance, unit_grid};
+
+    #[test]
+    fn distances_of_f_itself_are_zero_and_of_a_shifted_copy_the_shift() {
+        let grid = unit_grid([21, 19, 17]);
+        let v = sample(&grid, |x, y, z| sphere_distance(0.6)(x, y, z) as f32);
+        let volume = Volume::new(grid, &v[..]).unwrap();
+        let soup = full_resolution_triangles(&volume, &[0.0]);
+        let points: Vec<[f64; 3]> = soup.iter().flatten().copied().collect();
+        let triangles: Vec<[u32; 3]> = (0..soup.len() as u32)
+            .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
+            .collect();
+        let d = surface_distances(&volume, &[0.0], &points, &triangles);
+        assert!(d.fine_to_surface.distance < 1e-12, "{d:?}");
+        assert!(d.surface_to_fine.distance < 1e-12, "{d:?}");
+        assert_eq!(d.check(0.0), Ok(()));
+        assert_eq!(d.fine_triangles, soup.len());
+        // Shifted along x by 0.3 of the domain: the distances are at most the shift, and close to
+        // it (the sphere's poles along x move straight away).
+        let shift = 0.3;
+        let moved: Vec<[f64; 3]> = points.iter().map(|p| [p[0] + shift, p[1], p[2]]).collect();
+        let d = surface_distances(&volume, &[0.0], &moved, &triangles);
+        for f in [d.fine_to_surface, d.surface_to_fine] {
+            assert!(
+                f.distance <= shift + 1e-12 && f.distance > 0.8 * shift,
+                "{d:?}"
+            );
+        }
+        assert!(d.check(0.2).unwrap_err().contains("> tolerance 0.2"));
+        // An empty surface is infinitely far from a non-empty F.
+        let d = surface_distances(&volume, &[0.0], &[], &[]);
+        assert_eq!(d.fine_to_surface.distance, f64::INFINITY);
+        assert_eq!(d.surface_to_fine.distance, 0.0);
+    }
+}
