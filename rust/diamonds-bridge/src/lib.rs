@@ -266,6 +266,9 @@ mod ffi {
         fn values(self: &Surface) -> &[f64];
         /// Largest isosurface error (world units) of the diamonds carrying the surface.
         fn error_bound(self: &Surface) -> f64;
+        /// Messages for the user (isovalues outside the data range, a triangle budget the
+        /// coarsest surface exceeds), for `vtkWarningMacro`.
+        fn warnings(self: &Surface) -> Result<Vec<String>>;
         /// Whether the carrier tetrahedra are there to take (asked for and not taken yet).
         fn has_carrier(self: &Surface) -> bool;
         /// Moves the tetrahedra carrying the surface out (their `errors`: the isosurface error of
@@ -698,6 +701,12 @@ impl Surface {
 
     fn has_carrier(&self) -> bool {
         self.carrier.is_some()
+    }
+
+    fn warnings(&self) -> Result<Vec<String>, String> {
+        guard("reading the isosurface", || {
+            Ok(self.surface.warnings.clone())
+        })
     }
 
     /// Moves the carrier tetrahedra out (once).

@@ -4,9 +4,8 @@
 //! except on the image's bounds, unit normals; the error bound within the tolerance, fewer triangles at
 //! 1 %.
 //!
-//! Isovalues equal to samples (headsq's middle value) make zero-area triangles; their orientation must
-//! still be consistent (see `isovalues_equal_to_samples_keep_a_consistent_orientation` in
-//! tests/isosurface.rs).
+//! Isovalues equal to samples (headsq's middle value) make one point per sample at the isovalue (see
+//! `isovalues_equal_to_samples_keep_a_consistent_orientation` in tests/isosurface.rs).
 //!
 //! One test per volume so that the harness spreads them over the cores; [`any_other_shared_volume`]
 //! covers files added later. Bonsai (256³) runs at 1 % in release builds only (about 5 s); its

@@ -16,6 +16,7 @@
 //!   (Marchesin §4.1).
 //! - [`geometry`]: exact point–triangle distances, triangles in R-trees, samples of triangles.
 //! - [`refine`]: the split set, the [`refine::SplitQueue`] and selective refinement with closure.
+//! - [`memory`]: fallible allocation of the large buffers (a failure is an error, not an abort).
 //! - [`mesh`]: extraction of the current mesh as deduplicated points and tetrahedra.
 //! - [`hierarchy`]: the precomputed per-diamond records (error, min, max) in 4 bytes per voxel
 //!   ([`hierarchy::record`]: the record and its codecs) and the base mesh every query starts from.
@@ -38,6 +39,7 @@ pub mod hierarchy;
 pub mod isosurface;
 pub mod lattice;
 pub mod material;
+pub mod memory;
 pub mod mesh;
 pub mod refine;
 pub mod scan;
@@ -75,6 +77,13 @@ pub enum Error {
         ijk: [usize; 3],
         value: f64,
     },
+    /// A sample beyond [`volume::MAX_MAGNITUDE`], where the error arithmetic would overflow.
+    #[error("the scalar array holds {value:e} at point {index} (i, j, k = {ijk:?}): beyond ±{:e}, where the error arithmetic would overflow; rescale the array first (e.g. with Calculator)", volume::MAX_MAGNITUDE)]
+    Magnitude {
+        index: usize,
+        ijk: [usize; 3],
+        value: f64,
+    },
     /// Not enough memory for the hierarchy.
     #[error("the diamond hierarchy for {dims:?} points needs {needed} bytes but only {available} bytes are available")]
     TooLarge {
@@ -82,6 +91,9 @@ pub enum Error {
         needed: u64,
         available: u64,
     },
+    /// A large buffer could not be allocated ([`memory`]).
+    #[error("not enough memory for {what} ({bytes} bytes could not be allocated)")]
+    OutOfMemory { what: String, bytes: u64 },
     /// A query parameter out of range.
     #[error("invalid parameter: {0}")]
     Parameter(String),

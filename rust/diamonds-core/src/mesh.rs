@@ -3,8 +3,10 @@
 
 use crate::diamond::{bisect, signed_volume6, Diamond};
 use crate::lattice::{Lattice, Placement, Tet};
+use crate::memory;
 use crate::refine::SplitSet;
 use crate::volume::Grid;
+use crate::Result;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -127,12 +129,12 @@ pub(crate) fn extract(
     grid: &Grid,
     split: &SplitSet,
     error: impl Fn(Diamond) -> f64 + Sync,
-) -> TetMesh {
+) -> Result<TetMesh> {
     let roots = subtrees(lattice, split);
     // Pass 1: counts, and used points as a bitset over the input points.
-    let used: Vec<AtomicU64> = (0..grid.len().div_ceil(64))
-        .map(|_| AtomicU64::new(0))
-        .collect();
+    let words = grid.len().div_ceil(64);
+    let mut used = memory::with_capacity(words, "the mesh's point set")?;
+    used.extend((0..words).map(|_| AtomicU64::new(0)));
     let counts: Vec<usize> = roots
         .par_iter()
         .map(|&t| {
@@ -149,14 +151,14 @@ pub(crate) fn extract(
         .collect();
     // Point ids by rank in the bitset.
     let used: Vec<u64> = used.into_iter().map(AtomicU64::into_inner).collect();
-    let mut rank = Vec::with_capacity(used.len());
+    let mut rank = memory::with_capacity(used.len(), "the mesh's point ids")?;
     let mut total = 0u32;
     for w in &used {
         rank.push(total);
         total += w.count_ones();
     }
     let id = |i: usize| rank[i / 64] + (used[i / 64] & ((1u64 << (i % 64)) - 1)).count_ones();
-    let mut point_ids = Vec::with_capacity(total as usize);
+    let mut point_ids = memory::with_capacity(total as usize, "the mesh's point ids")?;
     for (w, &bits) in used.iter().enumerate() {
         let mut b = bits;
         while b != 0 {
@@ -164,15 +166,13 @@ pub(crate) fn extract(
             b &= b - 1;
         }
     }
-    let points = point_ids
-        .par_iter()
-        .map(|&i| grid.point(grid.ijk(i)))
-        .collect();
+    let mut points = memory::with_capacity(point_ids.len(), "the mesh's points")?;
+    points.par_extend(point_ids.par_iter().map(|&i| grid.point(grid.ijk(i))));
     // Pass 2: each subtree fills its own slices of the output arrays.
     let n: usize = counts.iter().sum();
-    let mut tets = vec![[0u32; 4]; n];
-    let mut depths = vec![0u8; n];
-    let mut errors = vec![0f32; n];
+    let mut tets = memory::filled(n, [0u32; 4], "the mesh's tetrahedra")?;
+    let mut depths = memory::filled(n, 0u8, "the mesh's depths")?;
+    let mut errors = memory::filled(n, 0f32, "the mesh's errors")?;
     let mut jobs = Vec::with_capacity(roots.len());
     let (mut t_rest, mut d_rest, mut e_rest) = (&mut tets[..], &mut depths[..], &mut errors[..]);
     for (&root, &count) in roots.iter().zip(&counts) {
@@ -202,12 +202,12 @@ pub(crate) fn extract(
         });
     });
     let max_error = errors.iter().fold(0.0f64, |m, &e| m.max(e as f64));
-    TetMesh {
+    Ok(TetMesh {
         point_ids,
         points,
         tets,
         depths,
         errors,
         max_error,
-    }
+    })
 }

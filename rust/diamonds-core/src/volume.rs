@@ -226,6 +226,12 @@ impl ScalarSlice<'_> {
     }
 }
 
+/// The largest sample magnitude accepted: `f64::MAX / 2^40`, about 1.6e296. The exact error of a
+/// tetrahedron ([`crate::scan`]) sums products of samples with barycentric numerators of up to
+/// 2^33 (lattice coordinates reach 2^24); beyond this limit those sums would overflow to infinity or
+/// NaN, and an error that is not a number passes every tolerance test silently.
+pub const MAX_MAGNITUDE: f64 = f64::MAX / (1u64 << 40) as f64;
+
 /// A grid with its samples, borrowed.
 #[derive(Clone, Copy, Debug)]
 pub struct Volume<'a, T> {
@@ -234,7 +240,8 @@ pub struct Volume<'a, T> {
 }
 
 impl<'a, T: Sample> Volume<'a, T> {
-    /// Checks dimensions, geometry and length, and refuses NaN/Inf samples.
+    /// Checks dimensions, geometry and length, and refuses NaN/Inf samples and samples beyond
+    /// [`MAX_MAGNITUDE`].
     pub fn new(grid: Grid, samples: &'a [T]) -> Result<Self> {
         grid.validate()?;
         let expected = grid
@@ -248,11 +255,16 @@ impl<'a, T: Sample> Volume<'a, T> {
                 dims: grid.dims,
             });
         }
-        if let Some(index) = samples.iter().position(|s| !s.to_f64().is_finite()) {
-            return Err(Error::NonFinite {
-                index,
-                ijk: grid.ijk(index),
-                value: samples[index].to_f64(),
+        // One pass for both refusals.
+        if let Some(index) = samples.iter().position(|s| {
+            let v = s.to_f64();
+            v.is_nan() || v.abs() > MAX_MAGNITUDE
+        }) {
+            let (ijk, value) = (grid.ijk(index), samples[index].to_f64());
+            return Err(if value.is_finite() {
+                Error::Magnitude { index, ijk, value }
+            } else {
+                Error::NonFinite { index, ijk, value }
             });
         }
         Ok(Self { grid, samples })
@@ -328,6 +340,26 @@ mod tests {
             }
             other => panic!("expected NonFinite, got {other:?}"),
         }
+    }
+
+    #[test]
+    fn refuses_magnitudes_whose_error_arithmetic_overflows() {
+        // Smooth data near the largest double: its errors overflowed to NaN and passed as 0.
+        let s: Vec<f64> = (0..27).map(|i| 1.5e308 + i as f64 * 1e306).collect();
+        match Volume::new(grid([3, 3, 3]), &s) {
+            Err(e @ Error::Magnitude { index: 0, .. }) => {
+                assert!(e.to_string().contains("overflow"), "{e}")
+            }
+            other => panic!("expected Magnitude, got {other:?}"),
+        }
+        let mut s = vec![0.0f64; 8];
+        s[3] = -MAX_MAGNITUDE;
+        assert!(Volume::new(grid([2, 2, 2]), &s).is_ok());
+        s[3] = -MAX_MAGNITUDE * 1.000001;
+        assert!(matches!(
+            Volume::new(grid([2, 2, 2]), &s),
+            Err(Error::Magnitude { index: 3, .. })
+        ));
     }
 
     #[test]

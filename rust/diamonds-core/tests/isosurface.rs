@@ -118,7 +118,7 @@ fn tolerance_zero_is_marching_tetrahedra_at_full_resolution() {
         }
         tets.retain(|t| l.place(t) == Placement::Inside);
         let vol = Volume::new(g, &v[..]).unwrap();
-        let full = marching_tetrahedra(&vol, &tets, &[0.0], false);
+        let full = marching_tetrahedra(&vol, &tets, &[0.0], false).unwrap();
         assert!(!full.triangles.is_empty());
         assert_eq!(
             adaptive.triangles.len(),
@@ -243,10 +243,22 @@ fn isovalues_equal_to_samples_keep_a_consistent_orientation() {
             .round() as u8
     });
     let h = Hierarchy::build_for_isosurfaces(g, ScalarSlice::U8(&v)).unwrap();
-    for (iso, tol) in [(128.0, 0.0), (100.0, 0.0), (128.0, 0.05)] {
+    for (iso, tol) in [(128.0, 0.0), (100.0, 0.0), (128.0, 0.05), (100.0, 0.1)] {
         let s = extract(&h, ScalarSlice::U8(&v), &IsoQuery::new(iso, tol)).unwrap();
-        // Zero-area triangles, but distinct point ids: watertight and oriented by ids.
-        assert_watertight(&s, &format!("u8 sphere at a sample value, tol {tol}"));
+        let what = format!("u8 sphere at the sample value {iso}, tol {tol}");
+        assert_watertight(&s, &what);
+        // A vertex at the isovalue is one point, not one per edge: no two points coincide and
+        // no triangle has zero area.
+        let mut positions: Vec<[u64; 3]> = s.points.iter().map(|p| p.map(f64::to_bits)).collect();
+        positions.sort_unstable();
+        let distinct = positions.len();
+        positions.dedup();
+        assert_eq!(positions.len(), distinct, "{what}: duplicate points");
+        for t in &s.triangles {
+            let p = t.map(|i| DVec3::from(s.points[i as usize]));
+            let twice_area = (p[1] - p[0]).cross(p[2] - p[0]).length();
+            assert!(twice_area > 1e-12, "{what}: zero-area triangle {t:?}");
+        }
     }
 }
 

@@ -18,6 +18,7 @@ pub mod record;
 
 use crate::diamond::Diamond;
 use crate::lattice::{Lattice, Placement};
+use crate::memory;
 use crate::mesh::{self, TetMesh};
 use crate::refine::{BaseMesh, Query, Refiner, SplitSet};
 use crate::scan::{scan_finest_diamond, scan_tet, Stencils, TetStats};
@@ -153,7 +154,7 @@ impl Hierarchy {
         let value_range = volume.range();
         let quantise = Quantiser::new(value_range);
         let stencils = Stencils::new(&grid);
-        let mut records = vec![Record::default(); grid.len()];
+        let mut records = memory::filled(grid.len(), Record::default(), "the diamond hierarchy")?;
         let nx = grid.dims[0];
         let rows = grid.dims[1] * grid.dims[2];
         // Rows of records in parallel, in batches so that progress and abort are seen on this thread.
@@ -192,9 +193,7 @@ impl Hierarchy {
             ));
         }
         let split = Refiner::run(&self.grid, &self.base, query, &|d| self.error(d))?;
-        Ok(mesh::extract(&self.lattice, &self.grid, &split, |d| {
-            self.error(d)
-        }))
+        mesh::extract(&self.lattice, &self.grid, &split, |d| self.error(d))
     }
 
     /// The grid the hierarchy was built for.

@@ -5,9 +5,12 @@
 
 use super::{tet_gradient, world, IsoSurface};
 use crate::lattice::Tet;
+use crate::memory;
 use crate::volume::{Sample, Volume};
+use crate::Result;
 use glam::{DVec3, I64Vec3, IVec3};
 use rayon::prelude::*;
+use rustc_hash::FxHashSet;
 
 /// Does the tetrahedron with vertex values `f` carry the isosurface of `v`? (Vertices at `v` count as above.)
 #[inline]
@@ -24,7 +27,9 @@ pub(super) fn carries<T: Sample>(volume: &Volume<'_, T>, isovalues: &[f64], t: &
 }
 
 /// Number of triangles marching tetrahedra makes from `tets`: one per tetrahedron and isovalue that
-/// cuts off one vertex, two where it separates two from two.
+/// cuts off one vertex, two where it separates two from two, less those whose corners merge at
+/// samples that hold the isovalue (see [`marching_tetrahedra`]; where sheets touch along an edge
+/// and keep a point per crossed edge, a few more).
 pub(super) fn count_triangles<T: Sample>(
     volume: &Volume<'_, T>,
     tets: &[Tet],
@@ -37,11 +42,12 @@ pub(super) fn count_triangles<T: Sample>(
                 .iter()
                 .filter(|&&v| crosses(&f, v))
                 .map(|&v| {
-                    if f.iter().filter(|&&x| x >= v).count() == 2 {
-                        2
-                    } else {
-                        1
-                    }
+                    // Every vertex above has an edge to each vertex below; those of a vertex that
+                    // holds the isovalue make one point.
+                    let above = f.iter().filter(|&&x| x >= v).count();
+                    let at = f.iter().filter(|&&x| x == v).count();
+                    let corners = if above == 2 { 4 } else { 3 };
+                    (corners - at * (3 - above)).saturating_sub(2)
                 })
                 .sum::<usize>()
         })
@@ -96,23 +102,31 @@ fn point_gradient<T: Sample>(volume: &Volume<'_, T>, p: IVec3) -> DVec3 {
 /// and isovalue, so the surface is crack-free across face-adjacent tetrahedra; triangles are oriented
 /// toward increasing values. Parallel: each tetrahedron's polygons name their points by edge, the
 /// distinct edges (sorted) become the points, each interpolated once from its lower-index end.
+///
+/// A sample that holds the isovalue is the point of all its crossed edges in one sheet of the surface
+/// (the edges' corners in one polygon, joined across polygons by shared edges): no two points of a
+/// sheet coincide, and the corners that merge are dropped, so no triangle has zero area. Two sheets
+/// that touch at such a sample keep a point each. Where sheets touch along a mesh edge whose two
+/// samples hold the isovalue and are joined into one sheet around it (the edge would be in four
+/// triangles), these two samples keep a point per crossed edge instead, as without merging: the
+/// surface stays watertight there at the price of coinciding points.
 pub fn marching_tetrahedra<T: Sample>(
     volume: &Volume<'_, T>,
     tets: &[Tet],
     isovalues: &[f64],
     compute_normals: bool,
-) -> IsoSurface {
+) -> Result<IsoSurface> {
     let polygons = polygons(volume, tets, isovalues);
     // Every polygon corner with its slot, sorted by edge: equal edges are neighbours.
-    let mut corners: Vec<(EdgeKey, u32)> = polygons
-        .par_iter()
-        .enumerate()
-        .flat_map_iter(|(p, poly)| (0..poly.n).map(move |i| (poly.keys[i], (4 * p + i) as u32)))
-        .collect();
+    let slots: usize = polygons.par_iter().map(|poly| poly.n).sum();
+    let mut corners: Vec<(EdgeKey, u32)> = memory::with_capacity(slots, "the isosurface corners")?;
+    for (p, poly) in polygons.iter().enumerate() {
+        corners.extend((0..poly.n).map(|i| (poly.keys[i], (4 * p + i) as u32)));
+    }
     corners.par_sort_unstable();
     // The distinct edges, with the polygon of their first corner.
     let mut keys: Vec<(EdgeKey, u32)> = Vec::new();
-    let mut slot_ids = vec![0u32; 4 * polygons.len()];
+    let mut slot_ids = memory::filled(4 * polygons.len(), 0u32, "the isosurface corners")?;
     for &(key, slot) in &corners {
         if keys.last().map(|k| k.0) != Some(key) {
             keys.push((key, slot / 4));
@@ -120,44 +134,166 @@ pub fn marching_tetrahedra<T: Sample>(
         slot_ids[slot as usize] = (keys.len() - 1) as u32;
     }
     drop(corners);
-    let interpolated: Vec<(DVec3, f64, [f32; 3])> = keys
-        .par_iter()
-        .map(|&(key, p)| {
-            let (point, value, normal) = interpolate(volume, isovalues, key, compute_normals);
-            // Where the gradients vanish: the gradient of the tetrahedron, toward increasing values.
-            let normal = normal.unwrap_or_else(|| {
-                if compute_normals {
-                    let t = &tets[polygons[p as usize].tet as usize];
-                    tet_gradient(volume, t).normalize_or_zero()
-                } else {
-                    DVec3::ZERO
-                }
-            });
-            (point, value, normal.as_vec3().to_array())
+    let sample_of = |p: usize, i: usize| {
+        let poly = &polygons[p];
+        (poly.at_sample[i] != NOT_AT_SAMPLE).then(|| {
+            let v = tets[poly.tet as usize][poly.at_sample[i] as usize];
+            volume.grid.index(v.x as usize, v.y as usize, v.z as usize)
         })
-        .collect();
-    IsoSurface {
-        points: interpolated.par_iter().map(|p| p.0.to_array()).collect(),
-        values: interpolated.par_iter().map(|p| p.1).collect(),
-        normals: if compute_normals {
-            interpolated.par_iter().map(|p| p.2).collect()
-        } else {
-            Vec::new()
-        },
-        triangles: polygons
-            .par_iter()
-            .enumerate()
-            .flat_map_iter(|(p, poly)| {
-                let slot_ids = &slot_ids;
-                let id = move |i: usize| slot_ids[4 * p + i];
-                [[0, 1, 2], [0, 2, 3]]
-                    .into_iter()
-                    .take(poly.n - 2)
-                    .map(move |tri| tri.map(id))
-            })
-            .collect(),
+    };
+    let mut separate = FxHashSet::default();
+    let (points, triangles) = loop {
+        let points = join_at_samples(&polygons, &slot_ids, keys.len(), &sample_of, &separate)?;
+        let triangles = fans(&polygons, &slot_ids, &points.id, slots)?;
+        let pinched = pinched_samples(&triangles, &points.sample);
+        if pinched.is_empty() {
+            break (points, triangles);
+        }
+        separate.extend(pinched);
+    };
+    let mut interpolated: Vec<(DVec3, f64, [f32; 3])> =
+        memory::with_capacity(points.first_edge.len(), "the isosurface points")?;
+    interpolated.par_extend(points.first_edge.par_iter().map(|&e| {
+        let (key, p) = keys[e as usize];
+        let (point, value, normal) = interpolate(volume, isovalues, key, compute_normals);
+        // Where the gradients vanish: the gradient of the tetrahedron, toward increasing values.
+        let normal = normal.unwrap_or_else(|| {
+            if compute_normals {
+                let t = &tets[polygons[p as usize].tet as usize];
+                tet_gradient(volume, t).normalize_or_zero()
+            } else {
+                DVec3::ZERO
+            }
+        });
+        (point, value, normal.as_vec3().to_array())
+    }));
+    let n = interpolated.len();
+    let mut surface = IsoSurface {
+        points: memory::with_capacity(n, "the isosurface points")?,
+        values: memory::with_capacity(n, "the isosurface values")?,
+        normals: memory::with_capacity(
+            if compute_normals { n } else { 0 },
+            "the isosurface normals",
+        )?,
+        triangles,
         ..IsoSurface::default()
+    };
+    surface
+        .points
+        .par_extend(interpolated.par_iter().map(|p| p.0.to_array()));
+    surface
+        .values
+        .par_extend(interpolated.par_iter().map(|p| p.1));
+    if compute_normals {
+        surface
+            .normals
+            .par_extend(interpolated.par_iter().map(|p| p.2));
     }
+    Ok(surface)
+}
+
+/// The points of marching tetrahedra: the point id of each distinct edge, and per point its first
+/// edge and, when it is a sample that holds the isovalue, that sample's index.
+struct Points {
+    id: Vec<u32>,
+    first_edge: Vec<u32>,
+    sample: Vec<Option<usize>>,
+}
+
+/// Joins the edges whose point is one sample, per sheet (see [`marching_tetrahedra`]), except at
+/// the samples in `separate`. `sample_of(p, i)`: the sample of corner `i` of polygon `p`, if any.
+fn join_at_samples(
+    polygons: &[Polygon],
+    slot_ids: &[u32],
+    edges: usize,
+    sample_of: &impl Fn(usize, usize) -> Option<usize>,
+    separate: &FxHashSet<usize>,
+) -> Result<Points> {
+    // Union-find over the edges; each set's smallest edge stands for it.
+    let mut first = memory::with_capacity(edges, "the isosurface points")?;
+    first.extend(0..edges as u32);
+    let mut sample = memory::filled(edges, None, "the isosurface points")?;
+    fn root(first: &mut [u32], mut e: u32) -> u32 {
+        while first[e as usize] != e {
+            first[e as usize] = first[first[e as usize] as usize];
+            e = first[e as usize];
+        }
+        e
+    }
+    for (p, poly) in polygons.iter().enumerate() {
+        for i in 0..poly.n {
+            let Some(si) = sample_of(p, i).filter(|si| !separate.contains(si)) else {
+                continue;
+            };
+            sample[slot_ids[4 * p + i] as usize] = Some(si);
+            for j in i + 1..poly.n {
+                if poly.at_sample[j] == poly.at_sample[i] {
+                    let a = root(&mut first, slot_ids[4 * p + i]);
+                    let b = root(&mut first, slot_ids[4 * p + j]);
+                    first[a.max(b) as usize] = a.min(b);
+                }
+            }
+        }
+    }
+    let mut points = Points {
+        id: memory::filled(edges, 0u32, "the isosurface points")?,
+        first_edge: Vec::new(),
+        sample: Vec::new(),
+    };
+    for e in 0..edges as u32 {
+        let r = root(&mut first, e);
+        points.id[e as usize] = if r == e {
+            points.first_edge.push(e);
+            points.sample.push(sample[e as usize]);
+            (points.first_edge.len() - 1) as u32
+        } else {
+            points.id[r as usize]
+        };
+    }
+    Ok(points)
+}
+
+/// The triangles of the polygons: their distinct points (corners at one sample are neighbours) as
+/// fans. `slots`: the number of corners.
+fn fans(polygons: &[Polygon], slot_ids: &[u32], id: &[u32], slots: usize) -> Result<Vec<[u32; 3]>> {
+    let mut triangles =
+        memory::with_capacity(slots - 2 * polygons.len(), "the isosurface triangles")?;
+    for (p, poly) in polygons.iter().enumerate() {
+        let mut ids = [0u32; 4];
+        let mut n = 0;
+        for i in 0..poly.n {
+            let point = id[slot_ids[4 * p + i] as usize];
+            if n == 0 || ids[n - 1] != point {
+                ids[n] = point;
+                n += 1;
+            }
+        }
+        if n > 1 && ids[n - 1] == ids[0] {
+            n -= 1;
+        }
+        for k in 1..n.saturating_sub(1) {
+            triangles.push([ids[0], ids[k], ids[k + 1]]);
+        }
+    }
+    Ok(triangles)
+}
+
+/// The samples at both ends of an edge between two sample points that lies in more than two
+/// triangles (only such edges can: any other edge of the surface lies in one face of the mesh).
+fn pinched_samples(triangles: &[[u32; 3]], sample: &[Option<usize>]) -> Vec<usize> {
+    let mut edges: Vec<(u32, u32)> = triangles
+        .iter()
+        .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+        .filter(|&(a, b)| sample[a as usize].is_some() && sample[b as usize].is_some())
+        .map(|(a, b)| (a.min(b), a.max(b)))
+        .collect();
+    edges.sort_unstable();
+    edges
+        .chunk_by(|x, y| x == y)
+        .filter(|group| group.len() > 2)
+        .flat_map(|group| [group[0].0, group[0].1])
+        .filter_map(|point| sample[point as usize])
+        .collect()
 }
 
 /// A point of each polygon marching tetrahedra makes from `tets` (the mean of its corners).
@@ -179,12 +315,18 @@ pub(super) fn polygon_centres<T: Sample>(
 }
 
 /// A polygon of marching tetrahedra: 3 or 4 corners, oriented toward increasing values, each an
-/// edge key; made by tetrahedron `tet`.
+/// edge key; made by tetrahedron `tet`. A corner whose point is the edge's end above the isovalue
+/// (that sample holds the isovalue) has that vertex of `tet` in `at_sample`, the others
+/// [`NOT_AT_SAMPLE`].
 struct Polygon {
     keys: [EdgeKey; 4],
+    at_sample: [u8; 4],
     n: usize,
     tet: u32,
 }
+
+/// See [`Polygon::at_sample`].
+const NOT_AT_SAMPLE: u8 = u8::MAX;
 
 /// The polygons of `tets` for every isovalue.
 fn polygons<T: Sample>(volume: &Volume<'_, T>, tets: &[Tet], isovalues: &[f64]) -> Vec<Polygon> {
@@ -240,8 +382,11 @@ fn polygons<T: Sample>(volume: &Volume<'_, T>, tets: &[Tet], isovalues: &[f64]) 
                     let (ia, ib) = (index(t[a]), index(t[b]));
                     (ia.min(ib), ia.max(ib), k as u32)
                 });
+                // Each edge runs from a vertex above (first) to one below.
+                let at_sample = edges.map(|(a, _)| if f[a] == v { a as u8 } else { NOT_AT_SAMPLE });
                 Some(Polygon {
                     keys,
+                    at_sample,
                     n,
                     tet: tet as u32,
                 })
@@ -268,9 +413,13 @@ fn interpolate<T: Sample>(
     let v = isovalues[k as usize];
     let (a, b) = (at(ia), at(ib));
     let (fa, fb) = (volume.at_index(ia as usize), volume.at_index(ib as usize));
-    let s = (v - fa) / (fb - fa);
     let (pa, pb) = (world(volume, a), world(volume, b));
-    let point = pa + s * (pb - pa);
+    // An end that holds the isovalue is the point, exactly: the same for all its edges.
+    let point = if fb == v {
+        pb
+    } else {
+        pa + (v - fa) / (fb - fa) * (pb - pa)
+    };
     let normal = if compute_normals {
         gradient_at(volume, point).try_normalize()
     } else {

@@ -106,6 +106,9 @@ pub struct IsoSurface {
     pub error_bound: f64,
     /// The tetrahedra carrying the surface, when asked for.
     pub carrier: Option<TetMesh>,
+    /// What the user should know: isovalues outside the data range, a triangle budget that the
+    /// coarsest surface exceeds.
+    pub warnings: Vec<String>,
 }
 
 /// Extracts the isosurface(s) of `query` from the adaptive mesh of `hierarchy`; `scalars` must be the
@@ -192,15 +195,24 @@ impl<T: Sample> Extraction<'_, '_, T> {
             }
             used = hi;
         }
-        Ok(self.surface_of(query, used, &carriers))
+        let mut surface = self.surface_of(query, used, &carriers)?;
+        let n = surface.triangles.len();
+        if query.max_triangles > 0 && n > query.max_triangles {
+            surface.warnings.push(format!(
+                "the budget of {} triangles cannot be met: the coarsest surface has {n} triangles, {} more (the adaptive mesh is never coarser than the six tetrahedra of its root cube)",
+                query.max_triangles,
+                n - query.max_triangles
+            ));
+        }
+        Ok(surface)
     }
 
     /// Marching tetrahedra on `carriers` (refined at `tolerance`), with the error bound and, when asked
     /// for, the carrier mesh.
-    fn surface_of(&self, query: &IsoQuery, tolerance: f64, carriers: &[Tet]) -> IsoSurface {
+    fn surface_of(&self, query: &IsoQuery, tolerance: f64, carriers: &[Tet]) -> Result<IsoSurface> {
         let volume = self.volume;
         let mut surface =
-            marching_tetrahedra(volume, carriers, &query.isovalues, query.compute_normals);
+            marching_tetrahedra(volume, carriers, &query.isovalues, query.compute_normals)?;
         // At tolerance 0 the surface is the full-resolution one: error 0.
         let errors = (tolerance > 0.0).then(|| self.iso_errors(&query.isovalues, tolerance));
         let error = |t: &Tet| match (&errors, Diamond::of_tet(t)) {
@@ -208,10 +220,20 @@ impl<T: Sample> Extraction<'_, '_, T> {
             _ => 0.0,
         };
         surface.error_bound = carriers.iter().map(error).fold(0.0, f64::max);
+        let (lo, hi) = self.hierarchy.value_range();
+        surface.warnings.extend(
+            (query.isovalues.iter())
+                .filter(|&&v| !(lo < v && v <= hi))
+                .map(|v| {
+                    format!(
+                        "isovalue {v} is outside ({lo}, {hi}], the data range: no surface for it"
+                    )
+                }),
+        );
         if query.carrier_tetrahedra {
             surface.carrier = Some(carrier_mesh(self.hierarchy, carriers, error));
         }
-        surface
+        Ok(surface)
     }
 
     /// The leaves of the mesh refined for `query` at `tolerance` that carry the surface.

@@ -184,7 +184,7 @@ impl IsoState {
         };
         stats.refine_seconds = t.elapsed().as_secs_f64();
         let t = Instant::now();
-        let surface = x.surface_of(query, query.tolerance, &carriers);
+        let surface = x.surface_of(query, query.tolerance, &carriers)?;
         stats.extract_seconds = t.elapsed().as_secs_f64();
         stats.split_diamonds = split.len();
         self.current = Some(Current {

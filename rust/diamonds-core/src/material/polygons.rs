@@ -338,14 +338,18 @@ impl MaterialMesh {
     /// cut is not split and carries the mixed fields.
     pub fn slice(&self, origin: [f64; 3], normal: [f64; 3]) -> Result<PolygonMesh> {
         let (o, n) = (DVec3::from_array(origin), DVec3::from_array(normal));
-        if !o.is_finite() || !n.is_finite() || n.length() == 0.0 {
+        // Scaled by its largest component first: the squared length of a normal with components
+        // of 1e155 overflows, that of 1e-300 underflows.
+        let largest = n.abs().max_element();
+        if !o.is_finite() || !n.is_finite() || largest == 0.0 {
             return Err(Error::Parameter(format!(
                 "the slice plane needs a finite origin and a non-zero normal (got {origin:?}, {normal:?})"
             )));
         }
+        let n = (n / largest).normalize();
         let f = Functions {
             mesh: self,
-            plane: Some((o, n.normalize())),
+            plane: Some((o, n)),
         };
         let mut b = Builder::default();
         b.out.offsets.push(0);

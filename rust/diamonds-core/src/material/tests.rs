@@ -363,6 +363,15 @@ fn slices_lie_on_their_plane_and_carry_their_material() {
         .sum();
     assert!((area - 12.0 * 20.8).abs() < 1e-6, "cut area {area}");
     assert!(mesh.slice(o, [0.0; 3]).is_err());
+    // Normals whose squared length overflows or underflows cut the same plane.
+    for scale in [1e155, 1e300, 1e-300, 5e-324] {
+        let scaled = mesh.slice(o, n.map(|c| c * scale)).unwrap();
+        assert_eq!(scaled.points, cut.points, "normal scaled by {scale}");
+        assert_eq!(
+            scaled.connectivity, cut.connectivity,
+            "normal scaled by {scale}"
+        );
+    }
 }
 
 #[test]

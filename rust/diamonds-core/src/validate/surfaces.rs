@@ -258,6 +258,7 @@ mod tests {
             values: vec![1.0; 3],
             error_bound: 0.0,
             carrier: None,
+            warnings: Vec::new(),
         };
         assert!(check_isosurface_arrays(&good, &query).is_ok());
         let mut bad = good.clone();
