@@ -10,7 +10,6 @@ use diamonds::validate::{
     check_mesh, check_surface, check_tolerance, check_unit_normals, surface_distances,
 };
 use diamonds::{fields, with_volume, Grid, Hierarchy, IsoQuery, Query, TetMesh};
-use rayon::prelude::*;
 use std::fmt;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -115,11 +114,12 @@ pub struct TetGridData {
 /// it took.
 fn read_input(path: &Path, array: Option<&str>) -> Result<(crate::read::Image, f64)> {
     let start = Instant::now();
-    let image = read_image(path)?;
-    if let Err(e) = image.scalars(array) {
-        bail!("'{}': {e}", path.display());
-    }
-    for w in &image.warnings {
+    let mut image = read_image(path)?;
+    let converted = match image.exact_scalars(array) {
+        Ok(converted) => converted,
+        Err(e) => bail!("'{}': {e}", path.display()),
+    };
+    for w in image.warnings.iter().chain(&converted) {
         eprintln!("warning: '{}': {w}", path.display());
     }
     Ok((image, start.elapsed().as_secs_f64()))
@@ -303,23 +303,6 @@ pub fn iso(opts: &IsoOptions) -> Result<IsoSummary> {
             diagonal / cells.cbrt()
         }
     };
-    let (lo, hi) = (0..array.data.len())
-        .into_par_iter()
-        .map(|k| array.value(k))
-        .fold(
-            || (f64::INFINITY, f64::NEG_INFINITY),
-            |(lo, hi), v| (lo.min(v), hi.max(v)),
-        )
-        .reduce(
-            || (f64::INFINITY, f64::NEG_INFINITY),
-            |a, b| (a.0.min(b.0), a.1.max(b.1)),
-        );
-    for v in opts.isovalues.iter().filter(|&&v| !(lo < v && v <= hi)) {
-        eprintln!(
-            "warning: isovalue {v} is outside ({lo}, {hi}], the range of '{}': no surface for it",
-            array.name
-        );
-    }
     let start = Instant::now();
     let hierarchy = Hierarchy::build_for_isosurfaces(grid, array.scalar_slice()?)?;
     let build_seconds = start.elapsed().as_secs_f64();
@@ -337,6 +320,9 @@ pub fn iso(opts: &IsoOptions) -> Result<IsoSummary> {
         },
     )?;
     let extract_seconds = start.elapsed().as_secs_f64();
+    for w in &surface.warnings {
+        eprintln!("warning: '{}': {w}", array.name);
+    }
     let start = Instant::now();
     let mut point_data = Vec::new();
     if opts.scalars {
@@ -592,10 +578,10 @@ pub fn verify(
     tolerance: f64,
 ) -> Result<VerifyReport> {
     check_tolerance_value(tolerance)?;
-    let image = read_image(input)?;
-    let scalars = image
-        .scalars(array)
-        .map_err(|e| crate::Error(format!("'{}': {e}", input.display())))?;
+    let mut image = read_image(input)?;
+    let in_file = |e: crate::Error| crate::Error(format!("'{}': {e}", input.display()));
+    image.exact_scalars(array).map_err(in_file)?;
+    let scalars = image.scalars(array).map_err(in_file)?;
     let slice = scalars.scalar_slice()?;
     let grid = image.grid;
     grid.validate()?;

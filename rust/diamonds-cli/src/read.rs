@@ -59,6 +59,41 @@ impl Image {
     /// The point-data array to mesh: `name` if given, else the active scalars, else the first
     /// single-component point-data array. Refuses cell-only data and multi-component arrays.
     pub fn scalars(&self, name: Option<&str>) -> Result<&Array> {
+        let array = &self.point_data[self.select(name)?];
+        array.scalar_slice()?;
+        Ok(array)
+    }
+
+    /// [`Image::scalars`], converting 64-bit integers to `Float64` in place first, as the ParaView
+    /// filters do: refused unless every value is exact as a double (within ±2^53). Returns a
+    /// warning when it converted.
+    pub fn exact_scalars(&mut self, name: Option<&str>) -> Result<Option<String>> {
+        let selected = self.select(name)?;
+        let array = &mut self.point_data[selected];
+        let values: Vec<f64> = match &array.data {
+            Values::I64(v) => v.iter().map(|&x| x as f64).collect(),
+            Values::U64(v) => v.iter().map(|&x| x as f64).collect(),
+            _ => return array.scalar_slice().map(|_| None),
+        };
+        const EXACT: f64 = 9007199254740992.0; // 2^53
+        if let Some(v) = values.iter().find(|v| v.abs() > EXACT) {
+            bail!(
+                "point-data array '{}' holds 64-bit integers ({}) up to {v}, beyond 2^53 where a conversion to double is inexact; rescale it first",
+                array.name,
+                array.type_name()
+            );
+        }
+        let warning = format!(
+            "point-data array '{}' holds 64-bit integers ({}); they are converted to double (exact: all values are within 2^53)",
+            array.name,
+            array.type_name()
+        );
+        array.data = Values::F64(values);
+        Ok(Some(warning))
+    }
+
+    /// The index of the point-data array [`Image::scalars`] selects.
+    fn select(&self, name: Option<&str>) -> Result<usize> {
         let listing = || {
             self.point_data
                 .iter()
@@ -110,8 +145,11 @@ impl Image {
                 listing()
             );
         }
-        array.scalar_slice()?;
-        Ok(array)
+        Ok(self
+            .point_data
+            .iter()
+            .position(|a| std::ptr::eq(a, array))
+            .expect("an array of the image"))
     }
 }
 
@@ -225,6 +263,7 @@ fn legacy_arrays(
 
 fn legacy_image(bytes: &[u8]) -> Result<Image> {
     use vtkio::model::{Attribute, DataSet, Piece};
+    check_legacy_layout(bytes)?;
     // vtkio's legacy parser is third-party code: contain any panic it raises on malformed input.
     let hook = std::panic::take_hook();
     std::panic::set_hook(Box::new(|_| {}));
@@ -282,4 +321,214 @@ fn legacy_image(bytes: &[u8]) -> Result<Image> {
         active_scalars,
         warnings,
     })
+}
+
+/// Walks the header lines and data of a legacy file before `vtkio` reads it: `vtkio` reserves the
+/// counts the file declares before reading them (a small file declaring 4000³ points aborts the
+/// process) and reports a short or malformed array as a parser internal ("Parse error: Digit").
+/// Refuses, naming the line, the array, what was expected and what was found: a `POINT_DATA`
+/// count that is not the number of points, an array with fewer values (bytes, for binary files)
+/// than declared, and a value that is not a number. Keywords it does not know end the walk
+/// (`vtkio` judges the rest).
+fn check_legacy_layout(bytes: &[u8]) -> Result<()> {
+    let mut c = Cursor {
+        bytes,
+        pos: 0,
+        line: 1,
+    };
+    for _ in 0..2 {
+        c.skip_line(); // the version line and the title
+    }
+    let binary = match c.token() {
+        Some(t) => t.eq_ignore_ascii_case("BINARY"),
+        None => return Ok(()),
+    };
+    let mut points: Option<u64> = None;
+    let mut tuples = 0u64;
+    while let Some(word) = c.token() {
+        let line = c.line;
+        let key = word.to_ascii_uppercase();
+        let numbers = |c: &mut Cursor, k: usize| -> Vec<u64> {
+            (0..k)
+                .filter_map(|_| c.token().and_then(|t| t.parse().ok()))
+                .collect()
+        };
+        // (array name, type, values per tuple, tuples)
+        let array = match key.as_str() {
+            "DATASET" => {
+                c.token();
+                continue;
+            }
+            "DIMENSIONS" => {
+                let d = numbers(&mut c, 3);
+                points = (d.len() == 3).then(|| d.iter().product());
+                continue;
+            }
+            "SPACING" | "ASPECT_RATIO" | "ORIGIN" => {
+                numbers(&mut c, 3);
+                continue;
+            }
+            "POINT_DATA" | "CELL_DATA" => {
+                let n = numbers(&mut c, 1).first().copied();
+                let Some(n) = n else {
+                    bail!("line {line}: {key} needs a count");
+                };
+                if let (Some(p), "POINT_DATA") = (points, key.as_str()) {
+                    if n != p {
+                        bail!("line {line}: POINT_DATA {n}, but DIMENSIONS make {p} points");
+                    }
+                }
+                tuples = n;
+                continue;
+            }
+            "SCALARS" => {
+                let (name, ty) = (c.word(), c.word());
+                // An optional component count, then an optional LOOKUP_TABLE line.
+                let save = (c.pos, c.line);
+                let components = match c.token().map(|t| t.parse::<u64>()) {
+                    Some(Ok(k)) => k,
+                    _ => {
+                        (c.pos, c.line) = save;
+                        1
+                    }
+                };
+                let save = (c.pos, c.line);
+                if c.token()
+                    .is_some_and(|t| t.eq_ignore_ascii_case("LOOKUP_TABLE"))
+                {
+                    c.token();
+                } else {
+                    (c.pos, c.line) = save;
+                }
+                (name, ty, components, tuples)
+            }
+            "VECTORS" | "NORMALS" => (c.word(), c.word(), 3, tuples),
+            "TENSORS" => (c.word(), c.word(), 9, tuples),
+            "TEXTURE_COORDINATES" => {
+                let (name, k, ty) = (c.word(), numbers(&mut c, 1), c.word());
+                (name, ty, k.first().copied().unwrap_or(1), tuples)
+            }
+            "COLOR_SCALARS" => {
+                let (name, k) = (c.word(), numbers(&mut c, 1));
+                let ty = if binary { "unsigned_char" } else { "float" };
+                (
+                    name,
+                    ty.to_string(),
+                    k.first().copied().unwrap_or(1),
+                    tuples,
+                )
+            }
+            "FIELD" => {
+                c.token();
+                let k = numbers(&mut c, 1).first().copied().unwrap_or(0);
+                for _ in 0..k {
+                    let name = c.word();
+                    let d = numbers(&mut c, 2);
+                    let ty = c.word();
+                    let [components, n] = <[u64; 2]>::try_from(d).map_err(|_| {
+                        Error(format!(
+                            "line {}: field array '{name}' needs its components, tuples and type",
+                            c.line
+                        ))
+                    })?;
+                    c.values(binary, &name, &ty, components, n)?;
+                }
+                continue;
+            }
+            _ => return Ok(()),
+        };
+        let (name, ty, components, n) = array;
+        c.values(binary, &name, &ty, components, n)?;
+    }
+    Ok(())
+}
+
+/// A position in a legacy file, with its line number.
+struct Cursor<'a> {
+    bytes: &'a [u8],
+    pos: usize,
+    line: usize,
+}
+
+impl<'a> Cursor<'a> {
+    fn skip_line(&mut self) {
+        while self.pos < self.bytes.len() {
+            self.pos += 1;
+            if self.bytes[self.pos - 1] == b'\n' {
+                self.line += 1;
+                return;
+            }
+        }
+    }
+
+    /// The next whitespace-separated word.
+    fn token(&mut self) -> Option<&'a str> {
+        while self.pos < self.bytes.len() && self.bytes[self.pos].is_ascii_whitespace() {
+            self.line += usize::from(self.bytes[self.pos] == b'\n');
+            self.pos += 1;
+        }
+        let start = self.pos;
+        while self.pos < self.bytes.len() && !self.bytes[self.pos].is_ascii_whitespace() {
+            self.pos += 1;
+        }
+        let bytes: &'a [u8] = self.bytes;
+        (self.pos > start).then(|| std::str::from_utf8(&bytes[start..self.pos]).unwrap_or("?"))
+    }
+
+    /// The next word, owned (empty at the end of the file).
+    fn word(&mut self) -> String {
+        self.token().unwrap_or("").to_string()
+    }
+
+    /// Steps over the values of array `name`: `components × tuples` numbers (ASCII) or as many
+    /// values of `ty` in bytes after the header line (binary).
+    fn values(
+        &mut self,
+        binary: bool,
+        name: &str,
+        ty: &str,
+        components: u64,
+        tuples: u64,
+    ) -> Result<()> {
+        let line = self.line;
+        let count = components.saturating_mul(tuples);
+        let expected = format!(
+            "array '{name}' ({ty}, declared on line {line}) needs {count} values ({tuples} tuples × {components} components)"
+        );
+        if binary {
+            let size: u64 = match ty.to_ascii_lowercase().as_str() {
+                "bit" => {
+                    self.skip_line();
+                    let bytes = count.div_ceil(8);
+                    return self.skip_bytes(bytes, &expected);
+                }
+                "char" | "unsigned_char" => 1,
+                "short" | "unsigned_short" => 2,
+                "int" | "unsigned_int" | "float" => 4,
+                _ => 8,
+            };
+            self.skip_line();
+            return self.skip_bytes(count.saturating_mul(size), &expected);
+        }
+        for found in 0..count {
+            let at = self.line;
+            match self.token() {
+                None => bail!("{expected}; the file ends after {found}"),
+                Some(t) if t.parse::<f64>().is_err() => {
+                    bail!("{expected}; line {at} holds '{t}' after {found}, not a number")
+                }
+                Some(_) => {}
+            }
+        }
+        Ok(())
+    }
+
+    fn skip_bytes(&mut self, n: u64, expected: &str) -> Result<()> {
+        let left = (self.bytes.len() - self.pos) as u64;
+        if n > left {
+            bail!("{expected}: {n} bytes, but the file has {left} bytes left");
+        }
+        self.pos += n as usize;
+        Ok(())
+    }
 }

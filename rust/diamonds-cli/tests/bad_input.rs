@@ -301,3 +301,138 @@ fn invalid_verify_surface_input() {
     std::fs::write(&surface, &good[..good.len() - 40]).unwrap();
     error_of(&["verify-surface", s(&surface)]);
 }
+
+/// A `.vti` declaring 4000³ points (256 GB of Float32) that holds 8 values, in `format` with
+/// `data` (and `header_type`, `compressor`): refused with the counts before anything that size is
+/// allocated, by `tetra`, `iso` and `material`.
+#[test]
+fn declared_sizes_beyond_the_data_are_refused_before_allocating() {
+    let dir = TempDir::new("bad");
+    let cases = [
+        ("ascii", "", "0 1 2 3 4 5 6 7"),
+        (
+            "binary",
+            r#"header_type="UInt64""#,
+            "IAAAAAAAAAAAAAAAAACAPwAAAEAAAEBAAACAQAAAoEAAAMBAAADgQA==",
+        ),
+        (
+            "binary",
+            r#"header_type="UInt64" compressor="vtkZLibDataCompressor""#,
+            "AQAAAAAAAAAAAMqaOwAAAAAAAAAAAAAAHQAAAAAAAAA=eJxjYACBBnsg4QBEQNwAxAuA+AAQP3AAADvHBUA=",
+        ),
+        (
+            "binary",
+            r#"header_type="UInt64" compressor="vtkLZ4DataCompressor""#,
+            "AQAAAAAAAAAAAMqaOwAAAAAAAAAAAAAAIgAAAAAAAAA=8BEAAAAAAACAPwAAAEAAAEBAAACAQAAAoEAAAMBAAADgQA==",
+        ),
+    ];
+    for (format, attributes, data) in cases {
+        let input = dir.join("huge.vti");
+        std::fs::write(
+            &input,
+            format!(
+                r#"<VTKFile type="ImageData" version="1.0" byte_order="LittleEndian" {attributes}>
+  <ImageData WholeExtent="0 3999 0 3999 0 3999" Origin="0 0 0" Spacing="1 1 1">
+  <Piece Extent="0 3999 0 3999 0 3999">
+    <PointData Scalars="f">
+      <DataArray type="Float32" Name="f" format="{format}">{data}</DataArray>
+    </PointData>
+  </Piece>
+  </ImageData>
+</VTKFile>"#
+            ),
+        )
+        .unwrap();
+        for command in [
+            vec!["tetra", s(&input), s(&dir.join("o.vtu"))],
+            vec!["iso", s(&input), s(&dir.join("o.vtp")), "--isovalue", "1"],
+            vec!["material", s(&input), "-o", s(&dir.join("m"))],
+        ] {
+            let e = error_of(&command);
+            assert_mentions(&e, &["huge.vti", "'f'"]);
+            assert!(
+                e.contains("64000000000") || e.contains("256000000000"),
+                "{format} {attributes}: the declared count missing from: {e}"
+            );
+        }
+    }
+}
+
+#[test]
+fn legacy_files_that_do_not_match_their_header_say_where() {
+    let dir = TempDir::new("bad");
+    let header = "# vtk DataFile Version 3.0\nbad\nASCII\nDATASET STRUCTURED_POINTS\nDIMENSIONS 2 2 2\nORIGIN 0 0 0\nSPACING 1 1 1\n";
+    let cases = [
+        // Too few values.
+        (
+            "POINT_DATA 8\nSCALARS density float 1\nLOOKUP_TABLE default\n1 2 3 4 5\n",
+            &["'density'", "needs 8 values", "ends after 5"][..],
+        ),
+        // Not a number.
+        (
+            "POINT_DATA 8\nSCALARS density float\nLOOKUP_TABLE default\n1 2 3 x 5 6 7 8\n",
+            &["'density'", "line 10", "'x'", "not a number"][..],
+        ),
+        // A point count that is not the grid's.
+        (
+            "POINT_DATA 9\nSCALARS density float\nLOOKUP_TABLE default\n1 2 3 4 5 6 7 8 9\n",
+            &["line 8", "POINT_DATA 9", "8 points"][..],
+        ),
+        // A field array short of values.
+        (
+            "POINT_DATA 8\nFIELD FieldData 1\ntemperature 1 8 double\n1 2 3\n",
+            &["'temperature'", "needs 8 values", "ends after 3"][..],
+        ),
+    ];
+    let vtk = dir.join("bad.vtk");
+    for (body, words) in cases {
+        std::fs::write(&vtk, format!("{header}{body}")).unwrap();
+        let e = error_of(&["tetra", s(&vtk), s(&dir.join("o.vtu"))]);
+        assert_mentions(&e, &["bad.vtk"]);
+        assert_mentions(&e, words);
+        assert!(!e.contains("Parse error"), "{e}");
+    }
+    // 4000³ points declared, 8 values given, binary: refused before vtkio reserves the declared size.
+    let mut huge = b"# vtk DataFile Version 3.0\nbad\nBINARY\nDATASET STRUCTURED_POINTS\nDIMENSIONS 4000 4000 4000\nORIGIN 0 0 0\nSPACING 1 1 1\nPOINT_DATA 64000000000\nSCALARS f float 1\nLOOKUP_TABLE default\n".to_vec();
+    huge.extend(std::iter::repeat_n(0u8, 32));
+    std::fs::write(&vtk, huge).unwrap();
+    let e = error_of(&["tetra", s(&vtk), s(&dir.join("o.vtu"))]);
+    assert_mentions(&e, &["'f'", "256000000000 bytes", "32 bytes left"]);
+}
+
+#[test]
+fn int64_arrays_are_converted_like_the_plugin_does() {
+    let dir = TempDir::new("bad");
+    let grid = Grid {
+        dims: [5, 4, 3],
+        origin: [0.0; 3],
+        spacing: [1.0; 3],
+    };
+    let input = dir.join("counts.vti");
+    let counts: Vec<i64> = (0..grid.len() as i64).map(|i| i * i - 7).collect();
+    write_image(&input, &grid, &[Array::scalars("counts", counts)]).unwrap();
+    let out = dir.join("o.vtu");
+    let run = diamonds(["tetra", s(&input), s(&out), "--tolerance", "0"]);
+    assert!(
+        run.stderr
+            .contains("'counts' holds 64-bit integers (Int64)")
+            && run.stderr.contains("converted to double"),
+        "{run:#?}"
+    );
+    run.ok();
+    let said = diamonds(["verify", s(&input), s(&out), "--tolerance", "0"]).ok();
+    assert!(said.contains("counts"), "{said}");
+    let run = diamonds([
+        "iso",
+        s(&input),
+        s(&dir.join("o.vtp")),
+        "--isovalue",
+        "100.5",
+    ]);
+    run.ok();
+    // Beyond 2^53 a double is inexact: refused, as in the plugin.
+    let big: Vec<u64> = (0..grid.len() as u64).map(|i| i + (1 << 60)).collect();
+    write_image(&input, &grid, &[Array::scalars("big", big)]).unwrap();
+    let e = error_of(&["tetra", s(&input), s(&out)]);
+    assert_mentions(&e, &["'big'", "UInt64", "2^53"]);
+}

@@ -652,7 +652,9 @@ impl Codec {
 
 /// Decompresses one block that must inflate to exactly `size` bytes.
 fn decompress(compressor: Compressor, block: &[u8], size: usize) -> Result<Vec<u8>> {
-    let mut out = Vec::with_capacity(size);
+    // The header's size is checked against the declared array size only: no room reserved
+    // beyond what the block can inflate to (zlib's deflate expands at most 1032:1).
+    let mut out = Vec::with_capacity(size.min(block.len().saturating_mul(1032)));
     let result = match compressor {
         Compressor::None => {
             out.extend_from_slice(block);
@@ -663,6 +665,13 @@ fn decompress(compressor: Compressor, block: &[u8], size: usize) -> Result<Vec<u
             .read_to_end(&mut out)
             .map(|_| ())
             .map_err(|e| e.to_string()),
+        // LZ4 allocates the declared size up front; a block inflates at most 255:1.
+        Compressor::Lz4 if size > block.len().saturating_mul(255).saturating_add(64) => {
+            Err(format!(
+                "a block of {} bytes cannot inflate to the {size} bytes announced",
+                block.len()
+            ))
+        }
         Compressor::Lz4 => lz4_flex::block::decompress(block, size)
             .map(|v| out = v)
             .map_err(|e| e.to_string()),
@@ -838,7 +847,9 @@ impl Kind {
 
     fn parse_ascii(self, text: &str, count: usize) -> Result<Values> {
         per_kind!(self, T, variant => {
-            let mut out: Vec<T> = Vec::with_capacity(count);
+            // Room for the values the text can hold (each takes a character and a separator),
+            // not for the declared count: a small file may declare billions.
+            let mut out: Vec<T> = Vec::with_capacity(count.min(text.len().div_ceil(2)));
             for s in text.split_ascii_whitespace() {
                 match s.parse::<T>() {
                     Ok(v) => out.push(v),
