@@ -331,6 +331,19 @@ int vtkAdaptiveIsosurface::RequestData(
                   << "\": " << e.what());
     return 0;
   }
+  try
+  {
+    for (const rust::String& warning : (*surface)->warnings())
+    {
+      vtkWarningMacro(<< "Adaptive Isosurface, array \"" << array->GetName()
+                      << "\": " << std::string(warning));
+    }
+  }
+  catch (const rust::Error& e)
+  {
+    vtkErrorMacro(<< "Adaptive Isosurface: " << e.what());
+    return 0;
+  }
   if (cache.GetIsoState().reused())
   {
     ++this->NumberOfReusedMeshes;

@@ -51,9 +51,23 @@ ImageGeometry::ImageGeometry(vtkImageData* input)
 }
 
 //------------------------------------------------------------------------------
+bool IsAxisAligned(vtkImageData* input)
+{
+  const double* m = input->GetDirectionMatrix()->GetData();
+  for (int i = 0; i < 9; ++i)
+  {
+    if (!(std::abs(m[i] - (i % 4 == 0 ? 1.0 : 0.0)) <= 1e-9))
+    {
+      return false;
+    }
+  }
+  return true;
+}
+
+//------------------------------------------------------------------------------
 bool CheckAxisAligned(vtkAlgorithm* filter, const FilterText& text, vtkImageData* input)
 {
-  if (!input->GetDirectionMatrix()->IsIdentity())
+  if (!IsAxisAligned(input))
   {
     vtkErrorWithObjectMacro(filter,
       << "The input image is oriented (its direction matrix is not the identity); " << text.Name

@@ -26,8 +26,11 @@ struct ImageGeometry
   explicit ImageGeometry(vtkImageData* input);
 };
 
-// Reports an error on `filter` and returns false when the image has a non-identity direction
-// matrix.
+// Whether the image's direction matrix is the identity to within 1e-9 per entry (a matrix
+// computed by a rotation and its inverse differs from it by rounding).
+bool IsAxisAligned(vtkImageData* input);
+
+// Reports an error on `filter` and returns false unless the image is axis-aligned (IsAxisAligned).
 bool CheckAxisAligned(vtkAlgorithm* filter, const FilterText& text, vtkImageData* input);
 
 // World bounds of the whole image (WHOLE_EXTENT when the pipeline gives it, else the input's own

@@ -11,7 +11,6 @@
 #include "vtkImageData.h"
 #include "vtkInformation.h"
 #include "vtkInformationVector.h"
-#include "vtkMatrix3x3.h"
 #include "vtkObjectFactory.h"
 #include "vtkPointData.h"
 #include "vtkPolyData.h"
@@ -24,6 +23,7 @@
 // The module's internal helpers and the cxx bridge. Kept out of the public header: the VTK
 // wrappers parse it.
 #include "vtkDiamondsArraySelection.h"
+#include "vtkDiamondsImageGeometry.h"
 #include "vtkDiamondsOutput.h"
 #include "vtkDiamondsProgress.h"
 
@@ -94,7 +94,7 @@ std::optional<bridge::GridSpec> GridOf(vtkAlgorithm* filter, vtkDataSet* input)
   bridge::GridSpec grid;
   if (auto* image = vtkImageData::SafeDownCast(input))
   {
-    if (!image->GetDirectionMatrix()->IsIdentity())
+    if (!vtkDiamonds::IsAxisAligned(image))
     {
       vtkErrorWithObjectMacro(filter,
         << FilterName

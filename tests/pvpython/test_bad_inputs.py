@@ -126,6 +126,55 @@ abort_filter.Tolerance = 2.0
 after = dc.fetch(abort_filter)
 dc.check(after.GetNumberOfCells() > 0 and dc.hierarchy_builds(abort_filter) == 1, "the next update builds normally")
 
+# ---- Smooth data near the largest double: the error arithmetic would overflow (it passed as error
+# 0, 6 tetrahedra); refused with a message instead.
+near_max = dc.programmable_image(simple, (9, 8, 7), "add('f', 1.5e308 + x / 8 * 1e306, scalars=True)\n")
+expect_error(simple.AdaptiveTetrahedra(Input=near_max, Tolerance=1e306), "overflow", "values near the largest double")
+
+# ---- A direction matrix that differs from the identity by rounding is axis-aligned; a rotation
+# is refused.
+def with_direction(matrix):
+    image = dc.programmable_image(
+        simple, (9, 8, 7), f"add('f', np.sin(x) + y * z, scalars=True)\nout.SetDirectionMatrix({', '.join(map(repr, matrix))})\n"
+    )
+    return simple.AdaptiveTetrahedra(Input=image, Tolerance=0.5)
+
+
+almost = with_direction((1.0, 1e-12, 0.0, -1e-12, 1.0, 0.0, 0.0, 0.0, 1.0 - 1e-12))
+with dc.ErrorCapture(almost) as messages:
+    almost_mesh = dc.fetch(almost)
+dc.check(messages.text() == "" and almost_mesh.GetNumberOfCells() > 0, f"direction 1e-12 from the identity: meshed ({messages.text()!r})")
+expect_error(with_direction((0.0, -1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0)), "oriented", "a rotated image")
+
+# ---- Isosurface warnings, text from the core: isovalue outside the data range, triangle budget below
+# the coarsest surface (six root tetrahedra).
+for isovalues, budget, phrase in (([1e9], 0, "outside"), ([150.0], 1, "budget of 1 triangles cannot be met")):
+    iso = simple.AdaptiveIsosurface(Input=wavelet, Isosurfaces=isovalues, MaximumNumberOfTriangles=budget)
+    with dc.ErrorCapture(iso) as messages:
+        surface = dc.fetch(iso)
+    print(f"   [isosurface warning] {messages.text().strip()}")
+    dc.check(phrase in messages.text(), f"isosurface {isovalues}, budget {budget}: warns {phrase!r}")
+
+# ---- An allocation failure is the filter's error, not the end of the process: a 300^3 Wavelet with
+# the process's address space limited to what it uses plus 64 MB (the hierarchy alone needs 108 MB).
+import resource  # noqa: E402
+
+dc.fetch(simple.AdaptiveTetrahedra(Input=wavelet, Tolerance=4.0))  # threads started before the limit
+large = simple.Wavelet()
+large.WholeExtent = [0, 299, 0, 299, 0, 299]
+large.UpdatePipeline()
+limited = simple.AdaptiveTetrahedra(Input=large, Tolerance=50.0)
+with open("/proc/self/status") as status:
+    used = next(int(line.split()[1]) * 1024 for line in status if line.startswith("VmSize:"))
+soft, hard = resource.getrlimit(resource.RLIMIT_AS)
+resource.setrlimit(resource.RLIMIT_AS, (used + 64 * 2**20, hard))
+try:
+    expect_error(limited, "not enough memory", "300^3 under a memory limit")
+    small = dc.fetch(simple.AdaptiveTetrahedra(Input=wavelet, Tolerance=4.0))
+    dc.check(small.GetNumberOfCells() > 0, "under the same limit, a small image is still meshed")
+finally:
+    resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
+
 # ---- After all of this the filter still works on good data.
 ok_mesh = dc.fetch(simple.AdaptiveTetrahedra(Input=wavelet, Tolerance=4.0))
 dc.check_mesh(dc.fetch(wavelet), ok_mesh, "RTData", 4.0, "good input after the bad ones")
