@@ -109,6 +109,11 @@ pub fn grid_from_coordinates(x: &[f64], y: &[f64], z: &[f64]) -> Result<GridSpec
     })
 }
 
+/// The bridge's copy of an input array, allocated fallibly ([`diamonds::memory`]).
+fn copy(what: &str, values: &[f32]) -> Result<Vec<f32>, String> {
+    diamonds::memory::copied(values, &format!("the copy of {what}")).map_err(|e| e.to_string())
+}
+
 impl MaterialBuilder {
     fn check_length(&self, what: &str, values: &[f32]) -> Result<(), String> {
         let expected = self.grid.len();
@@ -127,7 +132,7 @@ impl MaterialBuilder {
         guard("copying a volume fraction array", || {
             let what = format!("volume fraction {}", self.fractions.len());
             self.check_length(&what, values)?;
-            self.fractions.push(values.to_vec());
+            self.fractions.push(copy(&what, values)?);
             Ok(())
         })
     }
@@ -137,7 +142,7 @@ impl MaterialBuilder {
         guard("copying a field array", || {
             let what = format!("field {}", self.fields.len());
             self.check_length(&what, values)?;
-            self.fields.push(Some(values.to_vec()));
+            self.fields.push(Some(copy(&what, values)?));
             Ok(())
         })
     }
@@ -167,8 +172,8 @@ impl MaterialBuilder {
             let material = u8::try_from(material).map_err(|_| {
                 format!("per-material field {field}: material {material} is not a material index")
             })?;
-            self.material_fields
-                .push((field, material, values.to_vec()));
+            let values = copy(&what, values)?;
+            self.material_fields.push((field, material, values));
             Ok(())
         })
     }
