@@ -14,10 +14,17 @@ interfaces against vtkYoungsMaterialInterface.
 3. Interfaces on the CTH data: vtkYoungsMaterialInterface (per-cell planes) vs ours; "open edges" are
    polygon edges used once that do not lie on the domain boundary, after merging coincident points.
    Writes docs/images/material-interfaces.png.
+4. Tissue maps (`diamonds generate --field tissue`: soft-thresholded fractions Other/Grey/White and the
+   intensity T1 of headsq, on its 64×64×93 points and resampled to 197×233×189, and of bonsai 256³;
+   skipped when ../shared is absent), interface tolerance 1, field tolerance 10, through the CLI (the
+   same core; `model` + `refinement` seconds, files not counted): tetrahedra, both largest errors and
+   the interface polygons' duplicated positions, against Adaptive Tetrahedra (`diamonds tetra`, build +
+   query seconds) on T1 at the same tolerance. `--tissue` runs this part alone and prints its table.
 Appends to docs/benchmarks.md.
 """
 
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -29,6 +36,12 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 CTH = os.path.join(os.path.dirname(ROOT), "shared", "data", "multimaterial", "cth_armor_impact.vtr")
 PLUGIN = os.path.join(ROOT, "build", "lib", "paraview-5.11", "plugins", "Diamonds", "Diamonds.so")
 CLI = os.path.join(ROOT, "target", "release", "diamonds")
+VOLUMES = os.path.join(os.path.dirname(ROOT), "shared", "data", "volumes")
+TISSUE_CASES = [
+    ("headsq 64×64×93 (spacing 3.2×3.2×1.5)", "headsq_64x64x93_int16.vti", None),
+    ("headsq resampled to 197×233×189", "headsq_64x64x93_int16.vti", [197, 233, 189]),
+    ("bonsai 256³", "bonsai_256x256x256_uint8_lossy.vti", None),
+]
 CTH_FRACTIONS = ["Void Volume Fraction", "Volume Fraction for Armor Plate", "Volume Fraction for Body, Nose"]
 
 
@@ -218,7 +231,79 @@ def picture(youngs_data, ours_data, y_open, o_open):
     fig.savefig(os.path.join(ROOT, "docs", "images", "material-interfaces.png"), dpi=100)
 
 
+def number(text, pattern):
+    return float(re.search(pattern, text).group(1))
+
+
+def interface_defects(path):
+    """(positions holding two or more distinct points, open edges not on the domain boundary) of the
+    interface polygons written by the CLI at `path`."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    from vtkmodules.vtkIOXML import vtkXMLPolyDataReader
+
+    reader = vtkXMLPolyDataReader()
+    reader.SetFileName(path)
+    reader.Update()
+    data = reader.GetOutput()
+    points = vtk_to_numpy(data.GetPoints().GetData())
+    _, counts = np.unique(points, axis=0, return_counts=True)
+    return int((counts > 1).sum()), open_edges(data, data.GetBounds())[0]
+
+
+def tissue_maps(lines, interface_tolerance=1.0, field_tolerance=10.0):
+    """The tissue-map cases through the CLI, against Adaptive Tetrahedra on T1 (see the docstring)."""
+    lines += [
+        "### Tissue maps: material tolerances on any grid (issue 11, item 5)",
+        "",
+        f"`diamonds generate --field tissue`; interface tolerance {interface_tolerance:g}, field tolerance "
+        f"{field_tolerance:g} on T1 (0..255), ghost values; through the CLI. Seconds: model + refinement "
+        "(ours), build + query (Adaptive Tetrahedra on T1 at the same tolerance). \"bound\" is Adaptive "
+        "Tetrahedra's count plus our interface pass's.",
+        "",
+        "| case | seconds | tetrahedra | of which interface pass | interface error | field error "
+        "| doubled positions / open edges | Adaptive Tetrahedra: seconds | tetrahedra | ours / bound |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    with tempfile.TemporaryDirectory() as tmp:
+        for title, name, dims in TISSUE_CASES:
+            source = os.path.join(VOLUMES, name)
+            if not os.path.exists(source):
+                lines.append(f"| {title} | (not found at {source}: skipped) ||||||||")
+                continue
+            image = os.path.join(tmp, "tissue.vti")
+            generate = [CLI, "generate", "--field", "tissue", "--image", source, image]
+            subprocess.run(generate + (["--dims", *map(str, dims)] if dims else []), check=True,
+                           stdout=subprocess.DEVNULL)
+            ours = subprocess.run(
+                [CLI, "material", image, "-o", os.path.join(tmp, "out"), "--fields", "T1",
+                 "--interface-tolerance", str(interface_tolerance), "--field-tolerance", str(field_tolerance)],
+                check=True, capture_output=True, text=True).stdout
+            at = subprocess.run(
+                [CLI, "tetra", image, os.path.join(tmp, "at.vtu"), "--array", "T1", "--tolerance",
+                 str(field_tolerance)], check=True, capture_output=True, text=True).stdout
+            seconds = number(ours, r"model ([\d.]+) s") + number(ours, r"refinement ([\d.]+) s")
+            tets = int(number(ours, r"(\d+) tetrahedra \("))
+            interface_tets = int(number(ours, r"\((\d+) after the interface pass"))
+            at_seconds = number(at, r"build ([\d.]+) s") + number(at, r"query ([\d.]+) s")
+            at_tets = int(number(at, r"(\d+) tetrahedra,"))
+            doubled, cracks = interface_defects(os.path.join(tmp, "out-interfaces.vtp"))
+            interface_error = number(ours, r"interface error ([\d.e+-]+)")
+            field_error = number(ours, r"field error ([\d.e+-]+)")
+            lines.append(
+                f"| {title} | {seconds:.1f} | {tets:,} | {interface_tets:,} "
+                f"| {interface_error:.3g} | {field_error:.3g} | {doubled} / {cracks} "
+                f"| {at_seconds:.1f} | {at_tets:,} | {tets / (at_tets + interface_tets):.2f} |"
+            )
+            print(lines[-1], flush=True)
+    lines.append("")
+
+
 def main():
+    if "--tissue" in sys.argv:
+        lines = []
+        tissue_maps(lines)
+        print("\n".join(lines))
+        return 0
     from paraview import simple
 
     simple.LoadPlugin(PLUGIN, remote=False)
@@ -276,6 +361,7 @@ def main():
         youngs_vs_ours(lines, resampled)
     else:
         lines.append(f"(CTH data not found at {CTH}: skipped.)")
+    tissue_maps(lines)
     with open(os.path.join(ROOT, "docs", "benchmarks.md"), "a") as out:
         out.write("\n".join(lines) + "\n")
 

@@ -413,6 +413,11 @@ pub enum Field {
     /// points over [0,12]x[0,12]x[-16,4.8]): volume fractions of Void, Block and Projectile and the
     /// mixed Density, Float32 point data (for `diamonds material`).
     Impact,
+    /// Probabilistic tissue maps from an intensity volume (`--image`; on its points, or resampled
+    /// onto `--dims` with spacing 1): volume fractions of Other, Grey and White (soft thresholds of
+    /// the intensity scaled to 0..255) and the intensity T1, Float32 point data (for `diamonds
+    /// material`).
+    Tissue,
 }
 
 /// Sample types of `diamonds generate`.
@@ -436,18 +441,19 @@ impl Field {
             Field::Sphere => "sphere_distance",
             Field::Torus => "torus_distance",
             Field::Impact => "Density",
+            Field::Tissue => "T1",
         }
     }
 
     /// The field at a point of `[-1, 1]^3`, normalised to `[0, 1]` (distances: `(d + 1) / 2`, clamped);
-    /// `None` for the impact case, which is not one field on `[-1, 1]^3`.
+    /// `None` for the material cases, which are not one field on `[-1, 1]^3`.
     pub fn normalised(self, x: f64, y: f64, z: f64) -> Option<f64> {
         Some(
             match self {
                 Field::MarschnerLobb => fields::marschner_lobb(x, y, z),
                 Field::Sphere => (fields::sphere_distance(0.6)(x, y, z) + 1.0) / 2.0,
                 Field::Torus => (fields::torus_distance(0.6, 0.25)(x, y, z) + 1.0) / 2.0,
-                Field::Impact => return None,
+                Field::Impact | Field::Tissue => return None,
             }
             .clamp(0.0, 1.0),
         )
@@ -457,10 +463,8 @@ impl Field {
 /// Samples `field` on `grid` as `ty`: the normalised value scaled to 0..255 (`i8`: -128..127), rounded
 /// for integer types. The impact case is not one field: see [`crate::material::generate_impact`].
 pub fn generate_array(field: Field, grid: &Grid, ty: SampleType) -> Result<Array> {
-    if field == Field::Impact {
-        bail!(
-            "the impact case has several arrays: write it with `diamonds generate --field impact`"
-        );
+    if matches!(field, Field::Impact | Field::Tissue) {
+        bail!("the impact and tissue cases have several arrays: write them with `diamonds generate --field impact` or `--field tissue`");
     }
     let v = fields::sample(grid, |x, y, z| {
         255.0 * field.normalised(x, y, z).unwrap_or(0.0)

@@ -130,7 +130,9 @@ enum Command {
     /// case instead (Float32 point data "Volume Fraction for Void", "Volume Fraction for Block",
     /// "Volume Fraction for Projectile", "Density" and each material's own density "Density for
     /// Void", "Density for Block", "Density for Projectile", by default on the paper's 32x32x52
-    /// points).
+    /// points), and `--field tissue --image IN` probabilistic tissue maps of IN's intensity (Float32
+    /// "Volume Fraction for Other", "Volume Fraction for Grey", "Volume Fraction for White" and "T1", on
+    /// IN's points or resampled onto `--dims` with spacing 1).
     Generate {
         /// Output image (.vti).
         output: PathBuf,
@@ -140,9 +142,12 @@ enum Command {
         /// Points along x, y and z [default: 65 65 65; impact: 32 32 52].
         #[arg(long, num_args = 3, value_names = ["NX", "NY", "NZ"])]
         dims: Option<Vec<usize>>,
-        /// Sample type [default: u8] (not with impact, which is Float32).
+        /// Sample type [default: u8] (not with impact or tissue, which are Float32).
         #[arg(long = "type", value_enum)]
         ty: Option<SampleType>,
+        /// The intensity volume (.vti or .vtk, its active scalars) of `--field tissue`.
+        #[arg(long, value_name = "IN")]
+        image: Option<PathBuf>,
     },
     /// Approximate multi-material data: adaptive tetrahedra with linear interfaces and ghost values.
     ///
@@ -327,14 +332,23 @@ fn run(cli: Cli) -> diamonds_cli::Result<ExitCode> {
             field,
             dims,
             ty,
+            image,
         } => {
             let dims = dims.map(|d| <[usize; 3]>::try_from(d).expect("clap gives 3 values"));
-            if field == Field::Impact {
-                if ty.is_some_and(|t| t != SampleType::F32) {
-                    return Err(diamonds_cli::Error(
-                        "the impact case is Float32: leave out --type".into(),
-                    ));
-                }
+            if image.is_some() != (field == Field::Tissue) {
+                return Err(diamonds_cli::Error(
+                    "--image goes with --field tissue, and --field tissue needs --image".into(),
+                ));
+            }
+            let material_case = matches!(field, Field::Impact | Field::Tissue);
+            if material_case && ty.is_some_and(|t| t != SampleType::F32) {
+                return Err(diamonds_cli::Error(
+                    "the impact and tissue cases are Float32: leave out --type".into(),
+                ));
+            }
+            if let Some(image) = image {
+                println!("{}", material::generate_tissue(&output, &image, dims)?);
+            } else if field == Field::Impact {
                 println!(
                     "{}",
                     material::generate_impact(&output, dims.unwrap_or(IMPACT_DIMS))?

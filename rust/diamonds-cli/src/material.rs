@@ -14,10 +14,10 @@
 //! Output, with the array names of the ParaView filter: `OUT.vtu` (the tetrahedra), `OUT-interfaces.vtp`
 //! (the approximated interfaces) and `OUT-slice.vtp` (a plane cut).
 
-use crate::read::{read_structured, Geometry, Structured, StructuredGrid};
+use crate::read::{read_image, read_structured, Geometry, Structured, StructuredGrid};
 use crate::write::{write_image, write_polygons, write_tets, Polygons, TetGrid};
 use crate::{bail, Array, Result};
-use diamonds::fields::impact_case;
+use diamonds::fields::{impact_case, tissue_case};
 use diamonds::material::outputs::{
     interface_arrays, slice_arrays, tetrahedra_arrays, ArrayValues, Association, OutputArray,
 };
@@ -64,6 +64,44 @@ pub fn generate_impact(output: &Path, dims: [usize; 3]) -> Result<String> {
     Ok(format!(
         "wrote '{}': impact case (materials {}; Density, mixed and per material) {}x{}x{} Float32 ({points} points)",
         output.display(),
+        case.names.join(", "),
+        dims[0],
+        dims[1],
+        dims[2]
+    ))
+}
+
+/// `diamonds generate --field tissue --image IN`: writes the tissue maps of IN's intensity (its active
+/// scalars; [`diamonds::fields::tissue_case`]) on IN's points or on `dims` as a `.vti` with point data
+/// "T1" and "Volume Fraction for Other", "… for Grey", "… for White".
+pub fn generate_tissue(output: &Path, image: &Path, dims: Option<[usize; 3]>) -> Result<String> {
+    let input = read_image(image)?;
+    let scalars = input.scalars(None)?;
+    let dims = dims.unwrap_or(input.grid.dims);
+    if let Some(d) = dims.iter().find(|&&d| d < 2) {
+        bail!("every dimension needs at least 2 points (got {d} in {dims:?})");
+    }
+    if dims
+        .iter()
+        .try_fold(1usize, |acc, &d| acc.checked_mul(d))
+        .is_none_or(|n| n > 1 << 28)
+    {
+        bail!("{dims:?} points are too many to generate");
+    }
+    let values: Vec<f64> = (0..scalars.tuples()).map(|k| scalars.value(k)).collect();
+    let case = tissue_case(&input.grid, &values, dims);
+    let mut arrays = vec![Array::scalars("T1", case.intensity)];
+    arrays.extend(
+        case.names
+            .iter()
+            .zip(case.fractions)
+            .map(|(name, f)| Array::scalars(format!("Volume Fraction for {name}"), f)),
+    );
+    write_image(output, &case.grid, &arrays)?;
+    Ok(format!(
+        "wrote '{}': tissue maps of '{}' (materials {}; T1) {}x{}x{} Float32",
+        output.display(),
+        scalars.name,
         case.names.join(", "),
         dims[0],
         dims[1],

@@ -143,6 +143,104 @@ pub fn impact_case(dims: [usize; 3]) -> ImpactCase {
     }
 }
 
+/// Probabilistic tissue maps made from an intensity volume (an analogue of brain-tissue maps: grey and
+/// white matter and the rest, with the T1 intensity as the field).
+pub struct TissueCase {
+    pub grid: Grid,
+    /// Material names, in the order of `fractions`.
+    pub names: [&'static str; 3],
+    /// Point volume fractions of other, grey and white (they sum to 1 at every point).
+    pub fractions: [Vec<f32>; 3],
+    /// The intensity scaled to `0..=255` (the field "T1").
+    pub intensity: Vec<f32>,
+}
+
+/// The soft thresholds of [`tissue_case`] on the intensity scaled to `0..=255`, and their width.
+pub const TISSUE_THRESHOLDS: [f64; 2] = [40.0, 90.0];
+pub const TISSUE_WIDTH: f64 = 8.0;
+
+/// Tissue maps from `values` on `source` (any sample type, as `f64`), on `dims` points.
+///
+/// The intensity is scaled to `0..=255` over its range and, when `dims` differs from the source's,
+/// resampled trilinearly onto `dims` points with spacing 1 and origin 0 (the source's index space
+/// stretched over the new grid, as a 1 mm tissue map); on the source's dims the source grid is kept.
+/// With `s_i = σ((T − t_i) / w)` (logistic, [`TISSUE_THRESHOLDS`] `t_1 < t_2`, width [`TISSUE_WIDTH`]),
+/// the fractions are other `1 − s_1`, grey `s_1 − s_2` and white `s_2`: smooth, in `[0, 1]`, summing
+/// to 1, with all three pairs touching wherever the intensity climbs steeply.
+pub fn tissue_case(source: &Grid, values: &[f64], dims: [usize; 3]) -> TissueCase {
+    use rayon::prelude::*;
+    let (lo, hi) = values
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
+        });
+    let scale = if hi > lo { 255.0 / (hi - lo) } else { 0.0 };
+    let grid = if dims == source.dims {
+        *source
+    } else {
+        Grid::new(dims)
+    };
+    let src = source.dims;
+    // Per axis and output index: the source interval and the weight of its upper end.
+    let axis = |a: usize| -> Vec<(usize, f64)> {
+        (0..dims[a])
+            .map(|i| {
+                let u = if dims[a] > 1 {
+                    i as f64 * (src[a] - 1) as f64 / (dims[a] - 1) as f64
+                } else {
+                    0.0
+                };
+                let i0 = (u.floor() as usize).min(src[a].saturating_sub(2));
+                (i0, (u - i0 as f64).clamp(0.0, 1.0))
+            })
+            .collect()
+    };
+    let w = [axis(0), axis(1), axis(2)];
+    let at = |i: usize, j: usize, k: usize| values[source.index(i, j, k)];
+    let intensity: Vec<f32> = (0..grid.len())
+        .into_par_iter()
+        .with_min_len(4096)
+        .map(|p| {
+            let [i, j, k] = grid.ijk(p);
+            let ((i0, ti), (j0, tj), (k0, tk)) = (w[0][i], w[1][j], w[2][k]);
+            let (i1, j1, k1) = (
+                (i0 + 1).min(src[0] - 1),
+                (j0 + 1).min(src[1] - 1),
+                (k0 + 1).min(src[2] - 1),
+            );
+            let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
+            let plane = |k: usize| {
+                lerp(
+                    lerp(at(i0, j0, k), at(i1, j0, k), ti),
+                    lerp(at(i0, j1, k), at(i1, j1, k), ti),
+                    tj,
+                )
+            };
+            ((lerp(plane(k0), plane(k1), tk) - lo) * scale) as f32
+        })
+        .collect();
+    let soft =
+        |t: f32, threshold: f64| 1.0 / (1.0 + (-(t as f64 - threshold) / TISSUE_WIDTH).exp());
+    let [t1, t2] = TISSUE_THRESHOLDS;
+    let fractions = [
+        intensity
+            .par_iter()
+            .map(|&t| (1.0 - soft(t, t1)) as f32)
+            .collect(),
+        intensity
+            .par_iter()
+            .map(|&t| (soft(t, t1) - soft(t, t2)) as f32)
+            .collect(),
+        intensity.par_iter().map(|&t| soft(t, t2) as f32).collect(),
+    ];
+    TissueCase {
+        grid,
+        names: ["Other", "Grey", "White"],
+        fractions,
+        intensity,
+    }
+}
+
 /// Radius of the projectile, height of its nose tip, and the centre height of its hemispherical nose.
 const PROJECTILE_RADIUS: f64 = 1.6;
 const NOSE_TIP: f64 = -2.5;
@@ -202,6 +300,37 @@ fn impact_density(m: usize, x: [f64; 3]) -> f64 {
 #[cfg(test)]
 mod impact_tests {
     use super::*;
+
+    #[test]
+    fn tissue_case_resamples_and_sums_to_one() {
+        // A ramp along x over 5 × 3 × 2 points, spacing 2: scaled to 0..255.
+        let source = Grid {
+            dims: [5, 3, 2],
+            origin: [1.0; 3],
+            spacing: [2.0; 3],
+        };
+        let values: Vec<f64> = (0..source.len()).map(|p| source.ijk(p)[0] as f64).collect();
+        let same = tissue_case(&source, &values, source.dims);
+        assert_eq!(same.grid, source);
+        assert_eq!(same.intensity[4], 255.0);
+        let case = tissue_case(&source, &values, [9, 4, 3]);
+        assert_eq!(case.grid, Grid::new([9, 4, 3]));
+        for p in 0..case.grid.len() {
+            let [i, ..] = case.grid.ijk(p);
+            assert!((case.intensity[p] as f64 - 255.0 * i as f64 / 8.0).abs() < 1e-3);
+            let sum: f32 = case.fractions.iter().map(|f| f[p]).sum();
+            assert!((sum - 1.0).abs() < 1e-6);
+            assert!(case.fractions.iter().all(|f| (0.0..=1.0).contains(&f[p])));
+        }
+        // Other below the first threshold, white above the second, grey between.
+        let largest = |p: usize| {
+            (0..3).max_by(|&a, &b| case.fractions[a][p].total_cmp(&case.fractions[b][p]))
+        };
+        assert_eq!(
+            [0, 2, 4, 8].map(largest),
+            [Some(0), Some(1), Some(2), Some(2)]
+        );
+    }
 
     #[test]
     fn impact_case_has_three_touching_materials() {

@@ -86,6 +86,18 @@ impl Lattice {
         p.x as usize + d.x as usize * (p.y as usize + d.y as usize * p.z as usize)
     }
 
+    /// The domain point of linear index `i` (the inverse of [`Lattice::index`]).
+    #[inline]
+    pub fn point(&self, i: usize) -> IVec3 {
+        let d = (self.hi + IVec3::ONE).as_uvec3();
+        let (nx, ny) = (d.x as usize, d.y as usize);
+        IVec3::new(
+            (i % nx) as i32,
+            ((i / nx) % ny) as i32,
+            (i / (nx * ny)) as i32,
+        )
+    }
+
     /// Where `t` lies relative to the domain box. Conservative: a tetrahedron reported as straddling may,
     /// in rare corner configurations, only touch the box; refining it is harmless.
     #[inline]
@@ -120,6 +132,10 @@ mod tests {
         assert_eq!(Lattice::new([258, 2, 3]).unwrap().size(), 512);
         assert_eq!(Lattice::new([2, 2, 2]).unwrap().size(), 2);
         assert!(Lattice::new([1, 5, 5]).is_err());
+        let l = Lattice::new([5, 3, 4]).unwrap();
+        for p in [IVec3::ZERO, IVec3::new(4, 2, 3), IVec3::new(1, 2, 0)] {
+            assert_eq!(l.point(l.index(p)), p);
+        }
     }
 
     #[test]

@@ -15,6 +15,7 @@ use crate::lattice::{Lattice, Placement};
 use crate::volume::Grid;
 use crate::{Error, Result};
 use glam::IVec3;
+use rayon::prelude::*;
 use rustc_hash::FxHashSet;
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
@@ -186,6 +187,8 @@ pub(crate) struct Refiner<'h> {
     considered: SplitSet,
     /// The diamonds split, in order, when asked for.
     log: Option<Vec<Diamond>>,
+    /// With [`Refiner::refine_parallel`]: the diamonds to consider whose criterion is not evaluated yet.
+    pending: Option<Vec<Diamond>>,
     queue: SplitQueue,
     tets: usize,
     /// Region of interest in lattice coordinates (closed box).
@@ -208,6 +211,7 @@ impl<'h> Refiner<'h> {
             split,
             considered: SplitSet::new(&lattice),
             log: None,
+            pending: None,
             queue: SplitQueue::Unordered(Vec::new()),
             tets,
             roi: None,
@@ -368,6 +372,8 @@ impl<'h> Refiner<'h> {
 
     /// Splits, with closure, every diamond reachable from `candidates` whose criterion exceeds
     /// `tolerance` (no budget). Returns the split set and the number of tetrahedra inside the domain.
+    /// (Tests compare with it; the product refines in parallel, [`Refiner::refine_parallel`].)
+    #[cfg(test)]
     pub(crate) fn refine_with(
         mut self,
         tolerance: f64,
@@ -388,6 +394,58 @@ impl<'h> Refiner<'h> {
         self.tolerance = tolerance;
         self.refine(candidates, 0);
         (self.split, self.log.unwrap_or_default())
+    }
+
+    /// [`Refiner::new`] then splits, with closure, every diamond reachable from `candidates` whose
+    /// criterion exceeds `tolerance` (no budget), with the criterion evaluated in parallel: in
+    /// rounds, the criterion of every diamond met in the last round (children of split diamonds,
+    /// `candidates` first) is evaluated at once, then those above `tolerance` are split with
+    /// closure. The split set is that of the sequential refinement (without a budget the order of
+    /// splits does not change it). `round` is called on this thread before each round with the number of diamonds
+    /// evaluated so far and stops the refinement when it returns `false` (then `None`).
+    pub(crate) fn refine_parallel(
+        lattice: Lattice,
+        split: SplitSet,
+        tets: usize,
+        (tolerance, candidates): (f64, &[Diamond]),
+        criterion: &(dyn Fn(Diamond) -> f64 + Sync),
+        round: &mut dyn FnMut(usize) -> bool,
+    ) -> Option<(SplitSet, usize)> {
+        let mut r = Refiner::new(lattice, split, tets, criterion);
+        r.tolerance = tolerance;
+        r.pending = Some(Vec::new());
+        for &d in candidates {
+            r.consider(d);
+        }
+        let mut evaluated = 0;
+        let mut closure = Vec::new();
+        loop {
+            let mut batch = r.pending.replace(Vec::new()).unwrap_or_default();
+            batch.retain(|&d| !r.split.contains(d));
+            if batch.is_empty() {
+                break;
+            }
+            if !round(evaluated) {
+                return None;
+            }
+            evaluated += batch.len();
+            let errors: Vec<f64> = batch.par_iter().map(|&d| criterion(d)).collect();
+            for (d, e) in batch.into_iter().zip(errors) {
+                if e > tolerance {
+                    r.queue.push(d, e);
+                }
+            }
+            while let Some(d) = r.queue.pop() {
+                if r.split.contains(d) {
+                    continue;
+                }
+                r.closure(d, &mut closure);
+                for &a in &closure {
+                    r.split(a);
+                }
+            }
+        }
+        Some((r.split, r.tets))
     }
 
     /// Queues `candidates` and splits until the queue is empty or, with `budget > 0`, until the next
@@ -430,6 +488,10 @@ impl<'h> Refiner<'h> {
     /// Queues `d` if it is unsplit, relevant and above the tolerance.
     fn consider(&mut self, d: Diamond) {
         if self.split.contains(d) || !self.considered.insert(d) {
+            return;
+        }
+        if let Some(pending) = &mut self.pending {
+            pending.push(d);
             return;
         }
         let e = self.error(d);
@@ -524,4 +586,55 @@ fn lattice_box(g: &Grid, roi: [f64; 6]) -> Result<(glam::DVec3, glam::DVec3)> {
             to_lattice(2, roi[5]),
         ),
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::hierarchy::base_mesh;
+
+    #[test]
+    fn parallel_refinement_splits_what_sequential_refinement_splits() {
+        // A grid that is not 2^k + 1 points (a base mesh along the far faces) and an error that
+        // shrinks with the diamond's scale but not monotonically, so closures split extra parents.
+        let lattice = Lattice::new([13, 9, 11]).unwrap();
+        let base = base_mesh(lattice);
+        let criterion = |d: Diamond| {
+            let c = d.center;
+            let h = (c.x * 73 + c.y * 37 + c.z * 11).rem_euclid(17) as f64;
+            h * d.scale() as f64 / 8.0
+        };
+        for tolerance in [0.5, 2.0, 6.0] {
+            let (sequential, tets) =
+                Refiner::new(lattice, base.split.clone(), base.tets, &criterion)
+                    .refine_with(tolerance, &base.candidates);
+            let mut rounds = 0;
+            let (parallel, parallel_tets) = Refiner::refine_parallel(
+                lattice,
+                base.split.clone(),
+                base.tets,
+                (tolerance, &base.candidates),
+                &criterion,
+                &mut |_| {
+                    rounds += 1;
+                    true
+                },
+            )
+            .unwrap();
+            assert!(sequential.len() > base.split.len(), "tolerance {tolerance}");
+            assert_eq!(parallel, sequential, "tolerance {tolerance}");
+            assert_eq!(parallel_tets, tets);
+            assert!(rounds > 1);
+        }
+        // Stopped by its round callback.
+        let stopped = Refiner::refine_parallel(
+            lattice,
+            base.split.clone(),
+            base.tets,
+            (0.5, &base.candidates),
+            &criterion,
+            &mut |evaluated| evaluated == 0,
+        );
+        assert!(stopped.is_none());
+    }
 }

@@ -132,12 +132,7 @@ impl Hierarchy {
                 candidates: vec![root],
             }
         } else {
-            let split = Refiner::base_mesh(lattice);
-            BaseMesh {
-                tets: mesh::count_tets(&lattice, &split),
-                candidates: Refiner::candidates(&lattice, &split),
-                split,
-            }
+            base_mesh(lattice)
         };
         Ok(Self {
             grid: volume.grid,
@@ -248,6 +243,17 @@ impl Hierarchy {
         let r = self.records[self.lattice.index(d.center)];
         let q = Quantiser::new(self.value_range);
         (q.decode(r.min), q.decode(r.max))
+    }
+}
+
+/// The base mesh of `lattice`: every diamond with a tetrahedron straddling a far face of the domain, with
+/// its closure (also the start of material refinement, whose lattice is one level finer than its data).
+pub(crate) fn base_mesh(lattice: Lattice) -> BaseMesh {
+    let split = Refiner::base_mesh(lattice);
+    BaseMesh {
+        tets: mesh::count_tets(&lattice, &split),
+        candidates: Refiner::candidates(&lattice, &split),
+        split,
     }
 }
 

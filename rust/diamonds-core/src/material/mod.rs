@@ -23,10 +23,17 @@
 //! are drawn.
 //!
 //! Differences from the paper, and why:
-//! - The mesh is a diamond hierarchy on the `(2^L + 1)^3` lattice stretched over the data box (`2^L` ≥ the
-//!   largest number of cells along an axis); vertex values are resampled from the data (§5.1: "the input
-//!   datasets are resampled at the vertices of the tetrahedral mesh"). Errors are measured at the data
-//!   samples (the "native data elements" of §5.4), exactly, not with the nested bound of Eq. (1)–(2).
+//! - The mesh is a diamond hierarchy on a lattice one level finer than the data: sample `[i, j, k]` is
+//!   lattice point `[2i, 2j, 2k]`, the grid at the lattice's corner with a base mesh along the far faces
+//!   as in Adaptive Tetrahedra ([`crate::lattice`]). Every sample is a vertex, so the field error can
+//!   reach 0 at the finest tetrahedra (half a cell wide, where interfaces need them) on any grid; vertex
+//!   values between samples are resampled from the data (§5.1: "the input datasets are resampled at
+//!   the vertices of the tetrahedral mesh"). Errors are measured at the data samples (the "native data
+//!   elements" of §5.4), exactly, not with the nested bound of Eq. (1)–(2). Refinement evaluates the
+//!   diamonds of each round in parallel (`Refiner::refine_parallel`).
+//! - Ghost values (§5.2.3) are the least-squares linear extrapolation of the material's samples around
+//!   the vertex (the paper's "linear … extrapolation"), falling back to the paper's value at the
+//!   nearest point of the material: a field continuous across an interface is continued, a jump kept.
 //! - Besides the per-interface signed distance `d_ab`, each vertex has a signed distance `φ_m` to the
 //!   boundary of each material `m` (the union of its interface meshes, negative inside `m`). Inside a
 //!   tetrahedron the material at a point is the one with the smallest interpolated `φ`; the interface

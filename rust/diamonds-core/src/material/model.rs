@@ -4,14 +4,15 @@ use super::distance::InterfaceIndex;
 use super::reconstruct::{classify, reconstruct};
 use super::{mixed_from_materials, InterfaceMesh, MaterialInput, MaterialMesh, MaterialQuery};
 use crate::diamond::{signed_volume6, Diamond};
-use crate::lattice::{Lattice, Tet};
-use crate::refine::{Refiner, SplitSet};
+use crate::hierarchy::base_mesh;
+use crate::lattice::{Lattice, Placement, Tet};
+use crate::refine::{BaseMesh, Refiner, SplitSet};
 use crate::{Error, Grid, Progress, Result};
-use glam::{DMat3, DVec3, IVec3};
+use glam::{DMat3, DMat4, DVec3, DVec4, IVec3};
 use rayon::prelude::*;
-use rustc_hash::FxHashMap;
-use std::cell::{Cell, RefCell};
-use std::sync::Arc;
+use rustc_hash::{FxBuildHasher, FxHashMap};
+use std::hash::{BuildHasher, Hash};
+use std::sync::{Arc, Mutex, PoisonError};
 
 /// Largest number of materials (the per-tetrahedron material set is a 32-bit mask).
 pub const MAX_MATERIALS: usize = 32;
@@ -37,8 +38,11 @@ pub struct MaterialModel {
     /// Interface-mesh vertices bucketed by data cell (compressed rows): `(mesh, point)`.
     bucket_start: Vec<u32>,
     bucket_items: Vec<(u32, u32)>,
-    /// The diamond lattice stretched over the data box.
+    /// The diamond lattice one level finer than the data: sample `[i, j, k]` is lattice point
+    /// `[2i, 2j, 2k]`, the grid at the lattice's corner as in [`crate::lattice`].
     lattice: Lattice,
+    /// Where refinement starts: the diamonds straddling the domain's far faces, with their closure.
+    base: BaseMesh,
     /// The signed distance given to a material without interfaces (twice the diagonal).
     far: f64,
 }
@@ -175,12 +179,12 @@ impl MaterialModel {
             boundary[mesh.pair.0 as usize].push(i);
             boundary[mesh.pair.1 as usize].push(i);
         }
-        let cells = grid.dims.map(|d| d - 1);
-        let largest = *cells.iter().max().unwrap_or(&1);
-        // One level below the data: the finest tetrahedra are half a cell wide, so interfaces crossing a
-        // cell (and junctions of three materials) can still be approximated to a fraction of a cell.
-        let levels = largest.next_power_of_two().trailing_zeros().max(1) + 1;
-        let lattice = Lattice::new([(1usize << levels) + 1; 3])?;
+        // Every sample is a lattice vertex, so the field error can reach 0 at the finest tetrahedra; one
+        // level below the data, so that where interfaces need it the finest tetrahedra are half a cell
+        // wide and interfaces crossing a cell (and junctions of three materials) are approximated to a
+        // fraction of a cell.
+        let lattice = Lattice::new(grid.dims.map(|d| 2 * d - 1))?;
+        let base = base_mesh(lattice);
         let b = grid.bounds();
         let far =
             2.0 * ((b[1] - b[0]).powi(2) + (b[3] - b[2]).powi(2) + (b[5] - b[4]).powi(2)).sqrt();
@@ -196,6 +200,7 @@ impl MaterialModel {
             bucket_start: Vec::new(),
             bucket_items: Vec::new(),
             lattice,
+            base,
             far,
         };
         model.bucket_interface_vertices();
@@ -215,6 +220,12 @@ impl MaterialModel {
     /// The grid of the input samples.
     pub fn grid(&self) -> &Grid {
         &self.grid
+    }
+
+    /// Tetrahedra of the base mesh every query starts from: the refinement forced by the domain's far
+    /// faces alone (0 extra for `2^k + 1` points per axis; see [`crate::lattice`]).
+    pub fn base_tetrahedra(&self) -> usize {
+        self.base.tets
     }
 
     fn bucket_interface_vertices(&mut self) {
@@ -278,15 +289,11 @@ impl MaterialModel {
         })
     }
 
-    /// World position of a lattice point (the lattice spans the data box).
+    /// World position of a lattice point (half a sample spacing per lattice unit; a sample's own
+    /// position, exactly, at even coordinates).
     pub(super) fn world(&self, p: IVec3) -> DVec3 {
-        let b = self.grid.bounds();
-        let n = self.lattice.size() as f64;
-        DVec3::new(
-            b[0] + (b[1] - b[0]) * p.x as f64 / n,
-            b[2] + (b[3] - b[2]) * p.y as f64 / n,
-            b[4] + (b[5] - b[4]) * p.z as f64 / n,
-        )
+        DVec3::from_array(self.grid.origin)
+            + DVec3::from_array(self.grid.spacing) * (p.as_dvec3() * 0.5)
     }
 
     /// The material common to all corners of `x`'s cell, if there is one.
@@ -342,6 +349,42 @@ impl MaterialModel {
             .iter()
             .map(|&(i, w)| w * values[i] as f64)
             .sum()
+    }
+
+    /// A ghost value of field `f` of material `m` at `x` (Gregorski §5.2.3's "linear … extrapolation"):
+    /// the least-squares linear fit `a + g · (y − x)` to `m`'s own values at its samples `y` among the
+    /// 4 × 4 × 4 around `x`'s cell, evaluated at `x`; `None` when fewer than 4 of them, or all on one
+    /// plane, are of `m`. A field that is continuous across the interface is thus continued, a jump is
+    /// kept.
+    fn extrapolated_value(&self, x: DVec3, m: u8, f: usize) -> Option<f64> {
+        let own = self.own_field(f, m);
+        let u = self.to_grid(x);
+        let d = self.grid.dims;
+        let (mut ata, mut atv, mut count) = (DMat4::ZERO, DVec4::ZERO, 0);
+        let range = |a: usize| {
+            let c = u[a].floor() as i64;
+            (c - 1).max(0) as usize..=((c + 2).min(d[a] as i64 - 1)).max(0) as usize
+        };
+        for k in range(2) {
+            for j in range(1) {
+                for i in range(0) {
+                    let s = self.grid.index(i, j, k);
+                    if self.labels[s] != m {
+                        continue;
+                    }
+                    // Cell units keep the system well conditioned.
+                    let r = DVec4::new(1.0, i as f64 - u.x, j as f64 - u.y, k as f64 - u.z);
+                    ata += DMat4::from_cols(r * r.x, r * r.y, r * r.z, r * r.w);
+                    atv += r * own[s] as f64;
+                    count += 1;
+                }
+            }
+        }
+        if count < 4 || ata.determinant().abs() < 1e-6 * (count as f64).powi(4) {
+            return None;
+        }
+        let c = ata.inverse() * atv;
+        c.x.is_finite().then_some(c.x)
     }
 
     /// The value of field `f` of material `m` at the sample of `m` nearest to `x` within a few cells.
@@ -442,10 +485,21 @@ impl MaterialModel {
         let mixed: Vec<f32> = (0..nf)
             .map(|f| self.trilinear(&self.fields[f], x) as f32)
             .collect();
+        // The sample at p, if any: its own value is exact there, whatever φ says.
+        let sample_label = (p % 2 == IVec3::ZERO).then(|| {
+            self.labels[self
+                .grid
+                .index(p.x as usize / 2, p.y as usize / 2, p.z as usize / 2)]
+        });
         let mut values = vec![0f32; nf * k];
         for f in 0..nf {
             for m in 0..k {
-                let own = self.material_value(x, m as u8, f);
+                let own = if m == label as usize || sample_label == Some(m as u8) {
+                    self.material_value(x, m as u8, f)
+                } else {
+                    self.extrapolated_value(x, m as u8, f)
+                        .or_else(|| self.material_value(x, m as u8, f))
+                };
                 let v = own
                     .or_else(|| {
                         let y = foot[m]?;
@@ -465,106 +519,122 @@ impl MaterialModel {
         }
     }
 
-    /// Interface and field errors of tetrahedron `t` (§5.4), exact at the data samples inside it.
-    /// `info` gives the vertex records; `cheap` vertices (uniform cells) are resolved without it.
-    fn evaluate(
-        &self,
-        t: &Tet,
-        ghost_values: bool,
-        info: &mut dyn FnMut(IVec3) -> Arc<VertexInfo>,
-        samples: &mut Vec<(usize, [f64; 4])>,
-    ) -> TetEval {
-        let wt = WorldTet::new(t.map(|p| self.world(p)));
-        let (lo, hi) = wt.bounds();
-        // The data samples inside t.
-        samples.clear();
+    /// Visits the data samples in the closed tetrahedron `t` with their barycentric coordinates, row
+    /// by row (the span of each row solved from the barycentric coordinates, which are affine along
+    /// it), until `visit` returns `false`; returns `false` then.
+    fn scan_samples(&self, t: &WorldTet, visit: &mut dyn FnMut(usize, &[f64; 4]) -> bool) -> bool {
+        let (lo, hi) = t.bounds();
         let (ulo, uhi) = (self.to_grid(lo), self.to_grid(hi));
         let d = self.grid.dims;
         let range = |a: usize| {
             let a0 = (ulo[a] - 1e-9).ceil().max(0.0) as usize;
             let a1 = ((uhi[a] + 1e-9).floor().max(0.0) as usize).min(d[a] - 1);
-            a0..=a1
+            (a0, a1)
         };
-        let mut mask = 0u32;
-        for k in range(2) {
-            for j in range(1) {
-                for i in range(0) {
-                    let x = DVec3::from_array(self.grid.point([i, j, k]));
-                    let l = wt.bary(x);
-                    if inside(&l) {
-                        let s = self.grid.index(i, j, k);
-                        mask |= 1 << self.labels[s];
-                        samples.push((s, l));
+        let ((i0, i1), (j0, j1), (k0, k1)) = (range(0), range(1), range(2));
+        // Barycentric change per step along x.
+        let step = t.inv.x_axis * self.grid.spacing[0];
+        let dl = [-(step.x + step.y + step.z), step.x, step.y, step.z];
+        for k in k0..=k1 {
+            for j in j0..=j1 {
+                let l0 = t.bary(DVec3::from_array(self.grid.point([0, j, k])));
+                let (mut a, mut b) = (i0 as f64, i1 as f64);
+                for m in 0..4 {
+                    // l0[m] + i dl[m] ≥ −ε
+                    let bound = (-INSIDE_EPS - l0[m]) / dl[m];
+                    if dl[m] > 0.0 {
+                        a = a.max(bound);
+                    } else if dl[m] < 0.0 {
+                        b = b.min(bound);
+                    } else if l0[m] < -INSIDE_EPS {
+                        b = -1.0;
+                    }
+                }
+                if a > b {
+                    continue;
+                }
+                for i in (a.ceil() as usize)..=(b.floor() as usize) {
+                    let x = i as f64;
+                    let l = std::array::from_fn(|m| l0[m] + x * dl[m]);
+                    if inside(&l) && !visit(self.grid.index(i, j, k), &l) {
+                        return false;
                     }
                 }
             }
         }
+        true
+    }
+
+    /// Interface and field errors of tetrahedron `t` (§5.4), exact at the data samples inside it.
+    /// `info` gives the vertex records, asked for only where the materials are not uniform around
+    /// the tetrahedron. With `limits` (interface, field tolerances) the errors are exact only up to
+    /// them: the scan stops at the first interface error above its limit (the field error is then
+    /// not measured) or the first field error above its limit, and the materials are not reported;
+    /// enough to decide a split.
+    fn evaluate(
+        &self,
+        t: &Tet,
+        ghost_values: bool,
+        info: &mut dyn FnMut(IVec3) -> Arc<VertexInfo>,
+        limits: Option<(f64, f64)>,
+    ) -> TetEval {
+        let (interface_limit, field_limit) = limits.unwrap_or((f64::INFINITY, f64::INFINITY));
+        let wt = WorldTet::new(t.map(|p| self.world(p)));
         let nf = self.fields.len();
         // The largest deviation at the samples of t of their value (own value of their material with
-        // ghost values, else mixed) from the linear function `values(f, material)`.
-        let field_error = |values: &dyn Fn(usize, u8) -> [f64; 4]| {
-            let mut e = 0.0f64;
-            for &(s, l) in samples.iter() {
+        // ghost values, else mixed) from the linear function `values(f, material)`, or `None` when
+        // `uniform` is given and a sample is of another material; with the materials of the samples.
+        let field_error = |values: &dyn Fn(usize, u8) -> [f64; 4], uniform: Option<u8>| {
+            let (mut e, mut mask) = (0.0f64, 0u32);
+            let complete = self.scan_samples(&wt, &mut |s, l| {
                 let m = self.labels[s];
+                if uniform.is_some_and(|u| u != m) {
+                    return false;
+                }
+                mask |= 1 << m;
                 for f in 0..nf {
                     let at = if ghost_values {
                         self.own_field(f, m)[s]
                     } else {
                         self.fields[f][s]
                     };
-                    e = e.max((at as f64 - dot4(&l, values(f, m))).abs());
+                    e = e.max((at as f64 - dot4(l, values(f, m))).abs());
                 }
-            }
-            e
+                e <= field_limit
+            });
+            (complete || uniform.is_none() || e > field_limit).then_some((e, mask))
         };
         if !ghost_values {
             let vals = self.vertex_values(&wt, |f| &self.fields[f]);
+            let (field, materials) = field_error(&|f, _| vals[f], None).unwrap_or_default();
             return TetEval {
                 interface: 0.0,
-                field: field_error(&|f, _| vals[f]),
-                materials: mask,
+                field,
+                materials,
             };
         }
-        // Interface-mesh vertices inside t.
-        let mut iface: Vec<(usize, [f64; 4])> = Vec::new();
+        let (lo, hi) = wt.bounds();
         let (c0, c1) = (self.cell_corner(lo), self.cell_corner(hi));
-        for k in c0[2]..=c1[2] {
-            for j in c0[1]..=c1[1] {
-                for i in c0[0]..=c1[0] {
+        let interface_vertices = (c0[2]..=c1[2]).flat_map(|k| {
+            (c0[1]..=c1[1]).flat_map(move |j| {
+                (c0[0]..=c1[0]).flat_map(move |i| {
                     let c = self.cell_index([i, j, k]);
-                    let items = &self.bucket_items
-                        [self.bucket_start[c] as usize..self.bucket_start[c + 1] as usize];
-                    for &(m, p) in items {
-                        let x = DVec3::from_array(self.interfaces[m as usize].points[p as usize]);
-                        let l = wt.bary(x);
-                        if inside(&l) {
-                            iface.push((m as usize, l));
-                        }
-                    }
-                }
-            }
-        }
-        // The cheap case: one material everywhere, no interface inside.
-        let uniform: Vec<Option<u8>> = wt.x.iter().map(|&x| self.uniform_label(x)).collect();
-        if iface.is_empty() {
-            if let Some(l) = uniform[0] {
-                if uniform.iter().all(|&u| u == Some(l)) && mask & !(1 << l) == 0 {
-                    // Every corner sample of the vertices' cells is of l: l's own values are the
-                    // trilinear interpolation of its samples (what `vertex_info` gives too).
-                    let vals = self.vertex_values(&wt, |f| self.own_field(f, l));
-                    return TetEval {
-                        interface: 0.0,
-                        field: field_error(&|f, _| vals[f]),
-                        materials: 1 << l,
-                    };
-                }
-            }
-        }
-        let v: [Arc<VertexInfo>; 4] = std::array::from_fn(|i| info(t[i]));
-        let k = self.materials;
+                    &self.bucket_items
+                        [self.bucket_start[c] as usize..self.bucket_start[c + 1] as usize]
+                })
+            })
+        });
+        let mut v: Option<[Arc<VertexInfo>; 4]> = None;
         let mut interface = 0.0f64;
-        for &(mesh, l) in &iface {
-            let (a, b) = self.interfaces[mesh].pair;
+        for &(mesh, p) in interface_vertices {
+            let l = wt.bary(DVec3::from_array(
+                self.interfaces[mesh as usize].points[p as usize],
+            ));
+            if !inside(&l) {
+                continue;
+            }
+            let v = v.get_or_insert_with(|| std::array::from_fn(|i| info(t[i])));
+            let (a, b) = self.interfaces[mesh as usize].pair;
             let g: [f64; 4] =
                 std::array::from_fn(|i| v[i].phi[a as usize] as f64 - v[i].phi[b as usize] as f64);
             let grad = wt.gradient(g).length();
@@ -577,16 +647,43 @@ impl MaterialModel {
                 f64::INFINITY
             };
             interface = interface.max(e);
+            if interface > interface_limit {
+                return TetEval {
+                    interface,
+                    ..TetEval::default()
+                };
+            }
         }
+        // The cheap case: one material around every vertex and at every sample, no interface inside.
+        if v.is_none() {
+            let uniform: Vec<Option<u8>> = wt.x.iter().map(|&x| self.uniform_label(x)).collect();
+            if let Some(l) = uniform[0].filter(|&l| uniform.iter().all(|&u| u == Some(l))) {
+                // Every corner sample of the vertices' cells is of l: l's own values are the
+                // trilinear interpolation of its samples (what `vertex_info` gives too).
+                let vals = self.vertex_values(&wt, |f| self.own_field(f, l));
+                if let Some((field, materials)) = field_error(&|f, _| vals[f], Some(l)) {
+                    return TetEval {
+                        interface: 0.0,
+                        field,
+                        materials,
+                    };
+                }
+            }
+        }
+        let v = v.unwrap_or_else(|| std::array::from_fn(|i| info(t[i])));
+        let k = self.materials;
+        let (field, mut materials) = field_error(
+            &|f, m| std::array::from_fn(|i| v[i].values[f * k + m as usize] as f64),
+            None,
+        )
+        .unwrap_or_default();
         for vi in &v {
-            mask |= 1 << vi.label;
+            materials |= 1 << vi.label;
         }
-        let field =
-            field_error(&|f, m| std::array::from_fn(|i| v[i].values[f * k + m as usize] as f64));
         TetEval {
             interface,
             field,
-            materials: mask,
+            materials,
         }
     }
 
@@ -604,53 +701,53 @@ impl MaterialModel {
             }
         }
         let lattice = self.lattice;
-        let cache: RefCell<FxHashMap<usize, Arc<VertexInfo>>> = RefCell::default();
-        let evals: RefCell<FxHashMap<Diamond, (f64, f64)>> = RefCell::default();
-        let samples = RefCell::new(Vec::new());
-        let progress = RefCell::new(progress);
-        let aborted = Cell::new(false);
-        let done = Cell::new(0usize);
+        let infos: Memo<usize, Arc<VertexInfo>> = Memo::default();
+        let evals: Memo<Diamond, (f64, f64)> = Memo::default();
+        // A diamond is split when its interface error exceeds the interface tolerance (both passes)
+        // or, in the second, its field error the field tolerance: errors are measured up to these.
+        let limits = (
+            if query.ghost_values {
+                query.interface_tolerance
+            } else {
+                f64::INFINITY
+            },
+            query.field_tolerance,
+        );
         let diamond_error = |d: Diamond| -> (f64, f64) {
-            if let Some(&e) = evals.borrow().get(&d) {
-                return e;
-            }
-            if aborted.get() {
-                return (0.0, 0.0);
-            }
-            let n = done.get() + 1;
-            done.set(n);
-            if n.is_multiple_of(1024) {
-                let f = 0.8 * (1.0 - 1.0 / (1.0 + n as f64 / 20_000.0));
-                if !(progress.borrow_mut())(f) {
-                    aborted.set(true);
+            evals.get_or_insert_with(d, || {
+                let mut info = |p: IVec3| {
+                    infos.get_or_insert_with(lattice.index(p), || Arc::new(self.vertex_info(p)))
+                };
+                let mut e = (0.0f64, 0.0f64);
+                for t in d.tets(&lattice) {
+                    if lattice.place(&t) == Placement::Inside {
+                        let r = self.evaluate(&t, query.ghost_values, &mut info, Some(limits));
+                        e = (e.0.max(r.interface), e.1.max(r.field));
+                        if e.0 > limits.0 {
+                            break;
+                        }
+                    }
                 }
-            }
-            let mut info = |p: IVec3| {
-                let i = lattice.index(p);
-                if let Some(v) = cache.borrow().get(&i) {
-                    return v.clone();
-                }
-                let v = Arc::new(self.vertex_info(p));
-                cache.borrow_mut().insert(i, v.clone());
-                v
-            };
-            let mut e = (0.0f64, 0.0f64);
-            for t in d.tets(&lattice) {
-                let r = self.evaluate(&t, query.ghost_values, &mut info, &mut samples.borrow_mut());
-                e = (e.0.max(r.interface), e.1.max(r.field));
-            }
-            evals.borrow_mut().insert(d, e);
-            e
+                e
+            })
         };
-        let root = [Diamond::root(&lattice)];
-        let split = SplitSet::new(&lattice);
+        let mut round =
+            |evaluated: usize| progress(0.8 * (1.0 - 1.0 / (1.0 + evaluated as f64 / 20_000.0)));
+        let base = &self.base;
         // Pass 1 (§5.3 step 2): the interfaces.
         let interface_only = |d: Diamond| diamond_error(d).0;
         let (split, interface_tets) = if query.ghost_values {
-            Refiner::new(lattice, split, 6, &interface_only)
-                .refine_with(query.interface_tolerance, &root)
+            Refiner::refine_parallel(
+                lattice,
+                base.split.clone(),
+                base.tets,
+                (query.interface_tolerance, &base.candidates),
+                &interface_only,
+                &mut round,
+            )
+            .ok_or(Error::Aborted)?
         } else {
-            (split, 6)
+            (base.split.clone(), base.tets)
         };
         // Pass 2 (step 3): the fields, keeping the interfaces within their tolerance.
         let both = |d: Diamond| {
@@ -663,21 +760,30 @@ impl MaterialModel {
             i.max(ratio(fe, query.field_tolerance))
         };
         let candidates = Refiner::candidates(&lattice, &split);
-        let (split, _) =
-            Refiner::new(lattice, split, interface_tets, &both).refine_with(1.0, &candidates);
-        if aborted.get() {
-            return Err(Error::Aborted);
-        }
-        let mut mesh = self.extract(&split, query.ghost_values);
+        let (split, _) = Refiner::refine_parallel(
+            lattice,
+            split,
+            interface_tets,
+            (1.0, &candidates),
+            &both,
+            &mut round,
+        )
+        .ok_or(Error::Aborted)?;
+        let mut mesh = self.extract(&split, query.ghost_values, &infos);
         mesh.interface_tetrahedra = interface_tets;
-        if !(progress.borrow_mut())(1.0) {
+        if !progress(1.0) {
             return Err(Error::Aborted);
         }
         Ok(mesh)
     }
 
-    /// The leaves of `split` with their vertex records and errors.
-    fn extract(&self, split: &SplitSet, ghost_values: bool) -> MaterialMesh {
+    /// The leaves of `split` with their vertex records (from `infos`, completed) and errors.
+    fn extract(
+        &self,
+        split: &SplitSet,
+        ghost_values: bool,
+        infos: &Memo<usize, Arc<VertexInfo>>,
+    ) -> MaterialMesh {
         let lattice = &self.lattice;
         let mut leaves = crate::mesh::leaves_where(lattice, split, |_| false, |t| Some(*t));
         for t in &mut leaves {
@@ -691,22 +797,20 @@ impl MaterialModel {
             .collect();
         ids.par_sort_unstable();
         ids.dedup();
-        let n = lattice.size() as usize + 1;
-        let lattice_point =
-            |i: usize| IVec3::new((i % n) as i32, ((i / n) % n) as i32, (i / (n * n)) as i32);
+        let lattice_point = |i: usize| lattice.point(i);
         let infos: Vec<Arc<VertexInfo>> = ids
             .par_iter()
-            .map(|&i| Arc::new(self.vertex_info(lattice_point(i))))
+            .map(|&i| infos.get_or_insert_with(i, || Arc::new(self.vertex_info(lattice_point(i)))))
             .collect();
         let id = |p: IVec3| ids.binary_search(&lattice.index(p)).expect("leaf vertex") as u32;
         let evals: Vec<TetEval> = leaves
             .par_iter()
-            .map_init(Vec::new, |samples, t| {
+            .map(|t| {
                 self.evaluate(
                     t,
                     ghost_values,
                     &mut |p| infos[id(p) as usize].clone(),
-                    samples,
+                    None,
                 )
             })
             .collect();
@@ -891,4 +995,38 @@ fn check_interfaces(given: &[InterfaceMesh], k: usize) -> Result<Vec<InterfaceMe
         .filter(|m| !m.triangles.is_empty())
         .cloned()
         .collect())
+}
+
+/// A map filled from several threads: each value computed once per key (rarely twice, when two
+/// threads race for it; the first stored is kept).
+struct Memo<K, V> {
+    shards: Vec<Mutex<FxHashMap<K, V>>>,
+}
+
+impl<K, V> Default for Memo<K, V> {
+    fn default() -> Self {
+        Self {
+            shards: (0..64).map(|_| Mutex::default()).collect(),
+        }
+    }
+}
+
+impl<K: Hash + Eq + Copy, V: Clone> Memo<K, V> {
+    fn get_or_insert_with(&self, key: K, f: impl FnOnce() -> V) -> V {
+        let shard = &self.shards[(FxBuildHasher.hash_one(key) >> 58) as usize];
+        if let Some(v) = shard
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .get(&key)
+        {
+            return v.clone();
+        }
+        let v = f();
+        shard
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .entry(key)
+            .or_insert(v)
+            .clone()
+    }
 }

@@ -248,36 +248,57 @@ impl Functions<'_> {
     }
 }
 
-/// Accumulates deduplicated polygons.
+/// Accumulates deduplicated polygons: one point per identity ([`Key`]) and per position and owner
+/// (identities that meet at one position, as equalities holding at a mesh vertex reached through
+/// different carriers, share the point), no repeated consecutive corners.
 #[derive(Default)]
 struct Builder {
     out: PolygonMesh,
     ids: FxHashMap<Key, u32>,
+    at: FxHashMap<([u64; 3], u8), u32>,
+    corners: Vec<u32>,
 }
 
 impl Builder {
     fn push(&mut self, f: &Functions<'_>, poly: &[PolyPoint], label: [u8; 2], owner: u8) {
-        if poly.len() < 3 {
+        let mesh = f.mesh;
+        self.corners.clear();
+        for p in poly {
+            let id = match self.ids.get(&p.key(owner)) {
+                Some(&id) => id,
+                None => {
+                    let x = f.position(p);
+                    let next = self.out.points.len() as u32;
+                    // + 0 makes −0 and +0 one position.
+                    let position = (x + DVec3::ZERO).to_array().map(f64::to_bits);
+                    let id = *self.at.entry((position, owner)).or_insert(next);
+                    if id == next {
+                        self.out.points.push(x.to_array());
+                        for (field, column) in self.out.values.iter_mut().enumerate() {
+                            let v = if owner == u8::MAX {
+                                p.eval(&|c| mesh.mixed[field][c as usize] as f64)
+                            } else {
+                                let column = field * mesh.materials + owner as usize;
+                                p.eval(&|c| mesh.material_field[column][c as usize] as f64)
+                            };
+                            column.push(v as f32);
+                        }
+                    }
+                    self.ids.insert(p.key(owner), id);
+                    id
+                }
+            };
+            if self.corners.last() != Some(&id) {
+                self.corners.push(id);
+            }
+        }
+        while self.corners.len() > 1 && self.corners.first() == self.corners.last() {
+            self.corners.pop();
+        }
+        if self.corners.len() < 3 {
             return;
         }
-        let mesh = f.mesh;
-        for p in poly {
-            let next = self.out.points.len() as u32;
-            let id = *self.ids.entry(p.key(owner)).or_insert(next);
-            if id == next {
-                self.out.points.push(f.position(p).to_array());
-                for (field, column) in self.out.values.iter_mut().enumerate() {
-                    let v = if owner == u8::MAX {
-                        p.eval(&|c| mesh.mixed[field][c as usize] as f64)
-                    } else {
-                        let column = field * mesh.materials + owner as usize;
-                        p.eval(&|c| mesh.material_field[column][c as usize] as f64)
-                    };
-                    column.push(v as f32);
-                }
-            }
-            self.out.connectivity.push(id);
-        }
+        self.out.connectivity.extend_from_slice(&self.corners);
         self.out.offsets.push(self.out.connectivity.len() as u32);
         self.out.labels.push(label);
     }

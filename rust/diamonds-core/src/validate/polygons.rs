@@ -85,11 +85,26 @@ pub fn check_polygon_arrays(
     Ok(())
 }
 
-/// Checks that the polygons have no crack: every polygon edge is shared by at least two polygons (more
-/// where interfaces meet) unless its two ends lie on one face of `bounds` (`[xmin, xmax, ymin, …]`,
-/// within a millionth of its diagonal). Returns the number of distinct edges.
+/// Checks that the (interface) polygons have no crack: one point per position (no two points with
+/// the same coordinates, where polygons meeting there would not connect), no polygon edge from a point
+/// to itself, and every polygon edge shared by at least two polygons (more where interfaces meet)
+/// unless its two ends lie on one face of `bounds` (`[xmin, xmax, ymin, …]`, within a millionth of its
+/// diagonal). Returns the number of distinct edges.
 pub fn check_crack_free(polygons: &PolygonMesh, bounds: [f64; 6]) -> Result<usize, String> {
     check_connectivity(polygons)?;
+    let mut positions: Vec<([u64; 3], usize)> = polygons
+        .points
+        .par_iter()
+        .enumerate()
+        .map(|(i, p)| (p.map(|c| (c + 0.0).to_bits()), i))
+        .collect();
+    positions.par_sort_unstable();
+    if let Some(w) = positions.windows(2).find(|w| w[0].0 == w[1].0) {
+        return Err(format!(
+            "points {} and {} are both at {:?}: two points at one position",
+            w[0].1, w[1].1, polygons.points[w[0].1]
+        ));
+    }
     let faces = super::faces_of_bounds(&polygons.points, &bounds, super::bounds_eps(&bounds));
     let edges = super::sorted_edges(
         polygons
@@ -101,6 +116,12 @@ pub fn check_crack_free(polygons: &PolygonMesh, bounds: [f64; 6]) -> Result<usiz
     let mut count = 0;
     for group in groups {
         let (a, b) = (group[0].0 as usize, group[0].1 as usize);
+        if a == b {
+            return Err(format!(
+                "a polygon edge from point {a} at {:?} to itself",
+                polygons.points[a]
+            ));
+        }
         if group.len() == 1 && faces[a] & faces[b] == 0 {
             return Err(format!(
                 "edge {:?} - {:?} is in one polygon only: a crack",
@@ -205,5 +226,21 @@ mod tests {
         junction.connectivity.extend([0, 2, 1]);
         junction.labels.push([1, 2]);
         assert_eq!(check_crack_free(&junction, unit), Ok(5));
+        // Two points at one position (the third polygon uses a copy of corner 2): the polygons
+        // meeting there do not connect.
+        let mut doubled = junction.clone();
+        doubled.points.push([1.0, 1.0, 0.5]);
+        doubled.connectivity[7] = 4;
+        assert!(check_crack_free(&doubled, unit)
+            .unwrap_err()
+            .contains("points 2 and 4 are both at [1.0, 1.0, 0.5]"));
+        // A corner repeated: an edge of zero length.
+        let mut repeated = junction;
+        repeated.offsets.push(12);
+        repeated.connectivity.extend([0, 1, 1]);
+        repeated.labels.push([0, 2]);
+        assert!(check_crack_free(&repeated, unit)
+            .unwrap_err()
+            .contains("to itself"));
     }
 }
