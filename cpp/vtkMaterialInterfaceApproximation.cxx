@@ -577,8 +577,9 @@ vtkMaterialInterfaceApproximation::vtkInternals::UpdateMesh(
       << FilterName << ": the finest tetrahedra (half a cell wide) cannot meet the "
       << "tolerances everywhere; reached interface error " << mesh.max_interface_error()
       << " and field error " << mesh.max_field_error()
-      << " (see MaximumInterfaceError, MaximumFieldError and the cell arrays). Samples "
-      << "are mesh vertices only with 2^k + 1 points per axis.");
+      << " (see MaximumInterfaceError, MaximumFieldError and the cell arrays). Every "
+      << "sample is a mesh vertex, so this happens only where an interface bends within "
+      << "half a cell: an InterfaceTolerance well below the spacing.");
   }
   this->BuiltMesh = key;
   ++self->NumberOfRefinements;
