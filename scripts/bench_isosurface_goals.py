@@ -36,6 +36,8 @@ import sys
 import tempfile
 import time
 
+from bench_isosurface import hausdorff  # scripts/bench_isosurface.py, beside this file
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SHARED = os.path.join(os.path.dirname(ROOT), "shared", "data", "volumes")
 PLUGIN = os.path.join(ROOT, "build", "lib", "paraview-5.11", "plugins", "Diamonds")
@@ -199,32 +201,6 @@ def arrays_to_vtp(spec):
     poly.SetPolys(cells)
     write_surface(poly, spec["out"])
     print("RESULT {}")
-
-
-def hausdorff(spec):
-    """Symmetric Hausdorff distance (max, RMS) between two .vtp files, point to cell."""
-    import math
-
-    from vtkmodules.util.numpy_support import vtk_to_numpy
-    from vtkmodules.vtkFiltersModeling import vtkHausdorffDistancePointSetFilter
-    from vtkmodules.vtkIOXML import vtkXMLPolyDataReader
-
-    surfaces = []
-    for path in (spec["a"], spec["b"]):
-        r = vtkXMLPolyDataReader()
-        r.SetFileName(path)
-        r.Update()
-        surfaces.append(r.GetOutput())
-    h = vtkHausdorffDistancePointSetFilter()
-    h.SetInputData(0, surfaces[0])
-    h.SetInputData(1, surfaces[1])
-    h.SetTargetDistanceMethodToPointToCell()
-    h.Update()
-    d = []
-    for port in (0, 1):
-        d.extend(vtk_to_numpy(h.GetOutput(port).GetPointData().GetArray("Distance")).tolist())
-    rms = math.sqrt(sum(x * x for x in d) / max(len(d), 1))
-    print("RESULT " + json.dumps({"max": max(d) if d else 0.0, "rms": rms}))
 
 
 def isovalue_changes(spec):
