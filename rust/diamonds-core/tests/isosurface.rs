@@ -7,7 +7,7 @@ use diamonds::diamond::{bisect, Diamond};
 use diamonds::fields::{sample, sphere_distance, torus_distance, unit_grid};
 use diamonds::isosurface::{extract, marching_tetrahedra};
 use diamonds::lattice::{Lattice, Placement, Tet};
-use diamonds::validate::{check_surface, check_unit_normals};
+use diamonds::validate::{check_surface, check_unit_normals, surface_distances};
 use diamonds::{Grid, Hierarchy, IsoQuery, IsoState, IsoSurface, ScalarSlice, Volume};
 use glam::DVec3;
 
@@ -285,11 +285,20 @@ fn both_hierarchies_give_the_same_surfaces() {
     }
 }
 
+/// Both one-sided Hausdorff distances between `s` and the full-resolution surface of `v` at
+/// `isovalues` within `tol` (the two-sided bound, `diamonds::validate::hausdorff`).
+fn assert_bound(g: Grid, v: &[f32], isovalues: &[f64], tol: f64, s: &IsoSurface, what: &str) {
+    let volume = Volume::new(g, v).unwrap();
+    let d = surface_distances(&volume, isovalues, &s.points, &s.triangles);
+    assert_eq!(d.check(tol), Ok(()), "{what}: {d:?}");
+}
+
 #[test]
 fn isolated_pieces_are_drawn_within_the_tolerance() {
     // A small sphere and single-sample spikes far from it, on a grid with a far-face band: at a
-    // tolerance far larger than a spike, the surface around each spike is still drawn (within a
-    // voxel of it) — a coarse tetrahedron whose vertices miss the isovalue would hide it.
+    // tolerance far larger than a spike, every part of the full-resolution surface (the spikes'
+    // too) is within the tolerance of the result — a coarse tetrahedron whose vertices miss the
+    // isovalue would hide a spike.
     let g = unit_grid([70, 66, 61]);
     let mut v = sample(&g, |x, y, z| sphere_distance(0.25)(x, y, z) as f32);
     // The last two next to far faces, where the mesh has a band of straddling tetrahedra.
@@ -306,27 +315,66 @@ fn isolated_pieces_are_drawn_within_the_tolerance() {
         v[g.index(s[0], s[1], s[2])] = -0.01;
     }
     let h = build(g, &v);
-    let voxel = DVec3::from(g.spacing).length();
-    // One state, as a filter keeps it: the errors measured at a tolerance serve the larger ones
-    // after it (a fresh extraction at 0.5 measures coarser and misses a spike).
+    // One state, as a filter keeps it: a query's result does not depend on the queries before it
+    // (errors measured at a smaller tolerance once served the larger ones, and a fresh extraction
+    // at 0.5 left a spike 1.05 from the surface).
     let mut state = IsoState::new();
-    for tol in [0.05, 0.2, 0.5] {
-        let s = state
-            .extract(&h, ScalarSlice::F32(&v), &IsoQuery::new(0.0, tol))
-            .unwrap();
-        for spike in spikes {
-            let p = DVec3::from(g.point(spike));
-            let d = s
-                .points
-                .iter()
-                .map(|&q| DVec3::from(q).distance(p))
-                .fold(f64::INFINITY, f64::min);
-            assert!(
-                d <= voxel,
-                "tol {tol}: spike {spike:?} is {d} from the surface"
-            );
-        }
+    for tol in [0.05, 0.2, 0.5, 0.2] {
+        let q = IsoQuery::new(0.0, tol);
+        let s = state.extract(&h, ScalarSlice::F32(&v), &q).unwrap();
+        let fresh = extract(&h, ScalarSlice::F32(&v), &q).unwrap();
+        assert_eq!(s, fresh, "tol {tol}: after other queries vs fresh");
+        assert_bound(g, &v, &[0.0], tol, &s, &format!("spikes, tol {tol}"));
         assert_watertight(&s, &format!("spikes, tol {tol}"));
         assert!(s.error_bound <= tol);
+    }
+}
+
+/// A deterministic noise in [0, 1).
+fn noise(seed: u64) -> impl FnMut() -> f64 {
+    let mut x = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+    move || {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        (x % 1_000_000) as f64 / 1_000_000.0
+    }
+}
+
+#[test]
+fn the_two_sided_bound_holds_on_noisy_volumes_thin_tubes_and_specks() {
+    // Quantised to integers (CT-like), so that isovalues can equal sample values.
+    let g = Grid::new([45, 38, 41]);
+    let centre = DVec3::new(22.0, 19.0, 20.0);
+    let mut rnd = noise(11);
+    let mut v: Vec<f32> = (0..g.len())
+        .map(|i| {
+            let [x, y, z] = g.ijk(i);
+            let p = DVec3::new(x as f64, y as f64, z as f64);
+            // A blob, a thin tube along x (radius 0.7 voxel) and noise of ±6.
+            let blob = 100.0 - 8.0 * (p.distance(centre) - 12.0);
+            let tube = 100.0 - 60.0 * ((p.y - 6.0).hypot(p.z - 33.0) - 0.7);
+            (blob.max(tube).clamp(0.0, 200.0) + 12.0 * (rnd() - 0.5)).round() as f32
+        })
+        .collect();
+    // Specks: single bright samples.
+    for _ in 0..25 {
+        let i = (rnd() * g.len() as f64) as usize;
+        v[i] = 180.0;
+    }
+    let h = build(g, &v);
+    let b = g.bounds();
+    let diagonal = DVec3::new(b[1] - b[0], b[3] - b[2], b[5] - b[4]).length();
+    for isovalue in [100.5, 100.0, 57.0] {
+        for fraction in [0.005, 0.01, 0.02, 0.04] {
+            let tol = fraction * diagonal;
+            let q = IsoQuery::new(isovalue, tol);
+            let s = extract(&h, ScalarSlice::F32(&v), &q).unwrap();
+            let what = format!("isovalue {isovalue}, {fraction} of the diagonal");
+            assert_bound(g, &v, &[isovalue], tol, &s, &what);
+            check_surface(&s.points, &s.triangles, Some(b))
+                .and_then(|report| report.passed())
+                .unwrap_or_else(|e| panic!("{what}: {e}"));
+        }
     }
 }

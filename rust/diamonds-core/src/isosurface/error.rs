@@ -12,10 +12,8 @@
 //! keeps the largest `|f(s) − L_T(s)|` of its surface samples. The descent stops at tetrahedra no
 //! larger than the tolerance: smaller diamonds' errors are bounded by their size anyway.
 //!
-//! A surface sample on the other side of the isovalue than `T`'s interpolant, in a tetrahedron whose
-//! vertices do not straddle the isovalue, is part of the surface that `T` *hides*: no triangle is drawn
-//! through `T`. The diamond is marked; the hidden pieces of the leaves of a refined mesh that lie far
-//! from the drawn surface are found and forced in by [`super::hidden`].
+//! This is an estimate, not a bound (see [`super::bound`], which checks the result and refines where
+//! it does not hold).
 
 use super::{value, Extraction};
 use crate::diamond::{arrange, child_layout, child_of, Diamond};
@@ -36,8 +34,6 @@ pub(super) struct IsoErrors {
     /// (at least [`VISITED`]; bit 15 clear), or, once computed, of the isosurface error (bit 15 set;
     /// codes of non-negative numbers never use it).
     codes: Vec<AtomicU16>,
-    /// By central vertex: the diamond hides part of the surface.
-    hidden: Vec<AtomicU64>,
     /// The central vertices (indices) of the diamonds some surface sample reached, each once.
     reached: Vec<u32>,
     /// Surface samples located (for reports and tests).
@@ -74,22 +70,18 @@ impl IsoErrors {
         recycled: Option<IsoErrors>,
     ) -> Self {
         let grid = &volume.grid;
-        let (codes, hidden) = match recycled {
+        let codes = match recycled {
             Some(old) if old.codes.len() == grid.len() => {
                 // Only the diamonds reached have a code or a bit.
                 for &i in &old.reached {
                     old.codes[i as usize].store(0, Ordering::Relaxed);
-                    old.hidden[i as usize / 64].store(0, Ordering::Relaxed);
                 }
-                (old.codes, old.hidden)
+                old.codes
             }
-            _ => (
-                (0..grid.len())
-                    .into_par_iter()
-                    .map(|_| AtomicU16::new(0))
-                    .collect(),
-                bits(grid.len()),
-            ),
+            _ => (0..grid.len())
+                .into_par_iter()
+                .map(|_| AtomicU16::new(0))
+                .collect(),
         };
         let roots = RootTets::new(lattice);
         let mut surface_samples = 0;
@@ -101,10 +93,8 @@ impl IsoErrors {
             let walk = Walk {
                 lattice,
                 volume,
-                v,
                 cutoff2: cutoff * cutoff,
                 codes: &codes,
-                hidden: &hidden,
             };
             // Each sample with its coordinates in the root tetrahedron holding it, bucketed by root.
             let roots_n = roots.tets.len();
@@ -114,7 +104,7 @@ impl IsoErrors {
                     let mut buckets = vec![Vec::new(); roots_n];
                     for &i in chunk {
                         let [x, y, z] = grid.ijk(i as usize);
-                        let (k, l) = roots.containing(IVec3::new(x as i32, y as i32, z as i32));
+                        let (k, l) = roots.containing(DVec3::new(x as f64, y as f64, z as f64));
                         let f = volume.samples[i as usize].to_f64();
                         buckets[k].push(Located {
                             l: l.map(|c| c as f32),
@@ -144,20 +134,21 @@ impl IsoErrors {
             isovalues: isovalues.to_vec(),
             cutoff,
             codes,
-            hidden,
             reached,
             surface_samples,
         }
     }
 
-    /// Whether these errors serve queries for `isovalues` at `tolerance`.
+    /// Whether these errors serve queries for `isovalues` at `tolerance`: measured for both, so that
+    /// a query's result never depends on the queries before it (errors measured down to a smaller
+    /// cutoff would split more).
     pub(super) fn serve(&self, isovalues: &[f64], tolerance: f64) -> bool {
-        self.isovalues == isovalues && self.cutoff <= tolerance
+        self.isovalues == isovalues && self.cutoff.to_bits() == tolerance.to_bits()
     }
 
     /// The isosurface error of `d` (central vertex in the domain), world units: the largest
     /// `min(ae / ‖∇T‖, size(T))` over its inside tetrahedra (Gregorski §6.2, Eq. 5), 0 when no surface
-    /// sample lies in it, infinite when it hides part of the surface.
+    /// sample lies in it.
     pub(super) fn error<T: Sample>(&self, x: &Extraction<'_, '_, T>, d: Diamond) -> f64 {
         let code = self.codes[x.lattice().index(d.center)].load(Ordering::Relaxed);
         match code {
@@ -203,12 +194,6 @@ impl IsoErrors {
             _ => self.error(x, d),
         }
     }
-
-    /// Does the diamond `d` (central vertex in the domain) hide part of the surface somewhere?
-    pub(super) fn hides(&self, lattice: &Lattice, d: Diamond) -> bool {
-        let i = lattice.index(d.center);
-        self.hidden[i / 64].load(Ordering::Relaxed) & (1 << (i % 64)) != 0
-    }
 }
 
 /// Gregorski §6.2, Eq. (5): the largest `min(ae / ‖∇T‖, size(T))` over the diamond's inside
@@ -227,7 +212,7 @@ fn isosurface_error<T: Sample>(x: &Extraction<'_, '_, T>, d: Diamond, ae: f64) -
 
 /// The squared longest edge of `t` in world units for a grid `spacing`.
 #[inline]
-fn tet_size2(spacing: &[f64; 3], t: &Tet) -> f64 {
+pub(super) fn tet_size2(spacing: &[f64; 3], t: &Tet) -> f64 {
     let s = DVec3::from(*spacing);
     [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)]
         .iter()
@@ -247,12 +232,13 @@ fn set_bit(bits: &[AtomicU64], i: usize) -> bool {
     bits[i / 64].fetch_or(bit, Ordering::Relaxed) & bit == 0
 }
 
-/// The distinct corners of the cells whose lower corners are `cells`, as point indices.
+/// The distinct corners of the cells whose lower corners are `cells`, as point indices, sorted (which
+/// thread claims a shared corner first varies; the order must not).
 pub(super) fn corners_of(dims: [usize; 3], cells: &[u32]) -> Vec<u32> {
     let seen = bits(dims[0] * dims[1] * dims[2]);
     let (sx, sy) = (1, dims[0]);
     let sz = dims[0] * dims[1];
-    cells
+    let mut corners: Vec<u32> = cells
         .par_chunks(4096)
         .flat_map_iter(|chunk| {
             let mut out = Vec::new();
@@ -269,7 +255,9 @@ pub(super) fn corners_of(dims: [usize; 3], cells: &[u32]) -> Vec<u32> {
             }
             out
         })
-        .collect()
+        .collect();
+    corners.par_sort_unstable();
+    corners
 }
 
 /// The six tetrahedra of the root diamond, `[0, (N, N, N), N e_i, N (e_i + e_j)]` (see
@@ -299,13 +287,13 @@ impl RootTets {
 
     /// The first root tetrahedron holding `s` (its position in `tets`) and the barycentric
     /// coordinates of `s` in it.
-    pub(super) fn containing(&self, s: IVec3) -> (usize, [f64; 4]) {
+    pub(super) fn containing(&self, s: DVec3) -> (usize, [f64; 4]) {
         self.tets
             .iter()
             .enumerate()
             .find_map(|(k, (_, [i, j, kk]))| {
                 (s[*i] >= s[*j] && s[*j] >= s[*kk]).then(|| {
-                    let c = |a: usize| s[a] as f64 / self.n;
+                    let c = |a: usize| s[a] / self.n;
                     (k, [1.0 - c(*i), c(*kk), c(*i) - c(*j), c(*j) - c(*kk)])
                 })
             })
@@ -325,11 +313,9 @@ struct Located {
 struct Walk<'a, 'v, T> {
     lattice: &'a Lattice,
     volume: &'a Volume<'v, T>,
-    v: f64,
     /// Squared [`IsoErrors::cutoff`].
     cutoff2: f64,
     codes: &'a [AtomicU16],
-    hidden: &'a [AtomicU64],
 }
 
 /// Below this many samples a subtree is walked on the current thread.
@@ -337,9 +323,7 @@ const SEQUENTIAL: usize = 2048;
 
 impl<T: Sample> Walk<'_, '_, T> {
     /// Visits the tetrahedron `t` (vertex values `f` once it lies inside the domain) holding the
-    /// surface samples `points`: records in its diamond the largest `|f(s) − L_T(s)|` and whether it
-    /// hides part of the surface (does not carry it, but interpolates a sample on the other side of
-    /// `v`); then bisects it and sends every sample to the child holding it (the first on a tie).
+    /// surface samples `points`: records in its diamond the largest `|f(s) − L_T(s)|`; then bisects it and sends every sample to the child holding it (the first on a tie).
     /// Samples that became vertices (interpolated exactly below), unit-cube tetrahedra (no sample but
     /// their vertices) and tetrahedra no larger than the cutoff end the descent.
     /// The central vertices of the diamonds reached for the first time are added to `reached`.
@@ -356,14 +340,12 @@ impl<T: Sample> Walk<'_, '_, T> {
         // measured. (One straddling a far face records nothing, so the descent goes on to its
         // inside descendants, which can be leaves.)
         let last = f.is_some() && tet_size2(&self.volume.grid.spacing, &t) <= self.cutoff2;
-        let v = self.v;
-        let (mut e, mut hides) = (0.0f64, false);
+        let mut e = 0.0f64;
         let mut measure = |p: &Located| {
             if let Some(f) = f {
                 let l = p.l.map(f64::from);
                 let interpolated = l[0] * f[0] + l[1] * f[1] + l[2] * f[2] + l[3] * f[3];
                 e = e.max((p.f - interpolated).abs());
-                hides |= (p.f >= v) != (interpolated >= v);
             }
         };
         // Bisect: child 0 keeps the samples with l0 ≥ l1, in front; samples now at a vertex leave.
@@ -402,21 +384,13 @@ impl<T: Sample> Walk<'_, '_, T> {
                 k += 1;
             }
         }
-        if let Some(f) = f {
-            let carries = {
-                let min = f[0].min(f[1]).min(f[2].min(f[3]));
-                let max = f[0].max(f[1]).max(f[2].max(f[3]));
-                min < v && v <= max
-            };
+        if f.is_some() {
             let i = self.lattice.index(m);
             let code = encode_error(e).max(VISITED);
             if code > self.codes[i].load(Ordering::Relaxed)
                 && self.codes[i].fetch_max(code, Ordering::Relaxed) == 0
             {
                 reached.push(i as u32);
-            }
-            if hides && !carries {
-                set_bit(self.hidden, i);
             }
         }
         if last {
@@ -475,7 +449,7 @@ mod tests {
             IVec3::new(1, 1, 2),
             IVec3::new(15, 13, 1),
         ] {
-            let (k, mut l) = roots.containing(s);
+            let (k, mut l) = roots.containing(s.as_dvec3());
             let mut t = roots.tets[k].0;
             let mut f = t.map(field);
             let mut steps = 0;

@@ -296,24 +296,6 @@ fn pinched_samples(triangles: &[[u32; 3]], sample: &[Option<usize>]) -> Vec<usiz
         .collect()
 }
 
-/// A point of each polygon marching tetrahedra makes from `tets` (the mean of its corners).
-pub(super) fn polygon_centres<T: Sample>(
-    volume: &Volume<'_, T>,
-    tets: &[Tet],
-    isovalues: &[f64],
-) -> Vec<[f64; 3]> {
-    polygons(volume, tets, isovalues)
-        .par_iter()
-        .map(|poly| {
-            let sum: DVec3 = poly.keys[..poly.n]
-                .iter()
-                .map(|&key| interpolate(volume, isovalues, key, false).0)
-                .sum();
-            (sum / poly.n as f64).to_array()
-        })
-        .collect()
-}
-
 /// A polygon of marching tetrahedra: 3 or 4 corners, oriented toward increasing values, each an
 /// edge key; made by tetrahedron `tet`. A corner whose point is the edge's end above the isovalue
 /// (that sample holds the isovalue) has that vertex of `tet` in `at_sample`, the others

@@ -11,12 +11,17 @@
 //! where the surface may pass. Tolerance 0 splits every non-empty diamond, so the surface is exactly
 //! the full-resolution one.
 //!
-//! Beyond the paper: the surface of a coarse tetrahedron whose vertices all lie on one side of the
-//! isovalue is lost, and a small closed piece (a speck of noise, a thin branch) lost that way can lie
-//! far from every drawn triangle — the local error cannot see it. After refining, the pieces hidden in
-//! leaves farther than the tolerance (plus a voxel) from the drawn surface are found and the diamonds
-//! down to one sample of each are split; so every part of the full-resolution surface ends up within
-//! about the tolerance of the result, which bounds the Hausdorff distance from that side.
+//! **The bound.** Relative to the full-resolution surface `F` (marching tetrahedra on the finest
+//! tetrahedra of the grid, [`fine`]: what tolerance 0 draws), for every isovalue, a query's surface `S`
+//! satisfies: every vertex of `F` is within the tolerance of `S`, and every vertex of `S` and every
+//! sample of its triangles spaced at most `h` (the smallest grid spacing) is within the tolerance of
+//! `F`, so every point of `S` is within the tolerance plus `h / √3` of `F` (exact point–triangle
+//! distances; checked against the tolerance less a millionth of the diagonal for rounding; inside the
+//! region of interest only). Gregorski's error estimates but does not guarantee this, so [`bound`]
+//! checks the refined surface and splits where it fails until it holds. `F` is not the trilinear
+//! surface of marching cubes or Flying Edges: both interpolate the same samples linearly along the
+//! cell edges, but inside a cell they differ by less than one voxel diagonal. A query's result depends
+//! only on the query, never on the queries before it.
 //!
 //! The surface is extracted from the leaves of the adaptive, conforming mesh by marching tetrahedra; a
 //! point is shared by every triangle through its mesh edge, so the surface is crack-free wherever the
@@ -32,15 +37,16 @@
 //! - [`bricks`]: sample ranges of 8³ bricks, which bound any box's range and list the crossed cells;
 //! - [`criterion`]: the diamond error refinement compares with the tolerance (§6.1 culling, §6.2);
 //! - [`error`]: `ae` measured per query at the surface samples, which descend the hierarchy together;
-//! - [`hidden`]: the pass that splits down to pieces of the surface hidden far from the drawn one;
+//! - [`bound`]: the two-sided bound, checked and refined until it holds;
+//! - [`fine`]: the full-resolution surface the bound is relative to;
 //! - [`marching`]: marching tetrahedra on the carrier leaves, points shared by edge.
 
+mod bound;
 mod bricks;
 mod cache;
 mod criterion;
 mod error;
 mod fine;
-mod hidden;
 mod marching;
 mod state;
 
@@ -248,10 +254,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
 
     /// The split set of `query`'s isovalues at `tolerance` and its leaves that carry the surface.
     /// `refine` splits with the diamond error it is given (from the root or from a current mesh).
-    /// When parts of the surface hidden in leaves ([`error`]) lie farther than the tolerance (plus a
-    /// voxel diagonal) from the surface drawn, the diamonds down to one sample of each such part are
-    /// split as well ([`hidden`]), so every part of the full-resolution surface is drawn within the
-    /// tolerance.
+    /// Then refined further until the two-sided bound holds ([`bound`]).
     fn refine_iso(
         &self,
         query: &IsoQuery,
@@ -265,7 +268,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
             let carriers = self.carriers_of(&query.isovalues, &split);
             return Ok((split, carriers));
         }
-        Ok(self.split_hidden(query, tolerance, split, &criterion))
+        Ok(self.certify(query, tolerance, split, &criterion))
     }
 }
 

@@ -1,0 +1,361 @@
+//! The two-sided bound, by a check that refines until it holds (beyond Gregorski §6.2, whose
+//! `ae / ‖∇T‖` only estimates the distance: the linear surface of a tetrahedron and the data's surface
+//! can be farther apart than it says near the tetrahedron's faces, and a tetrahedron whose vertices
+//! all lie on one side of the isovalue hides whatever its samples draw — a speck, a thin branch).
+//!
+//! Relative to the full-resolution surface `F` ([`super::fine`]) and for every isovalue, after the
+//! refinement by the isosurface error, the surface `S` drawn from the carrier leaves is checked:
+//! - every vertex of `F` lies within the tolerance of `S`;
+//! - every point of [`triangle_samples`] of the triangles of `S` (its vertices and points spaced at
+//!   most `h`, the smallest grid spacing) lies within the tolerance of `F`.
+//!
+//! Distances are certified cheaply where possible: with blocks (cubes of world space whose diagonal is
+//! the tolerance), a point of `F` in a block that holds a sample of `S` is within the tolerance of `S`,
+//! and a sample of `S` in a block that holds a vertex of `F` is within it of `F`. The rest are measured
+//! exactly: the triangles of `S` within the tolerance of a vertex of `F` in an [`rstar`] R-tree, the
+//! triangles of `F` within the tolerance of a sample of `S` from the grid cells around it
+//! ([`super::fine::cell_triangles`]). Every point that fails is a *violation*: the leaf holding it is
+//! split — the diamonds on the path from the root down to the tetrahedra around the point no larger
+//! than the tolerance, or, when the leaf already is, down to the finest tetrahedra — with closure,
+//! refinement continues from that mesh, and the check runs again. On the finest tetrahedra `S` is `F`,
+//! so this ends; every round splits at least one more diamond.
+//!
+//! Both directions are checked against the tolerance less a millionth of the volume's diagonal (at
+//! most half the tolerance), for rounding (points written in single precision). Points outside the region of interest are not
+//! checked (the tolerance applies inside it).
+
+use super::error::{child_coordinates, tet_size2, RootTets};
+use super::fine::{cell_triangles, vertices_from};
+use super::marching::{carries, marching_tetrahedra};
+use super::{Extraction, IsoQuery};
+use crate::diamond::{child_of, Diamond};
+use crate::geometry::{point_triangle_distance, triangle_samples, Triangle};
+use crate::lattice::Tet;
+use crate::mesh;
+use crate::refine::{Refiner, SplitSet};
+use crate::volume::Sample;
+use glam::{DVec3, IVec3};
+use rayon::prelude::*;
+use rstar::RTree;
+use rustc_hash::FxHashSet;
+
+/// Rounds of checking and splitting at most (each splits at least one diamond; in practice a few).
+const MAX_ROUNDS: usize = 64;
+
+impl<T: Sample> Extraction<'_, '_, T> {
+    /// `split` (refined for `query` at `tolerance` > 0 with `criterion`) refined further until its
+    /// surface meets the two-sided bound, and its leaves that carry the surface.
+    pub(super) fn certify(
+        &self,
+        query: &IsoQuery,
+        tolerance: f64,
+        mut split: SplitSet,
+        criterion: impl Fn(Diamond) -> f64,
+    ) -> (SplitSet, Vec<Tet>) {
+        let isovalues = &query.isovalues;
+        let mut carriers = self.carriers_of(isovalues, &split);
+        let bounds = self.volume.grid.bounds();
+        let diagonal = DVec3::new(
+            bounds[1] - bounds[0],
+            bounds[3] - bounds[2],
+            bounds[5] - bounds[4],
+        )
+        .length();
+        let reach = tolerance - (1e-6 * diagonal).min(0.5 * tolerance);
+        let inside = |p: DVec3| {
+            query
+                .region_of_interest
+                .is_none_or(|r| (0..3).all(|a| r[2 * a] <= p[a] && p[a] <= r[2 * a + 1]))
+        };
+        // The vertices of F, per isovalue, once.
+        let fine: Vec<Vec<DVec3>> = isovalues
+            .iter()
+            .map(|&v| {
+                let cells = self.cache.bricks.cells_crossed(self.volume, v);
+                let points = super::error::corners_of(self.volume.grid.dims, &cells);
+                let mut f = vertices_from(self.volume, v, &points);
+                f.retain(|&p| inside(p));
+                f
+            })
+            .collect();
+        for _ in 0..MAX_ROUNDS {
+            let violations: Vec<DVec3> = isovalues
+                .iter()
+                .zip(&fine)
+                .flat_map(|(&v, fine)| self.violations(v, &carriers, fine, reach, &inside))
+                .collect();
+            if violations.is_empty() {
+                break;
+            }
+            let forced = self.forced(&split, &violations, tolerance);
+            if forced.is_empty() {
+                break;
+            }
+            (split, carriers) =
+                self.force(isovalues, split, carriers, &forced, &criterion, tolerance);
+        }
+        (split, carriers)
+    }
+}
+
+impl<T: Sample> Extraction<'_, '_, T> {
+    /// The points that break the bound for isovalue `v` on the surface of `carriers`: vertices of F
+    /// (`fine`) farther than `reach` from it, samples of it farther than `reach` from F; one per
+    /// block.
+    fn violations(
+        &self,
+        v: f64,
+        carriers: &[Tet],
+        fine: &[DVec3],
+        reach: f64,
+        inside: &(dyn Fn(DVec3) -> bool + Sync),
+    ) -> Vec<DVec3> {
+        let volume = self.volume;
+        let grid = &volume.grid;
+        let surface = marching_tetrahedra(volume, carriers, &[v], false);
+        let corners = |t: &[u32; 3]| t.map(|i| DVec3::from(surface.points[i as usize]));
+        let h = grid.spacing.into_iter().fold(f64::INFINITY, f64::min);
+        let samples: Vec<DVec3> = surface
+            .triangles
+            .par_iter()
+            .flat_map_iter(|t| triangle_samples(corners(t), h).filter(|&p| inside(p)))
+            .collect();
+        // Blocks of side `reach / (2√3)`: two points in neighbouring blocks (27 around a block) are
+        // within `reach`.
+        let origin = DVec3::from(grid.origin);
+        let side = reach / (2.0 * 3f64.sqrt());
+        let block = |p: DVec3| ((p - origin) / side).floor().as_i64vec3().to_array();
+        let blocks_of = |points: &[DVec3]| -> FxHashSet<[i64; 3]> {
+            points.iter().map(|&p| block(p)).collect()
+        };
+        let near_block = |blocks: &FxHashSet<[i64; 3]>, p: DVec3| {
+            let [x, y, z] = block(p);
+            (-1..=1).any(|dz| {
+                (-1..=1).any(|dy| (-1..=1).any(|dx| blocks.contains(&[x + dx, y + dy, z + dz])))
+            })
+        };
+        let (with_samples, with_fine) = rayon::join(|| blocks_of(&samples), || blocks_of(fine));
+        // F → S.
+        let open: Vec<DVec3> = fine
+            .par_iter()
+            .copied()
+            .filter(|&q| !near_block(&with_samples, q))
+            .collect();
+        let mut far: Vec<DVec3> = if open.is_empty() {
+            Vec::new()
+        } else {
+            let tree = RTree::bulk_load(
+                surface
+                    .triangles
+                    .iter()
+                    .enumerate()
+                    .map(|(id, t)| Triangle {
+                        id: id as u32,
+                        corners: corners(t),
+                    })
+                    .collect(),
+            );
+            open.into_par_iter()
+                .filter(|q| {
+                    tree.locate_within_distance(q.to_array(), reach * reach)
+                        .next()
+                        .is_none()
+                })
+                .collect()
+        };
+        // S → F.
+        let spacing = DVec3::from(grid.spacing);
+        let hi = IVec3::from(grid.dims.map(|d| d as i32 - 2));
+        far.par_extend(
+            samples
+                .par_iter()
+                .copied()
+                .filter(|&p| !near_block(&with_fine, p))
+                .filter(|&p| {
+                    // The cells around p's, then all those within `reach` of p (lower corners).
+                    let cell = |p: DVec3| ((p - origin) / spacing).floor().as_ivec3();
+                    let near = |lo: IVec3, up: IVec3| {
+                        let (lo, up) = (lo.max(IVec3::ZERO), up.min(hi));
+                        (lo.z..=up.z).any(|z| {
+                            (lo.y..=up.y).any(|y| {
+                                (lo.x..=up.x).any(|x| {
+                                    cell_triangles(volume, IVec3::new(x, y, z), v)
+                                        .iter()
+                                        .any(|t| point_triangle_distance(p, *t) <= reach)
+                                })
+                            })
+                        })
+                    };
+                    let c = cell(p);
+                    !(near(c - IVec3::ONE, c + IVec3::ONE)
+                        || near(cell(p - reach), cell(p + reach)))
+                }),
+        );
+        // One per block: the splits a violation causes cover its neighbours in the block.
+        let mut seen = FxHashSet::default();
+        far.retain(|&p| seen.insert(block(p)));
+        far
+    }
+
+    /// The diamonds to split for `violations` (world points): for each, the diamonds on the path from
+    /// the root to the tetrahedron holding it below its leaf in `split` that is no larger than
+    /// `tolerance` — or, when the leaf already is, to the finest tetrahedron holding it. In order,
+    /// each once; none when every point lies in a finest leaf.
+    fn forced(&self, split: &SplitSet, violations: &[DVec3], tolerance: f64) -> Vec<Diamond> {
+        let lattice = *self.lattice();
+        let grid = &self.volume.grid;
+        let (origin, spacing) = (DVec3::from(grid.origin), DVec3::from(grid.spacing));
+        let top = lattice.hi.as_dvec3();
+        let roots = RootTets::new(&lattice);
+        let tolerance2 = tolerance * tolerance;
+        let paths: Vec<Vec<Diamond>> = violations
+            .par_iter()
+            .map(|&p| {
+                let u = ((p - origin) / spacing).clamp(DVec3::ZERO, top);
+                let (k, mut l) = roots.containing(u);
+                let mut t = roots.tets[k].0;
+                let step = |t: &Tet, l: [f64; 4], m: IVec3| {
+                    let (first, nl) = child_coordinates(t, l);
+                    (child_of(t, first, *t, t[usize::from(!first)], m), nl)
+                };
+                // Down to the leaf.
+                while let Some(d) = Diamond::of_tet(&t).filter(|&d| split.contains(d)) {
+                    (t, l) = step(&t, l, d.center);
+                }
+                // Below it, to no larger than the tolerance; to the finest if it already is.
+                let to_finest = tet_size2(&grid.spacing, &t) <= tolerance2;
+                let mut path = Vec::new();
+                let mut below = false;
+                while let Some(d) = Diamond::of_tet(&t) {
+                    if below && !to_finest && tet_size2(&grid.spacing, &t) <= tolerance2 {
+                        break;
+                    }
+                    below = true;
+                    if lattice.in_domain(d.center) {
+                        path.push(d);
+                    }
+                    (t, l) = step(&t, l, d.center);
+                }
+                path
+            })
+            .collect();
+        let mut seen = FxHashSet::default();
+        paths
+            .into_iter()
+            .flatten()
+            .filter(|&d| seen.insert(d))
+            .collect()
+    }
+}
+
+impl<T: Sample> Extraction<'_, '_, T> {
+    /// `split` with the `forced` diamonds split too (with closure) and refinement by `criterion` at
+    /// `tolerance` continued from there, and its leaves that carry the surface of `isovalues`
+    /// (`carriers`, those of `split`, patched).
+    fn force(
+        &self,
+        isovalues: &[f64],
+        split: SplitSet,
+        carriers: Vec<Tet>,
+        forced: &[Diamond],
+        criterion: &dyn Fn(Diamond) -> f64,
+        tolerance: f64,
+    ) -> (SplitSet, Vec<Tet>) {
+        let (volume, lattice) = (self.volume, *self.lattice());
+        // Continue from this mesh: split the forced diamonds (with closure) and whatever their new
+        // children need. Every diamond above the tolerance in the result is reachable from the
+        // diamonds split here, so this equals refining from the root with the forced diamonds
+        // infinitely wrong.
+        let forced_set: FxHashSet<Diamond> = forced.iter().copied().collect();
+        let criterion = |d: Diamond| {
+            if forced_set.contains(&d) {
+                f64::INFINITY
+            } else {
+                criterion(d)
+            }
+        };
+        let (split, newly) =
+            Refiner::new(lattice, split, 0, &criterion).refine_logged(tolerance, forced);
+        // The carriers now: those still leaves, then the carriers below the leaves just split (the
+        // tetrahedra of the newly split diamonds made by splitting a diamond split before), in
+        // split order. A tetrahedron's parent diamond is centred at its vertex 2 or 3 (the
+        // midpoint of the parent's spine, `diamond::bisect`).
+        let newly_split: FxHashSet<Diamond> = newly.iter().copied().collect();
+        let was_leaf = |d: &Diamond, t: &Tet| {
+            !d.parents(&lattice)
+                .iter()
+                .any(|p| (p.center == t[2] || p.center == t[3]) && newly_split.contains(p))
+        };
+        let mut carriers: Vec<Tet> = carriers
+            .into_iter()
+            .filter(|t| !Diamond::of_tet(t).is_some_and(|d| newly_split.contains(&d)))
+            .collect();
+        let empty = |t: &Tet| self.misses(isovalues, t);
+        let keep = |t: &Tet| carries(volume, isovalues, t).then_some(*t);
+        for d in &newly {
+            for t in d.tets(&lattice).into_iter().filter(|t| was_leaf(d, t)) {
+                carriers.extend(mesh::leaves_below(&lattice, &split, t, &empty, &keep));
+            }
+        }
+        (split, carriers)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::hierarchy::Hierarchy;
+    use crate::isosurface::cache::IsoCache;
+    use crate::isosurface::refine_query;
+    use crate::volume::{Grid, ScalarSlice, Volume};
+
+    #[test]
+    fn carriers_after_forcing_are_the_leaves_that_carry() {
+        // Single-sample spikes far from a sphere make the check split more; the carriers patched in
+        // below the leaves it split are the carrying leaves of its mesh.
+        let grid = Grid::new([40, 37, 33]);
+        let centre = DVec3::new(20.0, 18.0, 16.0);
+        let mut v: Vec<f32> = (0..grid.len())
+            .map(|i| {
+                let [x, y, z] = grid.ijk(i);
+                (DVec3::new(x as f64, y as f64, z as f64).distance(centre) - 8.0) as f32
+            })
+            .collect();
+        for [x, y, z] in [
+            [3, 4, 30],
+            [36, 3, 5],
+            [35, 33, 29],
+            [4, 34, 6],
+            [38, 20, 31],
+        ] {
+            v[grid.index(x, y, z)] = -0.5;
+        }
+        let h = Hierarchy::build_for_isosurfaces(grid, ScalarSlice::F32(&v)).unwrap();
+        let volume = Volume::new(grid, &v[..]).unwrap();
+        let cache = IsoCache::new(&volume);
+        let x = Extraction {
+            hierarchy: &h,
+            volume: &volume,
+            cache: &cache,
+        };
+        let sorted = |ts: &[Tet]| {
+            let mut k: Vec<_> = ts.iter().map(|t| t.map(|p| p.to_array())).collect();
+            k.sort();
+            k
+        };
+        for tol in [3.0, 6.0, 10.0] {
+            let query = IsoQuery::new(0.0, tol);
+            let refine = refine_query(&query, tol);
+            let criterion = x.iso_criterion(&query.isovalues, tol);
+            let plain = Refiner::run(h.grid(), h.base(), &refine, &criterion).unwrap();
+            let (split, carriers) = x
+                .refine_iso(&query, tol, &mut |c| {
+                    Refiner::run(h.grid(), h.base(), &refine, c)
+                })
+                .unwrap();
+            assert!(split.len() > plain.len(), "nothing forced at {tol}");
+            let fresh = x.carriers_of(&query.isovalues, &split);
+            assert_eq!(sorted(&carriers), sorted(&fresh), "tolerance {tol}");
+        }
+    }
+}
