@@ -34,6 +34,7 @@ use crate::lattice::Tet;
 use crate::mesh;
 use crate::refine::{Refiner, SplitSet};
 use crate::volume::Sample;
+use crate::Result;
 use glam::{DVec3, IVec3};
 use rayon::prelude::*;
 use rstar::RTree;
@@ -51,7 +52,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
         tolerance: f64,
         mut split: SplitSet,
         criterion: impl Fn(Diamond) -> f64,
-    ) -> (SplitSet, Vec<Tet>) {
+    ) -> Result<(SplitSet, Vec<Tet>)> {
         let isovalues = &query.isovalues;
         let mut carriers = self.carriers_of(isovalues, &split);
         let bounds = self.volume.grid.bounds();
@@ -79,11 +80,10 @@ impl<T: Sample> Extraction<'_, '_, T> {
             })
             .collect();
         for _ in 0..MAX_ROUNDS {
-            let violations: Vec<DVec3> = isovalues
-                .iter()
-                .zip(&fine)
-                .flat_map(|(&v, fine)| self.violations(v, &carriers, fine, reach, &inside))
-                .collect();
+            let mut violations = Vec::new();
+            for (&v, fine) in isovalues.iter().zip(&fine) {
+                violations.extend(self.violations(v, &carriers, fine, reach, &inside)?);
+            }
             if violations.is_empty() {
                 break;
             }
@@ -94,7 +94,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
             (split, carriers) =
                 self.force(isovalues, split, carriers, &forced, &criterion, tolerance);
         }
-        (split, carriers)
+        Ok((split, carriers))
     }
 }
 
@@ -109,10 +109,10 @@ impl<T: Sample> Extraction<'_, '_, T> {
         fine: &[DVec3],
         reach: f64,
         inside: &(dyn Fn(DVec3) -> bool + Sync),
-    ) -> Vec<DVec3> {
+    ) -> Result<Vec<DVec3>> {
         let volume = self.volume;
         let grid = &volume.grid;
-        let surface = marching_tetrahedra(volume, carriers, &[v], false);
+        let surface = marching_tetrahedra(volume, carriers, &[v], false)?;
         let corners = |t: &[u32; 3]| t.map(|i| DVec3::from(surface.points[i as usize]));
         let h = grid.spacing.into_iter().fold(f64::INFINITY, f64::min);
         let samples: Vec<DVec3> = surface
@@ -194,7 +194,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
         // One per block: the splits a violation causes cover its neighbours in the block.
         let mut seen = FxHashSet::default();
         far.retain(|&p| seen.insert(block(p)));
-        far
+        Ok(far)
     }
 
     /// The diamonds to split for `violations` (world points): for each, the diamonds on the path from

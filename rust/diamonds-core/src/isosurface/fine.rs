@@ -6,9 +6,12 @@
 //! bisection of an edge diamond): every unit cell is split into the six Kuhn (Freudenthal)
 //! tetrahedra around the diagonal from its corner with all coordinates even to the opposite corner,
 //! all odd. Their edges are the cell edges, the face diagonals joining the two corners whose varying
-//! coordinates have equal parity, and those cell diagonals. `F` is what marching tetrahedra makes of
-//! them: a point on every such edge whose ends lie on either side of the isovalue (a value equal to
-//! the isovalue counts as above, as in [`super::marching`]).
+//! coordinates have equal parity, and those cell diagonals. `F` is the union of the triangles of
+//! positive area that marching tetrahedra makes of them: a point on every such edge whose ends lie on
+//! either side of the isovalue (a value equal to the isovalue counts as above, as in
+//! [`super::marching`]); where samples hold the isovalue, triangles collapse and only those of
+//! positive area count (an isolated sample at the isovalue is no part of `F`, as the extraction draws
+//! none there).
 //!
 //! This is not the trilinear surface of marching cubes or Flying Edges: both interpolate the same
 //! samples linearly along the cell edges, but inside a cell the two differ, by less than the cell
@@ -96,16 +99,33 @@ pub(crate) fn vertices_from<T: Sample>(
             let p = IVec3::from(grid.ijk(i as usize).map(|c| c as i32));
             let fp = volume.at_index(i as usize);
             let wp = super::world(volume, p);
-            FORWARD.iter().filter_map(move |&o| {
-                let q = p + o;
-                if q.cmplt(IVec3::ZERO).any() || q.cmpgt(hi).any() || !is_fine_edge(p, o) {
-                    return None;
-                }
-                let fq = super::value(volume, q);
-                ((fp >= v) != (fq >= v)).then(|| crossing(wp, super::world(volume, q), fp, fq, v))
-            })
+            FORWARD
+                .iter()
+                .filter_map(move |&o| {
+                    let q = p + o;
+                    if q.cmplt(IVec3::ZERO).any() || q.cmpgt(hi).any() || !is_fine_edge(p, o) {
+                        return None;
+                    }
+                    let fq = super::value(volume, q);
+                    // A point at a sample is added below, once.
+                    ((fp >= v) != (fq >= v) && fp != v && fq != v)
+                        .then(|| crossing(wp, super::world(volume, q), fp, fq, v))
+                })
+                .chain((fp == v && at_sample_in_f(volume, p, v)).then_some(wp))
         })
         .collect()
+}
+
+/// Is the sample `p` (which holds `v`) a corner of a triangle of `F` of positive area?
+fn at_sample_in_f<T: Sample>(volume: &Volume<'_, T>, p: IVec3, v: f64) -> bool {
+    let hi = IVec3::from(volume.grid.dims.map(|d| d as i32 - 2));
+    let wp = super::world(volume, p);
+    (0..8).any(|k| {
+        let c = p - IVec3::new(k & 1, (k >> 1) & 1, (k >> 2) & 1);
+        c.cmpge(IVec3::ZERO).all()
+            && c.cmple(hi).all()
+            && cell_triangles(volume, c, v).iter().any(|t| t.contains(&wp))
+    })
 }
 
 /// The triangles (unoriented) that marching tetrahedra makes of the tetrahedron with corners `p`
@@ -136,7 +156,8 @@ pub(crate) fn tet_triangles(p: [DVec3; 4], f: [f64; 4], v: f64) -> ArrayVec<[DVe
     out
 }
 
-/// The triangles of `F` for isovalue `v` in the grid cell with lower corner `c`.
+/// The triangles of `F` for isovalue `v` in the grid cell with lower corner `c` (those of positive
+/// area).
 pub(crate) fn cell_triangles<T: Sample>(
     volume: &Volume<'_, T>,
     c: IVec3,
@@ -145,7 +166,11 @@ pub(crate) fn cell_triangles<T: Sample>(
     let mut out = ArrayVec::new();
     for t in cell_tets(c) {
         let f = t.map(|q| super::value(volume, q));
-        out.extend(tet_triangles(t.map(|q| super::world(volume, q)), f, v));
+        out.extend(
+            tet_triangles(t.map(|q| super::world(volume, q)), f, v)
+                .into_iter()
+                .filter(|t| (t[1] - t[0]).cross(t[2] - t[0]) != DVec3::ZERO),
+        );
     }
     out
 }
@@ -257,27 +282,25 @@ mod tests {
                     },
                 )
                 .unwrap();
-                let fine = full_resolution_vertices(&volume, &isovalues);
-                assert_eq!(rounded(s.points.clone()), rounded(fine.clone()), "{dims:?}");
-                // The same triangles of positive area: the extraction merges the points of
-                // crossed edges at a sample that holds the isovalue and drops the zero-area
-                // triangles this leaves (F keeps one point per crossed edge).
-                let area = |t: [DVec3; 3]| (t[1] - t[0]).cross(t[2] - t[0]).length();
+                // The same triangles of positive area (the extraction merges the points of crossed
+                // edges at a sample that holds the isovalue and drops the zero-area triangles this
+                // leaves), with the same corners.
+                let positive: Vec<[[f64; 3]; 3]> = s
+                    .triangles
+                    .iter()
+                    .map(|t| t.map(|i| s.points[i as usize]))
+                    .filter(|t| {
+                        let t = t.map(DVec3::from);
+                        (t[1] - t[0]).cross(t[2] - t[0]) != DVec3::ZERO
+                    })
+                    .collect();
                 let soup = full_resolution_triangles(&volume, &isovalues);
-                let positive =
-                    |ts: Vec<[DVec3; 3]>| ts.into_iter().filter(|&t| area(t) > 0.0).count();
-                assert_eq!(
-                    positive(soup.iter().map(|t| t.map(DVec3::from)).collect()),
-                    positive(
-                        s.triangles
-                            .iter()
-                            .map(|t| t.map(|i| DVec3::from(s.points[i as usize])))
-                            .collect()
-                    ),
-                    "{dims:?} {isovalues:?}"
-                );
-                let corners = soup.iter().flatten().copied();
-                assert_eq!(rounded(corners), rounded(s.points.clone()));
+                assert_eq!(soup.len(), positive.len(), "{dims:?} {isovalues:?}");
+                let fine = full_resolution_vertices(&volume, &isovalues);
+                let drawn = rounded(positive.iter().flatten().copied());
+                assert_eq!(rounded(fine.clone()), drawn, "{dims:?} {isovalues:?}");
+                assert_eq!(fine.len(), drawn.len(), "each vertex of F once");
+                assert_eq!(rounded(soup.iter().flatten().copied()), drawn);
             }
         }
     }

@@ -268,7 +268,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
             let carriers = self.carriers_of(&query.isovalues, &split);
             return Ok((split, carriers));
         }
-        Ok(self.certify(query, tolerance, split, &criterion))
+        self.certify(query, tolerance, split, &criterion)
     }
 }
 

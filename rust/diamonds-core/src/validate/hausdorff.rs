@@ -4,8 +4,8 @@
 //! ([`crate::geometry::closest_point_on_triangle`]) found through [`rstar`] R-trees of the triangles.
 //!
 //! - `F → S`: the largest distance from a vertex of `F` to `S`;
-//! - `S → F`: the largest distance to `F` from the vertices of `S` and from samples of its triangles
-//!   spaced at most one voxel (`h`, the smallest grid spacing, [`crate::geometry::triangle_samples`]).
+//! - `S → F`: the largest distance to `F` from the corners of the triangles of `S` and from samples
+//!   of them spaced at most one voxel (`h`, the smallest grid spacing, [`crate::geometry::triangle_samples`]).
 //!   Every point of `S` lies within `h / √3` of a sample, so every point of `S` is within this
 //!   distance plus `h / √3` of `F` (the *slack*).
 //!
@@ -128,14 +128,10 @@ pub fn surface_distances<T: Sample>(
     let fine_triangles = full_resolution_triangles(volume, isovalues);
     let n_fine = fine_triangles.len();
     let fine_tree = tree(fine_triangles.into_iter().map(|t| t.map(DVec3::from)));
-    let samples: Vec<DVec3> = points
-        .iter()
-        .map(|&p| DVec3::from(p))
-        .chain(
-            triangles
-                .iter()
-                .flat_map(|t| triangle_samples(corners(t), h)),
-        )
+    // The corners of the triangles among them (a point no triangle uses is no part of the surface).
+    let samples: Vec<DVec3> = triangles
+        .par_iter()
+        .flat_map_iter(|t| triangle_samples(corners(t), h))
         .collect();
     SurfaceDistances {
         fine_to_surface,
