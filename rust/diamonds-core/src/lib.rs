@@ -22,7 +22,8 @@
 //!   ([`hierarchy::record`]: the record and its codecs) and the base mesh every query starts from.
 //! - [`isosurface`]: multiresolution isosurfaces (Gregorski §6), one file per stage: the isosurface
 //!   error measured per query at the samples that decide the surface (no precomputation:
-//!   [`Hierarchy::build_for_isosurfaces`]), the pass for hidden pieces, marching tetrahedra, and the
+//!   [`Hierarchy::build_for_isosurfaces`]), the two-sided bound checked against the full-resolution
+//!   surface, marching tetrahedra, and the
 //!   [`IsoState`] kept between queries (mesh reuse, isovalue changes "from the current mesh",
 //!   measured, §6.1; the isosurface cache). Entry points: [`isosurface::extract`] and
 //!   [`IsoState::extract`].
