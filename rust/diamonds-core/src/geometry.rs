@@ -3,7 +3,7 @@
 //! and triangles as [`rstar`] R-tree objects whose distance is that exact one.
 
 use glam::DVec3;
-use rstar::{PointDistance, RTreeObject, AABB};
+use rstar::{PointDistance, RTree, RTreeObject, AABB};
 
 /// Which part of a triangle holds a closest point.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -98,6 +98,18 @@ pub fn point_triangle_distance(p: DVec3, [a, b, c]: [DVec3; 3]) -> f64 {
 pub struct Triangle {
     pub id: u32,
     pub corners: [DVec3; 3],
+}
+
+/// An R-tree of `triangles`, each with its index as id.
+pub fn triangle_tree(triangles: impl Iterator<Item = [DVec3; 3]>) -> RTree<Triangle> {
+    let triangles: Vec<Triangle> = triangles
+        .enumerate()
+        .map(|(id, corners)| Triangle {
+            id: id as u32,
+            corners,
+        })
+        .collect();
+    RTree::bulk_load(triangles)
 }
 
 impl RTreeObject for Triangle {

@@ -29,7 +29,7 @@ use super::fine::{cell_triangles, vertices_from};
 use super::marching::{carries, marching_tetrahedra};
 use super::{Extraction, IsoQuery};
 use crate::diamond::{child_of, Diamond};
-use crate::geometry::{point_triangle_distance, triangle_samples, Triangle};
+use crate::geometry::{point_triangle_distance, triangle_samples, triangle_tree};
 use crate::lattice::Tet;
 use crate::mesh;
 use crate::refine::{Refiner, SplitSet};
@@ -37,7 +37,6 @@ use crate::volume::Sample;
 use crate::Result;
 use glam::{DVec3, IVec3};
 use rayon::prelude::*;
-use rstar::RTree;
 use rustc_hash::FxHashSet;
 
 /// Rounds of checking and splitting at most (each splits at least one diamond; in practice a few).
@@ -144,17 +143,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
         let mut far: Vec<DVec3> = if open.is_empty() {
             Vec::new()
         } else {
-            let tree = RTree::bulk_load(
-                surface
-                    .triangles
-                    .iter()
-                    .enumerate()
-                    .map(|(id, t)| Triangle {
-                        id: id as u32,
-                        corners: corners(t),
-                    })
-                    .collect(),
-            );
+            let tree = triangle_tree(surface.triangles.iter().map(corners));
             open.into_par_iter()
                 .filter(|q| {
                     tree.locate_within_distance(q.to_array(), reach * reach)

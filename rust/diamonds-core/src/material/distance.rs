@@ -13,7 +13,7 @@
 //! work too.
 
 use super::InterfaceMesh;
-use crate::geometry::{closest_point_on_triangle, Feature, Triangle};
+use crate::geometry::{closest_point_on_triangle, triangle_tree, Feature, Triangle};
 use glam::DVec3;
 use rayon::prelude::*;
 use rstar::RTree;
@@ -98,17 +98,8 @@ impl MeshIndex {
             vertex_normal.push(w.map(|v| vertex_sum[v as usize]));
         }
 
-        let triangles = mesh
-            .triangles
-            .iter()
-            .enumerate()
-            .map(|(id, t)| Triangle {
-                id: id as u32,
-                corners: corners(t),
-            })
-            .collect();
         Self {
-            tree: RTree::bulk_load(triangles),
+            tree: triangle_tree(mesh.triangles.iter().map(corners)),
             face_normal,
             edge_normal,
             vertex_normal,

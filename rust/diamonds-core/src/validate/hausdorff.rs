@@ -12,7 +12,7 @@
 //! The isosurface bound ([`crate::isosurface`]) is that both are at most the tolerance.
 
 use super::diagonal;
-use crate::geometry::{triangle_samples, Triangle};
+use crate::geometry::{triangle_samples, triangle_tree, Triangle};
 use crate::isosurface::{full_resolution_triangles, full_resolution_vertices};
 use crate::volume::{Sample, Volume};
 use glam::DVec3;
@@ -92,18 +92,6 @@ fn farthest(points: &[DVec3], tree: &RTree<Triangle>) -> Farthest {
         )
 }
 
-/// An R-tree of `triangles`.
-fn tree(triangles: impl Iterator<Item = [DVec3; 3]>) -> RTree<Triangle> {
-    let triangles: Vec<Triangle> = triangles
-        .enumerate()
-        .map(|(id, corners)| Triangle {
-            id: id as u32,
-            corners,
-        })
-        .collect();
-    RTree::bulk_load(triangles)
-}
-
 /// Both one-sided distances between the surface made of `triangles` (corners indexing `points`) and
 /// the full-resolution surface of `isovalues` in `volume`.
 pub fn surface_distances<T: Sample>(
@@ -122,12 +110,12 @@ pub fn surface_distances<T: Sample>(
         .into_iter()
         .map(DVec3::from)
         .collect();
-    let surface = tree(triangles.iter().map(corners));
+    let surface = triangle_tree(triangles.iter().map(corners));
     let fine_to_surface = farthest(&fine, &surface);
     drop(surface);
     let fine_triangles = full_resolution_triangles(volume, isovalues);
     let n_fine = fine_triangles.len();
-    let fine_tree = tree(fine_triangles.into_iter().map(|t| t.map(DVec3::from)));
+    let fine_tree = triangle_tree(fine_triangles.into_iter().map(|t| t.map(DVec3::from)));
     // The corners of the triangles among them (a point no triangle uses is no part of the surface).
     let samples: Vec<DVec3> = triangles
         .par_iter()
