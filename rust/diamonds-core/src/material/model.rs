@@ -8,6 +8,7 @@ use crate::hierarchy::base_mesh;
 use crate::lattice::{Lattice, Placement, Tet};
 use crate::refine::{BaseMesh, Refiner, SplitSet};
 use crate::{Error, Grid, Progress, Result};
+use arrayvec::ArrayVec;
 use glam::{DMat3, DMat4, DVec3, DVec4, IVec3};
 use rayon::prelude::*;
 use rustc_hash::{FxBuildHasher, FxHashMap};
@@ -68,6 +69,15 @@ pub(super) struct TetEval {
     pub interface: f64,
     pub field: f64,
     pub materials: u32,
+}
+
+/// The errors of one diamond as refinement measured them: the largest over its inside tetrahedra
+/// (interface, field), and when no tetrahedron exceeded the limits (the diamond is not split) each
+/// one's exact [`TetEval`], in the order of [`Diamond::tets`], for extraction to reuse.
+#[derive(Clone)]
+struct DiamondEval {
+    error: (f64, f64),
+    exact: Option<Arc<ArrayVec<TetEval, 8>>>,
 }
 
 /// A tetrahedron in world space with its barycentric map.
@@ -702,7 +712,7 @@ impl MaterialModel {
         }
         let lattice = self.lattice;
         let infos: Memo<usize, Arc<VertexInfo>> = Memo::default();
-        let evals: Memo<Diamond, (f64, f64)> = Memo::default();
+        let evals: Memo<Diamond, DiamondEval> = Memo::default();
         // A diamond is split when its interface error exceeds the interface tolerance (both passes)
         // or, in the second, its field error the field tolerance: errors are measured up to these.
         let limits = (
@@ -714,22 +724,30 @@ impl MaterialModel {
             query.field_tolerance,
         );
         let diamond_error = |d: Diamond| -> (f64, f64) {
-            evals.get_or_insert_with(d, || {
-                let mut info = |p: IVec3| {
-                    infos.get_or_insert_with(lattice.index(p), || Arc::new(self.vertex_info(p)))
-                };
-                let mut e = (0.0f64, 0.0f64);
-                for t in d.tets(&lattice) {
-                    if lattice.place(&t) == Placement::Inside {
-                        let r = self.evaluate(&t, query.ghost_values, &mut info, Some(limits));
-                        e = (e.0.max(r.interface), e.1.max(r.field));
-                        if e.0 > limits.0 {
-                            break;
+            evals
+                .get_or_insert_with(d, || {
+                    let mut info = |p: IVec3| {
+                        infos.get_or_insert_with(lattice.index(p), || Arc::new(self.vertex_info(p)))
+                    };
+                    let mut e = (0.0f64, 0.0f64);
+                    let mut exact = ArrayVec::new();
+                    for t in d.tets(&lattice) {
+                        if lattice.place(&t) == Placement::Inside {
+                            let r = self.evaluate(&t, query.ghost_values, &mut info, Some(limits));
+                            e = (e.0.max(r.interface), e.1.max(r.field));
+                            if e.0 > limits.0 {
+                                break;
+                            }
+                            exact.push(r);
                         }
                     }
-                }
-                e
-            })
+                    let within = e.0 <= limits.0 && e.1 <= limits.1;
+                    DiamondEval {
+                        error: e,
+                        exact: within.then(|| Arc::new(exact)),
+                    }
+                })
+                .error
         };
         let mut round =
             |evaluated: usize| progress(0.8 * (1.0 - 1.0 / (1.0 + evaluated as f64 / 20_000.0)));
@@ -769,7 +787,7 @@ impl MaterialModel {
             &mut round,
         )
         .ok_or(Error::Aborted)?;
-        let mut mesh = self.extract(&split, query.ghost_values, &infos);
+        let mut mesh = self.extract(&split, query.ghost_values, &infos, &evals);
         mesh.interface_tetrahedra = interface_tets;
         if !progress(1.0) {
             return Err(Error::Aborted);
@@ -777,23 +795,40 @@ impl MaterialModel {
         Ok(mesh)
     }
 
-    /// The leaves of `split` with their vertex records (from `infos`, completed) and errors.
+    /// The leaves of `split` with their vertex records (from `infos`, completed) and errors (from
+    /// `evals` where refinement measured them exactly, else measured here).
     fn extract(
         &self,
         split: &SplitSet,
         ghost_values: bool,
         infos: &Memo<usize, Arc<VertexInfo>>,
+        evals: &Memo<Diamond, DiamondEval>,
     ) -> MaterialMesh {
         let lattice = &self.lattice;
-        let mut leaves = crate::mesh::leaves_where(lattice, split, |_| false, |t| Some(*t));
-        for t in &mut leaves {
+        // Each leaf with its errors when refinement measured them exactly.
+        let measured = |t: &Tet| -> Option<TetEval> {
+            let d = Diamond::of_tet(t)?;
+            let exact = evals.get(&d)?.exact?;
+            let same = |u: &Tet| {
+                let pair = |a: IVec3, b: IVec3| (a.min(b).to_array(), a.max(b).to_array());
+                pair(u[0], u[1]) == pair(t[0], t[1]) && pair(u[2], u[3]) == pair(t[2], t[3])
+            };
+            d.tets(lattice)
+                .iter()
+                .filter(|u| lattice.place(u) == Placement::Inside)
+                .position(same)
+                .and_then(|i| exact.get(i).copied())
+        };
+        let mut leaves =
+            crate::mesh::leaves_where(lattice, split, |_| false, |t| Some((*t, measured(t))));
+        for (t, _) in &mut leaves {
             if signed_volume6(t) < 0 {
                 t.swap(2, 3);
             }
         }
         let mut ids: Vec<usize> = leaves
             .iter()
-            .flat_map(|t| t.map(|p| lattice.index(p)))
+            .flat_map(|(t, _)| t.map(|p| lattice.index(p)))
             .collect();
         ids.par_sort_unstable();
         ids.dedup();
@@ -805,13 +840,15 @@ impl MaterialModel {
         let id = |p: IVec3| ids.binary_search(&lattice.index(p)).expect("leaf vertex") as u32;
         let evals: Vec<TetEval> = leaves
             .par_iter()
-            .map(|t| {
-                self.evaluate(
-                    t,
-                    ghost_values,
-                    &mut |p| infos[id(p) as usize].clone(),
-                    None,
-                )
+            .map(|(t, measured)| {
+                measured.unwrap_or_else(|| {
+                    self.evaluate(
+                        t,
+                        ghost_values,
+                        &mut |p| infos[id(p) as usize].clone(),
+                        None,
+                    )
+                })
             })
             .collect();
         let k = self.materials;
@@ -824,10 +861,12 @@ impl MaterialModel {
                 .iter()
                 .map(|&i| self.world(lattice_point(i)).to_array())
                 .collect(),
-            tets: leaves.iter().map(|t| t.map(id)).collect(),
+            tets: leaves.iter().map(|(t, _)| t.map(id)).collect(),
             depths: leaves
                 .iter()
-                .map(|t| Diamond::of_tet(t).map_or(3 * lattice.levels, |d| d.depth(lattice)) as u8)
+                .map(|(t, _)| {
+                    Diamond::of_tet(t).map_or(3 * lattice.levels, |d| d.depth(lattice)) as u8
+                })
                 .collect(),
             point_material: infos.iter().map(|v| v.label).collect(),
             pairs: self.interfaces.iter().map(|m| m.pair).collect(),
@@ -1012,21 +1051,22 @@ impl<K, V> Default for Memo<K, V> {
 }
 
 impl<K: Hash + Eq + Copy, V: Clone> Memo<K, V> {
-    fn get_or_insert_with(&self, key: K, f: impl FnOnce() -> V) -> V {
-        let shard = &self.shards[(FxBuildHasher.hash_one(key) >> 58) as usize];
-        if let Some(v) = shard
+    fn shard(&self, key: K) -> std::sync::MutexGuard<'_, FxHashMap<K, V>> {
+        self.shards[(FxBuildHasher.hash_one(key) >> 58) as usize]
             .lock()
             .unwrap_or_else(PoisonError::into_inner)
-            .get(&key)
-        {
-            return v.clone();
+    }
+
+    /// The value stored for `key`, if any.
+    fn get(&self, key: &K) -> Option<V> {
+        self.shard(*key).get(key).cloned()
+    }
+
+    fn get_or_insert_with(&self, key: K, f: impl FnOnce() -> V) -> V {
+        if let Some(v) = self.get(&key) {
+            return v;
         }
         let v = f();
-        shard
-            .lock()
-            .unwrap_or_else(PoisonError::into_inner)
-            .entry(key)
-            .or_insert(v)
-            .clone()
+        self.shard(key).entry(key).or_insert(v).clone()
     }
 }
