@@ -574,12 +574,13 @@ vtkMaterialInterfaceApproximation::vtkInternals::UpdateMesh(
     mesh.max_field_error() > key.FieldTolerance)
   {
     vtkWarningWithObjectMacro(self,
-      << FilterName << ": the finest tetrahedra (half a cell wide) cannot meet the "
+      << FilterName << ": the finest tetrahedra cannot meet the "
       << "tolerances everywhere; reached interface error " << mesh.max_interface_error()
       << " and field error " << mesh.max_field_error()
       << " (see MaximumInterfaceError, MaximumFieldError and the cell arrays). Every "
-      << "sample is a mesh vertex, so this happens only where an interface bends within "
-      << "half a cell: an InterfaceTolerance well below the spacing.");
+      << "sample is a mesh vertex and the mesh refines below the InterfaceTolerance where "
+      << "interfaces need it, so this happens only where an interface bends within the finest "
+      << "tetrahedra, or where the finer lattice would not fit in memory.");
   }
   this->BuiltMesh = key;
   ++self->NumberOfRefinements;

@@ -23,10 +23,12 @@
 //! are drawn.
 //!
 //! Differences from the paper, and why:
-//! - The mesh is a diamond hierarchy on a lattice one level finer than the data: sample `[i, j, k]` is
-//!   lattice point `[2i, 2j, 2k]`, the grid at the lattice's corner with a base mesh along the far faces
-//!   as in Adaptive Tetrahedra ([`crate::lattice`]). Every sample is a vertex, so the field error can
-//!   reach 0 at the finest tetrahedra (half a cell wide, where interfaces need them) on any grid; vertex
+//! - The mesh is a diamond hierarchy on a lattice `s ≥ 1` levels finer than the data: sample `[i, j, k]`
+//!   is lattice point `2^s [i, j, k]`, the grid at the lattice's corner with a base mesh along the far
+//!   faces as in Adaptive Tetrahedra ([`crate::lattice`]; the same tetrahedra for every `s`). Every
+//!   sample is a vertex, so the field error can reach 0 at the finest tetrahedra on any grid; `s` is 1
+//!   (tetrahedra down to half a cell where interfaces need them) or more while `2^-s` of the widest
+//!   spacing exceeds the interface tolerance (as far as the split sets' memory allows); vertex
 //!   values between samples are resampled from the data (§5.1: "the input datasets are resampled at
 //!   the vertices of the tetrahedral mesh"). Errors are measured at the data samples (the "native data
 //!   elements" of §5.4), exactly, not with the nested bound of Eq. (1)–(2). Refinement evaluates the

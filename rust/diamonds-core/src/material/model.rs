@@ -39,11 +39,9 @@ pub struct MaterialModel {
     /// Interface-mesh vertices bucketed by data cell (compressed rows): `(mesh, point)`.
     bucket_start: Vec<u32>,
     bucket_items: Vec<(u32, u32)>,
-    /// The diamond lattice one level finer than the data: sample `[i, j, k]` is lattice point
-    /// `[2i, 2j, 2k]`, the grid at the lattice's corner as in [`crate::lattice`].
-    lattice: Lattice,
-    /// Where refinement starts: the diamonds straddling the domain's far faces, with their closure.
-    base: BaseMesh,
+    /// Per lattice of a query ([`MaterialModel::levels`]): where refinement starts, the diamonds
+    /// straddling the domain's far faces with their closure (computed once per lattice).
+    bases: Mutex<FxHashMap<u32, Arc<BaseMesh>>>,
     /// The signed distance given to a material without interfaces (twice the diagonal).
     far: f64,
 }
@@ -189,12 +187,8 @@ impl MaterialModel {
             boundary[mesh.pair.0 as usize].push(i);
             boundary[mesh.pair.1 as usize].push(i);
         }
-        // Every sample is a lattice vertex, so the field error can reach 0 at the finest tetrahedra; one
-        // level below the data, so that where interfaces need it the finest tetrahedra are half a cell
-        // wide and interfaces crossing a cell (and junctions of three materials) are approximated to a
-        // fraction of a cell.
-        let lattice = Lattice::new(grid.dims.map(|d| 2 * d - 1))?;
-        let base = base_mesh(lattice);
+        // Refuses grids whose lattice would be too large.
+        lattice_of(&grid, 1)?;
         let b = grid.bounds();
         let far =
             2.0 * ((b[1] - b[0]).powi(2) + (b[3] - b[2]).powi(2) + (b[5] - b[4]).powi(2)).sqrt();
@@ -209,8 +203,7 @@ impl MaterialModel {
             boundary,
             bucket_start: Vec::new(),
             bucket_items: Vec::new(),
-            lattice,
-            base,
+            bases: Mutex::default(),
             far,
         };
         model.bucket_interface_vertices();
@@ -235,7 +228,34 @@ impl MaterialModel {
     /// Tetrahedra of the base mesh every query starts from: the refinement forced by the domain's far
     /// faces alone (0 extra for `2^k + 1` points per axis; see [`crate::lattice`]).
     pub fn base_tetrahedra(&self) -> usize {
-        self.base.tets
+        self.base(1).map_or(0, |(_, b)| b.tets)
+    }
+
+    /// The lattice `shift` levels finer than the data and its base mesh (computed when first asked).
+    fn base(&self, shift: u32) -> Result<(Lattice, Arc<BaseMesh>)> {
+        let lattice = lattice_of(&self.grid, shift)?;
+        let mut bases = self.bases.lock().unwrap_or_else(PoisonError::into_inner);
+        let base = bases
+            .entry(shift)
+            .or_insert_with(|| Arc::new(base_mesh(lattice)));
+        Ok((lattice, base.clone()))
+    }
+
+    /// How many levels finer than the data the lattice of `query` is: one, so that interfaces crossing
+    /// a cell and junctions of three materials are approximated to a fraction of a cell, and more while
+    /// the finest tetrahedra would be wider than the interface tolerance along the widest spacing
+    /// (refinement goes that deep only where the interface needs it; the base mesh is the same), as far
+    /// as [`MAX_LATTICE_POINTS`] allows.
+    fn levels(&self, query: &MaterialQuery) -> u32 {
+        let widest = self.grid.spacing.iter().fold(0.0f64, |a, &s| a.max(s));
+        let mut shift = 1;
+        while query.ghost_values
+            && widest / f64::from(1u32 << shift) > query.interface_tolerance
+            && lattice_points(&self.grid, shift + 1) <= MAX_LATTICE_POINTS
+        {
+            shift += 1;
+        }
+        shift
     }
 
     fn bucket_interface_vertices(&mut self) {
@@ -299,11 +319,11 @@ impl MaterialModel {
         })
     }
 
-    /// World position of a lattice point (half a sample spacing per lattice unit; a sample's own
-    /// position, exactly, at even coordinates).
-    pub(super) fn world(&self, p: IVec3) -> DVec3 {
+    /// World position of a point of the lattice `shift` levels finer than the data (`2^-shift`
+    /// sample spacings per lattice unit; a sample's own position, exactly, at multiples of `2^shift`).
+    pub(super) fn world(&self, p: IVec3, shift: u32) -> DVec3 {
         DVec3::from_array(self.grid.origin)
-            + DVec3::from_array(self.grid.spacing) * (p.as_dvec3() * 0.5)
+            + DVec3::from_array(self.grid.spacing) * (p.as_dvec3() / f64::from(1u32 << shift))
     }
 
     /// The material common to all corners of `x`'s cell, if there is one.
@@ -428,9 +448,10 @@ impl MaterialModel {
         None
     }
 
-    /// Everything a vertex at lattice point `p` needs (§5.2.1 signed distances, §5.2.3 ghost values).
-    pub(super) fn vertex_info(&self, p: IVec3) -> VertexInfo {
-        let x = self.world(p);
+    /// Everything a vertex at point `p` of the lattice `shift` levels finer than the data needs
+    /// (§5.2.1 signed distances, §5.2.3 ghost values).
+    pub(super) fn vertex_info(&self, p: IVec3, shift: u32) -> VertexInfo {
+        let x = self.world(p, shift);
         let uniform = self.uniform_label(x);
         let k = self.materials;
         let closest: Vec<_> = (0..self.interfaces.len())
@@ -496,10 +517,11 @@ impl MaterialModel {
             .map(|f| self.trilinear(&self.fields[f], x) as f32)
             .collect();
         // The sample at p, if any: its own value is exact there, whatever φ says.
-        let sample_label = (p % 2 == IVec3::ZERO).then(|| {
+        let sample = p >> IVec3::splat(shift as i32);
+        let sample_label = (sample << IVec3::splat(shift as i32) == p).then(|| {
             self.labels[self
                 .grid
-                .index(p.x as usize / 2, p.y as usize / 2, p.z as usize / 2)]
+                .index(sample.x as usize, sample.y as usize, sample.z as usize)]
         });
         let mut values = vec![0f32; nf * k];
         for f in 0..nf {
@@ -583,13 +605,13 @@ impl MaterialModel {
     /// enough to decide a split.
     fn evaluate(
         &self,
-        t: &Tet,
+        (t, shift): (&Tet, u32),
         ghost_values: bool,
         info: &mut dyn FnMut(IVec3) -> Arc<VertexInfo>,
         limits: Option<(f64, f64)>,
     ) -> TetEval {
         let (interface_limit, field_limit) = limits.unwrap_or((f64::INFINITY, f64::INFINITY));
-        let wt = WorldTet::new(t.map(|p| self.world(p)));
+        let wt = WorldTet::new(t.map(|p| self.world(p, shift)));
         let nf = self.fields.len();
         // The largest deviation at the samples of t of their value (own value of their material with
         // ghost values, else mixed) from the linear function `values(f, material)`, or `None` when
@@ -710,7 +732,8 @@ impl MaterialModel {
                 )));
             }
         }
-        let lattice = self.lattice;
+        let shift = self.levels(query);
+        let (lattice, base) = self.base(shift)?;
         let infos: Memo<usize, Arc<VertexInfo>> = Memo::default();
         let evals: Memo<Diamond, DiamondEval> = Memo::default();
         // A diamond is split when its interface error exceeds the interface tolerance (both passes)
@@ -727,13 +750,20 @@ impl MaterialModel {
             evals
                 .get_or_insert_with(d, || {
                     let mut info = |p: IVec3| {
-                        infos.get_or_insert_with(lattice.index(p), || Arc::new(self.vertex_info(p)))
+                        infos.get_or_insert_with(lattice.index(p), || {
+                            Arc::new(self.vertex_info(p, shift))
+                        })
                     };
                     let mut e = (0.0f64, 0.0f64);
                     let mut exact = ArrayVec::new();
                     for t in d.tets(&lattice) {
                         if lattice.place(&t) == Placement::Inside {
-                            let r = self.evaluate(&t, query.ghost_values, &mut info, Some(limits));
+                            let r = self.evaluate(
+                                (&t, shift),
+                                query.ghost_values,
+                                &mut info,
+                                Some(limits),
+                            );
                             e = (e.0.max(r.interface), e.1.max(r.field));
                             if e.0 > limits.0 {
                                 break;
@@ -751,7 +781,6 @@ impl MaterialModel {
         };
         let mut round =
             |evaluated: usize| progress(0.8 * (1.0 - 1.0 / (1.0 + evaluated as f64 / 20_000.0)));
-        let base = &self.base;
         // Pass 1 (§5.3 step 2): the interfaces.
         let interface_only = |d: Diamond| diamond_error(d).0;
         let (split, interface_tets) = if query.ghost_values {
@@ -787,7 +816,7 @@ impl MaterialModel {
             &mut round,
         )
         .ok_or(Error::Aborted)?;
-        let mut mesh = self.extract(&split, query.ghost_values, &infos, &evals);
+        let mut mesh = self.extract((&split, shift), query.ghost_values, &infos, &evals);
         mesh.interface_tetrahedra = interface_tets;
         if !progress(1.0) {
             return Err(Error::Aborted);
@@ -799,12 +828,12 @@ impl MaterialModel {
     /// `evals` where refinement measured them exactly, else measured here).
     fn extract(
         &self,
-        split: &SplitSet,
+        (split, shift): (&SplitSet, u32),
         ghost_values: bool,
         infos: &Memo<usize, Arc<VertexInfo>>,
         evals: &Memo<Diamond, DiamondEval>,
     ) -> MaterialMesh {
-        let lattice = &self.lattice;
+        let lattice = split.lattice();
         // Each leaf with its errors when refinement measured them exactly.
         let measured = |t: &Tet| -> Option<TetEval> {
             let d = Diamond::of_tet(t)?;
@@ -835,7 +864,9 @@ impl MaterialModel {
         let lattice_point = |i: usize| lattice.point(i);
         let infos: Vec<Arc<VertexInfo>> = ids
             .par_iter()
-            .map(|&i| infos.get_or_insert_with(i, || Arc::new(self.vertex_info(lattice_point(i)))))
+            .map(|&i| {
+                infos.get_or_insert_with(i, || Arc::new(self.vertex_info(lattice_point(i), shift)))
+            })
             .collect();
         let id = |p: IVec3| ids.binary_search(&lattice.index(p)).expect("leaf vertex") as u32;
         let evals: Vec<TetEval> = leaves
@@ -843,7 +874,7 @@ impl MaterialModel {
             .map(|(t, measured)| {
                 measured.unwrap_or_else(|| {
                     self.evaluate(
-                        t,
+                        (t, shift),
                         ghost_values,
                         &mut |p| infos[id(p) as usize].clone(),
                         None,
@@ -859,7 +890,7 @@ impl MaterialModel {
             fields: nf,
             points: ids
                 .iter()
-                .map(|&i| self.world(lattice_point(i)).to_array())
+                .map(|&i| self.world(lattice_point(i), shift).to_array())
                 .collect(),
             tets: leaves.iter().map(|(t, _)| t.map(id)).collect(),
             depths: leaves
@@ -889,6 +920,25 @@ impl MaterialModel {
             ghost_values,
         }
     }
+}
+
+/// Largest number of points of a query's lattice domain beyond one level finer than the data (its
+/// split sets take 2 bits per point).
+const MAX_LATTICE_POINTS: u64 = 1 << 30;
+
+/// Points of the domain of the lattice `shift` levels finer than the data of `grid`.
+fn lattice_points(grid: &Grid, shift: u32) -> u64 {
+    grid.dims
+        .iter()
+        .map(|&d| (((d as u64) - 1) << shift) + 1)
+        .product()
+}
+
+/// The lattice `shift` levels finer than the data of `grid`: sample `[i, j, k]` is lattice point
+/// `[i, j, k] << shift`, the grid at the lattice's corner as in [`crate::lattice`]. Every sample is a
+/// lattice vertex, so the field error can reach 0 at the finest tetrahedra on any grid.
+fn lattice_of(grid: &Grid, shift: u32) -> Result<Lattice> {
+    Lattice::new(grid.dims.map(|d| ((d - 1) << shift) + 1))
 }
 
 fn check_length(what: &str, i: usize, len: usize, n: usize, grid: &Grid) -> Result<()> {
