@@ -24,12 +24,13 @@
 //! most half the tolerance), for rounding (points written in single precision). Points outside the region of interest are not
 //! checked (the tolerance applies inside it).
 
+use super::blocks::{bits, set_bit, Blocks};
 use super::error::{child_coordinates, tet_size2, RootTets};
 use super::fine::{cell_triangles, vertices_from};
 use super::marching::{carries, marching_tetrahedra};
 use super::{Extraction, IsoQuery};
 use crate::diamond::{child_of, Diamond};
-use crate::geometry::{point_triangle_distance, triangle_samples, triangle_tree};
+use crate::geometry::{point_triangle_distance, triangle_samples};
 use crate::lattice::Tet;
 use crate::mesh;
 use crate::refine::{Refiner, SplitSet};
@@ -37,7 +38,18 @@ use crate::volume::Sample;
 use crate::Result;
 use glam::{DVec3, IVec3};
 use rayon::prelude::*;
+use rstar::primitives::GeomWithData;
+use rstar::{RTree, AABB};
 use rustc_hash::FxHashSet;
+use std::sync::atomic::AtomicU64;
+
+/// The full-resolution surface F of one isovalue as the check reads it.
+struct Fine {
+    /// Its vertices (inside the region of interest).
+    vertices: Vec<DVec3>,
+    /// The grid cells it crosses, a bit per lower corner (point index).
+    crossed: Vec<u64>,
+}
 
 /// Rounds of checking and splitting at most (each splits at least one diamond; in practice a few).
 const MAX_ROUNDS: usize = 64;
@@ -67,15 +79,20 @@ impl<T: Sample> Extraction<'_, '_, T> {
                 .region_of_interest
                 .is_none_or(|r| (0..3).all(|a| r[2 * a] <= p[a] && p[a] <= r[2 * a + 1]))
         };
-        // The vertices of F, per isovalue, once.
-        let fine: Vec<Vec<DVec3>> = isovalues
+        // F, per isovalue, once.
+        let fine: Vec<Fine> = isovalues
             .iter()
             .map(|&v| {
                 let cells = self.cache.bricks.cells_crossed(self.volume, v);
                 let points = super::error::corners_of(self.volume.grid.dims, &cells);
-                let mut f = vertices_from(self.volume, v, &points);
-                f.retain(|&p| inside(p));
-                f
+                let mut vertices = vertices_from(self.volume, v, &points);
+                vertices.retain(|&p| inside(p));
+                let crossed = bits(self.volume.grid.len());
+                cells.par_iter().for_each(|&c| {
+                    set_bit(&crossed, c as usize);
+                });
+                let crossed = crossed.into_iter().map(AtomicU64::into_inner).collect();
+                Fine { vertices, crossed }
             })
             .collect();
         for _ in 0..MAX_ROUNDS {
@@ -105,7 +122,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
         &self,
         v: f64,
         carriers: &[Tet],
-        fine: &[DVec3],
+        fine: &Fine,
         reach: f64,
         inside: &(dyn Fn(DVec3) -> bool + Sync),
     ) -> Result<Vec<DVec3>> {
@@ -119,58 +136,69 @@ impl<T: Sample> Extraction<'_, '_, T> {
             .par_iter()
             .flat_map_iter(|t| triangle_samples(corners(t), h).filter(|&p| inside(p)))
             .collect();
-        // Blocks of side `reach / (2√3)`: two points in neighbouring blocks (27 around a block) are
-        // within `reach`.
-        let origin = DVec3::from(grid.origin);
-        let side = reach / (2.0 * 3f64.sqrt());
-        let block = |p: DVec3| ((p - origin) / side).floor().as_i64vec3().to_array();
-        let blocks_of = |points: &[DVec3]| -> FxHashSet<[i64; 3]> {
-            points.iter().map(|&p| block(p)).collect()
-        };
-        let near_block = |blocks: &FxHashSet<[i64; 3]>, p: DVec3| {
-            let [x, y, z] = block(p);
-            (-1..=1).any(|dz| {
-                (-1..=1).any(|dy| (-1..=1).any(|dx| blocks.contains(&[x + dx, y + dy, z + dz])))
-            })
-        };
-        let (with_samples, with_fine) = rayon::join(|| blocks_of(&samples), || blocks_of(fine));
+        // Blocks: a point near a block of the other set is within `reach` of it.
+        let bounds = grid.bounds();
+        let (lo, hi) = (
+            DVec3::new(bounds[0], bounds[2], bounds[4]),
+            DVec3::new(bounds[1], bounds[3], bounds[5]),
+        );
+        let (with_samples, with_fine) = rayon::join(
+            || Blocks::around(lo, hi, reach, &samples),
+            || Blocks::around(lo, hi, reach, &fine.vertices),
+        );
+        let (with_samples, with_fine) = (with_samples?, with_fine?);
         // F → S.
         let open: Vec<DVec3> = fine
+            .vertices
             .par_iter()
             .copied()
-            .filter(|&q| !near_block(&with_samples, q))
+            .filter(|&q| !with_samples.near(q))
             .collect();
-        let mut far: Vec<DVec3> = if open.is_empty() {
-            Vec::new()
-        } else {
-            let tree = triangle_tree(surface.triangles.iter().map(corners));
-            open.into_par_iter()
-                .filter(|q| {
-                    tree.locate_within_distance(q.to_array(), reach * reach)
-                        .next()
-                        .is_none()
-                })
-                .collect()
-        };
+        // The few left, from each triangle of S: those within `reach` of it, in an R-tree of the
+        // points (much cheaper to build than one of S).
+        let tree = RTree::bulk_load(
+            (open.iter().enumerate())
+                .map(|(i, q)| GeomWithData::new(q.to_array(), i))
+                .collect(),
+        );
+        let covered = bits(open.len());
+        surface.triangles.par_iter().for_each(|t| {
+            let t = corners(t);
+            let lo = t[0].min(t[1]).min(t[2]) - reach;
+            let hi = t[0].max(t[1]).max(t[2]) + reach;
+            for q in tree.locate_in_envelope(&AABB::from_corners(lo.to_array(), hi.to_array())) {
+                if point_triangle_distance(DVec3::from(*q.geom()), t) <= reach {
+                    set_bit(&covered, q.data);
+                }
+            }
+        });
+        let covered: Vec<u64> = covered.into_iter().map(AtomicU64::into_inner).collect();
+        let mut far: Vec<DVec3> = (open.into_iter().enumerate())
+            .filter(|(i, _)| covered[i / 64] & (1 << (i % 64)) == 0)
+            .map(|(_, q)| q)
+            .collect();
         // S → F.
-        let spacing = DVec3::from(grid.spacing);
+        let (origin, spacing) = (DVec3::from(grid.origin), DVec3::from(grid.spacing));
         let hi = IVec3::from(grid.dims.map(|d| d as i32 - 2));
         far.par_extend(
             samples
                 .par_iter()
                 .copied()
-                .filter(|&p| !near_block(&with_fine, p))
+                .filter(|&p| !with_fine.near(p))
                 .filter(|&p| {
-                    // The cells around p's, then all those within `reach` of p (lower corners).
+                    // The crossed cells around p's, then all those within `reach` of p (lower
+                    // corners).
                     let cell = |p: DVec3| ((p - origin) / spacing).floor().as_ivec3();
                     let near = |lo: IVec3, up: IVec3| {
                         let (lo, up) = (lo.max(IVec3::ZERO), up.min(hi));
                         (lo.z..=up.z).any(|z| {
                             (lo.y..=up.y).any(|y| {
                                 (lo.x..=up.x).any(|x| {
-                                    cell_triangles(volume, IVec3::new(x, y, z), v)
-                                        .iter()
-                                        .any(|t| point_triangle_distance(p, *t) <= reach)
+                                    let i = grid.index(x as usize, y as usize, z as usize);
+                                    fine.crossed[i / 64] & (1 << (i % 64)) != 0
+                                        && cell_triangles(volume, IVec3::new(x, y, z), v)
+                                            .iter()
+                                            .any(|t| point_triangle_distance(p, *t) <= reach)
                                 })
                             })
                         })
@@ -182,7 +210,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
         );
         // One per block: the splits a violation causes cover its neighbours in the block.
         let mut seen = FxHashSet::default();
-        far.retain(|&p| seen.insert(block(p)));
+        far.retain(|&p| seen.insert(with_fine.block(p)));
         Ok(far)
     }
 

@@ -15,6 +15,7 @@
 //! This is an estimate, not a bound (see [`super::bound`], which checks the result and refines where
 //! it does not hold).
 
+use super::blocks::{bits, set_bit};
 use super::{value, Extraction};
 use crate::diamond::{arrange, child_layout, child_of, Diamond};
 use crate::hierarchy::record::{decode_error, encode_error};
@@ -22,7 +23,7 @@ use crate::lattice::{Lattice, Placement, Tet};
 use crate::volume::{Sample, Volume};
 use glam::{DVec3, IVec3};
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicU16, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU16, Ordering};
 
 /// Per-diamond approximation error at the surface samples of a set of isovalues.
 pub(super) struct IsoErrors {
@@ -220,44 +221,35 @@ pub(super) fn tet_size2(spacing: &[f64; 3], t: &Tet) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// A bitset of `n` bits, all clear.
-fn bits(n: usize) -> Vec<AtomicU64> {
-    (0..n.div_ceil(64)).map(|_| AtomicU64::new(0)).collect()
-}
-
-/// Sets bit `i`; returns whether it was clear.
-#[inline]
-fn set_bit(bits: &[AtomicU64], i: usize) -> bool {
-    let bit = 1u64 << (i % 64);
-    bits[i / 64].fetch_or(bit, Ordering::Relaxed) & bit == 0
-}
-
 /// The distinct corners of the cells whose lower corners are `cells`, as point indices, sorted (which
-/// thread claims a shared corner first varies; the order must not).
+/// thread claims a shared corner first varies; the order must not): marked in a bitset over the
+/// points, then read from it in order.
 pub(super) fn corners_of(dims: [usize; 3], cells: &[u32]) -> Vec<u32> {
     let seen = bits(dims[0] * dims[1] * dims[2]);
     let (sx, sy) = (1, dims[0]);
     let sz = dims[0] * dims[1];
-    let mut corners: Vec<u32> = cells
-        .par_chunks(4096)
-        .flat_map_iter(|chunk| {
-            let mut out = Vec::new();
-            for &c in chunk {
-                for k in 0..8 {
-                    let i = c as usize
-                        + if k & 1 != 0 { sx } else { 0 }
-                        + if k & 2 != 0 { sy } else { 0 }
-                        + if k & 4 != 0 { sz } else { 0 };
-                    if set_bit(&seen, i) {
-                        out.push(i as u32);
-                    }
-                }
-            }
-            out
+    cells.par_iter().for_each(|&c| {
+        for k in 0..8 {
+            let i = c as usize
+                + if k & 1 != 0 { sx } else { 0 }
+                + if k & 2 != 0 { sy } else { 0 }
+                + if k & 4 != 0 { sz } else { 0 };
+            set_bit(&seen, i);
+        }
+    });
+    seen.par_iter()
+        .enumerate()
+        .flat_map_iter(|(w, word)| {
+            let mut word = word.load(Ordering::Relaxed);
+            std::iter::from_fn(move || {
+                (word != 0).then(|| {
+                    let b = word.trailing_zeros();
+                    word &= word - 1;
+                    (64 * w) as u32 + b
+                })
+            })
         })
-        .collect();
-    corners.par_sort_unstable();
-    corners
+        .collect()
 }
 
 /// The six tetrahedra of the root diamond, `[0, (N, N, N), N e_i, N (e_i + e_j)]` (see

@@ -37,10 +37,12 @@
 //! - [`bricks`]: sample ranges of 8³ bricks, which bound any box's range and list the crossed cells;
 //! - [`criterion`]: the diamond error refinement compares with the tolerance (§6.1 culling, §6.2);
 //! - [`error`]: `ae` measured per query at the surface samples, which descend the hierarchy together;
-//! - [`bound`]: the two-sided bound, checked and refined until it holds;
+//! - [`bound`]: the two-sided bound, checked and refined until it holds, with [`blocks`] as its
+//!   cheap distance certificate;
 //! - [`fine`]: the full-resolution surface the bound is relative to;
 //! - [`marching`]: marching tetrahedra on the carrier leaves, points shared by edge.
 
+mod blocks;
 mod bound;
 mod bricks;
 mod cache;
