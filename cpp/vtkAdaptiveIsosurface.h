@@ -58,8 +58,8 @@
  * Options:
  * - contour values (SetValue / SetNumberOfContours / GenerateValues, as vtkFlyingEdges3D): one
  *   surface per value, all in the one output; at least one is required.
- * - Tolerance: world units, >= 0 (default 0: full resolution). A good start is one voxel diagonal
- *   (what ParaView's property panel sets) or 0.2 %-1 % of the image diagonal. The field data
+ * - Tolerance: world units, >= 0 (default 0: full resolution). A good start is two and a half voxel
+ *   diagonals (what ParaView's property panel sets) or 0.2 %-1 % of the image diagonal. The field data
  *   "RelativeTolerance" and GetRelativeTolerance() give it as a fraction of the diagonal of the
  *   whole image.
  * - MaximumNumberOfTriangles: 0 = no limit.

@@ -180,13 +180,18 @@ pub enum IsoTolerance {
     Absolute(f64),
     /// Fraction of the diagonal of the image's bounds.
     Relative(f64),
-    /// About one voxel diagonal: the diagonal of the bounds over the cube root of the number of cells
-    /// (the default, as in the ParaView filter).
-    Voxel,
+    /// This many voxel diagonals (a voxel diagonal: the diagonal of the bounds over the cube root of
+    /// the number of cells).
+    VoxelDiagonals(f64),
 }
 
-/// The default tolerance of `diamonds iso`: about one voxel diagonal, as the ParaView filter's.
-pub const DEFAULT_ISO_TOLERANCE: IsoTolerance = IsoTolerance::Voxel;
+/// The default tolerance of `diamonds iso`, as the ParaView filter's: two and a half voxel
+/// diagonals. A tetrahedron no larger than the tolerance is never split for the surface (the surface
+/// drawn through it stays inside it); past two voxel diagonals the tetrahedra of cubes of 2×2×2
+/// cells qualify (their longest edge is two voxel diagonals), past about 2.3 those one bisection
+/// coarser, and the surface drops to 0.1–0.4 times Flying Edges' triangles on every shared volume
+/// (at one voxel diagonal: 0.3–1.25 times; docs/benchmarks.md, "Isosurface goals").
+pub const DEFAULT_ISO_TOLERANCE: IsoTolerance = IsoTolerance::VoxelDiagonals(2.5);
 
 /// Options of `diamonds iso`.
 #[derive(Clone, Debug, PartialEq)]
@@ -298,9 +303,9 @@ pub fn iso(opts: &IsoOptions) -> Result<IsoSummary> {
     let tolerance = match opts.tolerance {
         IsoTolerance::Absolute(t) => t,
         IsoTolerance::Relative(r) => r * diagonal,
-        IsoTolerance::Voxel => {
+        IsoTolerance::VoxelDiagonals(k) => {
             let cells: f64 = grid.dims.iter().map(|&d| (d - 1) as f64).product();
-            diagonal / cells.cbrt()
+            k * diagonal / cells.cbrt()
         }
     };
     let start = Instant::now();

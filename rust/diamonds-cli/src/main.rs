@@ -85,8 +85,8 @@ enum Command {
         #[arg(long, value_name = "NAME")]
         array: Option<String>,
         /// Largest isosurface error in world units (0 = full resolution where the surface passes)
-        /// [default: about one voxel diagonal: the diagonal of the image's bounds over the cube root of
-        /// its number of cells, as the ParaView filter].
+        /// [default: two and a half voxel diagonals (a voxel diagonal: the diagonal of the image's
+        /// bounds over the cube root of its number of cells), as the ParaView filter].
         #[arg(
             long,
             value_name = "T",

@@ -221,11 +221,12 @@ fn relative_tolerances_are_fractions_of_the_diagonal_and_the_default_one_voxel()
 
     let out = dir.join("default.vtp");
     let summary = iso(&input, &out, &["--isovalue", "127.5"]);
-    // One voxel diagonal: the diagonal over the cube root of the 32³ cells.
-    assert!(summary.contains("= 3.125 % of the diagonal"), "{summary}");
+    // Two and a half voxel diagonals (a voxel diagonal: the diagonal over the cube root of the 32³
+    // cells).
+    assert!(summary.contains("= 7.812 % of the diagonal"), "{summary}");
     let (surface, _) = read_surface(&out);
     let tol = field_value(&surface.field_data, "Tolerance");
-    assert!((tol - DIAGONAL / 32.0).abs() < 1e-12, "{tol}");
+    assert!((tol - 2.5 * DIAGONAL / 32.0).abs() < 1e-12, "{tol}");
     verify(&out, Some(&input));
 }
 
@@ -577,7 +578,7 @@ fn help_describes_iso_and_verify_surface() {
         "--no-normals",
         "--scalars",
         "--carrier",
-        "one voxel diagonal",
+        "two and a half voxel diagonals",
         "world units",
         "no limit",
         "ErrorBound",

@@ -47,6 +47,8 @@ use std::sync::atomic::AtomicU64;
 struct Fine {
     /// Its vertices (inside the region of interest).
     vertices: Vec<DVec3>,
+    /// The blocks around its vertices.
+    blocks: Blocks,
     /// The grid cells it crosses, a bit per lower corner (point index).
     crossed: Vec<u64>,
 }
@@ -80,21 +82,30 @@ impl<T: Sample> Extraction<'_, '_, T> {
                 .is_none_or(|r| (0..3).all(|a| r[2 * a] <= p[a] && p[a] <= r[2 * a + 1]))
         };
         // F, per isovalue, once.
-        let fine: Vec<Fine> = isovalues
+        let (lo, hi) = (
+            DVec3::new(bounds[0], bounds[2], bounds[4]),
+            DVec3::new(bounds[1], bounds[3], bounds[5]),
+        );
+        let fine = isovalues
             .iter()
             .map(|&v| {
                 let cells = self.cache.bricks.cells_crossed(self.volume, v);
                 let points = super::error::corners_of(self.volume.grid.dims, &cells);
                 let mut vertices = vertices_from(self.volume, v, &points);
                 vertices.retain(|&p| inside(p));
+                let blocks = Blocks::around(lo, hi, reach, &vertices)?;
                 let crossed = bits(self.volume.grid.len());
                 cells.par_iter().for_each(|&c| {
                     set_bit(&crossed, c as usize);
                 });
                 let crossed = crossed.into_iter().map(AtomicU64::into_inner).collect();
-                Fine { vertices, crossed }
+                Ok(Fine {
+                    vertices,
+                    blocks,
+                    crossed,
+                })
             })
-            .collect();
+            .collect::<Result<Vec<Fine>>>()?;
         for _ in 0..MAX_ROUNDS {
             let mut violations = Vec::new();
             for (&v, fine) in isovalues.iter().zip(&fine) {
@@ -137,16 +148,10 @@ impl<T: Sample> Extraction<'_, '_, T> {
             .flat_map_iter(|t| triangle_samples(corners(t), h).filter(|&p| inside(p)))
             .collect();
         // Blocks: a point near a block of the other set is within `reach` of it.
-        let bounds = grid.bounds();
-        let (lo, hi) = (
-            DVec3::new(bounds[0], bounds[2], bounds[4]),
-            DVec3::new(bounds[1], bounds[3], bounds[5]),
-        );
-        let (with_samples, with_fine) = rayon::join(
-            || Blocks::around(lo, hi, reach, &samples),
-            || Blocks::around(lo, hi, reach, &fine.vertices),
-        );
-        let (with_samples, with_fine) = (with_samples?, with_fine?);
+        let b = grid.bounds();
+        let (lo, hi) = (DVec3::new(b[0], b[2], b[4]), DVec3::new(b[1], b[3], b[5]));
+        let with_samples = Blocks::around(lo, hi, reach, &samples)?;
+        let with_fine = &fine.blocks;
         // F → S.
         let open: Vec<DVec3> = fine
             .vertices
