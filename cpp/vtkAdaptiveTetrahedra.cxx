@@ -23,6 +23,7 @@
 #include <cmath>
 #include <cstddef>
 #include <optional>
+#include <string>
 
 vtkStandardNewMacro(vtkAdaptiveTetrahedra);
 
@@ -169,10 +170,11 @@ int vtkAdaptiveTetrahedra::RequestData(
   {
     return 0;
   }
-  std::optional<rust::Box<bridge::Mesh>> mesh;
+  const bridge::Hierarchy& hierarchy = this->Internals->Cache.GetHierarchy();
+  std::optional<rust::Box<bridge::MeshPlan>> plan;
   try
   {
-    mesh.emplace(this->Internals->Cache.GetHierarchy().query(query));
+    plan.emplace(hierarchy.plan_mesh(query));
   }
   catch (const rust::Error& e)
   {
@@ -181,14 +183,22 @@ int vtkAdaptiveTetrahedra::RequestData(
   }
   this->UpdateProgress(0.9);
 
-  // ---- Output.
-  vtkDiamonds::MeshToUnstructuredGrid(**mesh, input, "ApproximationError", output);
+  // ---- Output, written by the core into the arrays allocated here.
+  double maxError = 0.0;
+  std::string error;
+  if (!vtkDiamonds::PlanToUnstructuredGrid(hierarchy, **plan, input, output, maxError, error))
+  {
+    output->Initialize();
+    vtkErrorMacro(<< "Adaptive Tetrahedra could not write its output: " << error);
+    return 0;
+  }
+  plan.reset(); // the split set, before the field data
   vtkFieldData* fieldData = output->GetFieldData();
   fieldData->PassData(input->GetFieldData());
   fieldData->AddArray(OneValue<vtkDoubleArray>("Tolerance", this->Tolerance));
   fieldData->AddArray(
     OneValue<vtkIdTypeArray>("NumberOfTetrahedra", output->GetNumberOfCells()));
-  fieldData->AddArray(OneValue<vtkDoubleArray>("MaximumError", (*mesh)->max_error()));
+  fieldData->AddArray(OneValue<vtkDoubleArray>("MaximumError", maxError));
 
   this->UpdateProgress(1.0);
   return 1;

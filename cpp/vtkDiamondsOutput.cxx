@@ -22,7 +22,10 @@
 #include "vtkUnstructuredGrid.h"
 
 #include <algorithm>
+#include <cstring>
 #include <limits>
+#include <string>
+#include <type_traits>
 
 namespace vtkDiamonds
 {
@@ -145,6 +148,174 @@ void AddOutputArrays(const bridge::OutputArrays& arrays, vtkDataSet* output)
     {
       attributes->SetActiveScalars(name.c_str());
     }
+  }
+}
+
+//------------------------------------------------------------------------------
+namespace
+{
+// A new array of `tuples` tuples of `components` values (contents undefined), or null with `error`
+// set when it cannot be allocated.
+template <typename ArrayT>
+vtkSmartPointer<ArrayT> Uninitialized(
+  const char* name, vtkIdType tuples, int components, std::string& error)
+{
+  auto array = vtkSmartPointer<ArrayT>::New();
+  array->SetName(name);
+  array->SetNumberOfComponents(components);
+  if (!array->SetNumberOfValues(tuples * components))
+  {
+    error = "cannot allocate " + std::to_string(tuples * components) + " values of " +
+      array->GetDataTypeAsString() + (name ? std::string(" for ") + name : std::string());
+    return nullptr;
+  }
+  return array;
+}
+
+// Connectivity and offsets of `IdArrayT` (vtkTypeInt32Array or vtkTypeInt64Array) written by the
+// core, with the depths and errors; the cells are set on `output` with their cell data.
+template <typename IdArrayT, typename Write>
+bool WriteTetrahedra(vtkIdType numTets, vtkUnstructuredGrid* output, Write write,
+  double& maxError, std::string& error)
+{
+  auto connectivity = Uninitialized<IdArrayT>(nullptr, 4 * numTets, 1, error);
+  auto offsets = connectivity ? Uninitialized<IdArrayT>(nullptr, numTets + 1, 1, error) : nullptr;
+  auto depths =
+    offsets ? Uninitialized<vtkUnsignedCharArray>("BisectionDepth", numTets, 1, error) : nullptr;
+  auto errors =
+    depths ? Uninitialized<vtkFloatArray>("ApproximationError", numTets, 1, error) : nullptr;
+  auto types = errors ? Uninitialized<vtkUnsignedCharArray>(nullptr, numTets, 1, error) : nullptr;
+  if (!types)
+  {
+    return false;
+  }
+  // vtkTypeInt64 is long long, the bridge's i64 is std::int64_t (long): the same 64-bit integers.
+  using Id = std::conditional_t<sizeof(typename IdArrayT::ValueType) == 4, std::int32_t,
+    std::int64_t>;
+  static_assert(sizeof(Id) == sizeof(typename IdArrayT::ValueType), "ids of the same width");
+  maxError = write(
+    rust::Slice<Id>(reinterpret_cast<Id*>(connectivity->GetPointer(0)), 4 * numTets),
+    rust::Slice<Id>(reinterpret_cast<Id*>(offsets->GetPointer(0)), numTets + 1),
+    rust::Slice<std::uint8_t>(depths->GetPointer(0), numTets),
+    rust::Slice<float>(errors->GetPointer(0), numTets));
+  types->FillValue(VTK_TETRA);
+  vtkNew<vtkCellArray> cells;
+  cells->SetData(offsets, connectivity);
+  output->SetCells(types, cells);
+  output->GetCellData()->AddArray(depths);
+  output->GetCellData()->AddArray(errors);
+  return true;
+}
+
+// Whether `a` and `b` are arrays of the same name (or both unnamed), type and components.
+bool SameKind(vtkAbstractArray* a, vtkAbstractArray* b)
+{
+  const char* na = a->GetName();
+  const char* nb = b->GetName();
+  const bool sameName = (!na && !nb) || (na && nb && std::strcmp(na, nb) == 0);
+  return sameName && a->GetDataType() == b->GetDataType() &&
+    a->GetNumberOfComponents() == b->GetNumberOfComponents();
+}
+} // namespace
+
+bool PlanToUnstructuredGrid(const bridge::Hierarchy& hierarchy, const bridge::MeshPlan& plan,
+  vtkImageData* input, vtkUnstructuredGrid* output, double& maxError, std::string& error)
+{
+  const vtkIdType numPoints = static_cast<vtkIdType>(plan.number_of_points());
+  const vtkIdType numTets = static_cast<vtkIdType>(plan.number_of_tetrahedra());
+  try
+  {
+    // Points at the exact input sample positions (the formula vtkImageData uses for its bounds).
+    auto xyz = Uninitialized<vtkDoubleArray>(nullptr, numPoints, 3, error);
+    if (!xyz)
+    {
+      return false;
+    }
+    const ImageGeometry image(input);
+    bridge::PointFrame frame;
+    for (int axis = 0; axis < 3; ++axis)
+    {
+      frame.origin[axis] = image.Origin[axis];
+      frame.first_index[axis] = image.Extent[2 * axis];
+      frame.spacing[axis] = image.Spacing[axis];
+    }
+    plan.write_points(frame, rust::Slice<double>(xyz->GetPointer(0), 3 * numPoints));
+    vtkNew<vtkPoints> points;
+    points->SetData(xyz);
+    output->SetPoints(points);
+
+    // Every input point array, as CopyData would pass it (same arrays, attributes and
+    // information), filled by the core from the matching input points.
+    vtkPointData* inPD = input->GetPointData();
+    vtkPointData* outPD = output->GetPointData();
+    outPD->CopyAllocate(inPD, numPoints);
+    vtkNew<vtkIdList> pointIds; // only for arrays that are not one contiguous block
+    for (int i = 0, k = 0; k < outPD->GetNumberOfArrays(); ++i)
+    {
+      vtkAbstractArray* in = inPD->GetAbstractArray(i);
+      vtkAbstractArray* out = outPD->GetAbstractArray(k);
+      if (!in)
+      {
+        error = "cannot match the output point arrays with the input's";
+        return false;
+      }
+      if (!SameKind(in, out))
+      {
+        continue; // not passed through (e.g. global ids, as CopyData)
+      }
+      ++k;
+      const vtkIdType values = numPoints * out->GetNumberOfComponents();
+      if (!out->SetNumberOfValues(values))
+      {
+        error = "cannot allocate " + std::to_string(values) + " values for point array " +
+          (out->GetName() ? out->GetName() : "(unnamed)");
+        return false;
+      }
+      vtkDataArray* data = vtkDataArray::SafeDownCast(in);
+      if (data && data->HasStandardMemoryLayout() && numPoints > 0)
+      {
+        const std::size_t tupleBytes =
+          static_cast<std::size_t>(data->GetDataTypeSize()) * data->GetNumberOfComponents();
+        const auto* source = static_cast<const std::uint8_t*>(data->GetVoidPointer(0));
+        plan.gather_point_values(
+          rust::Slice<const std::uint8_t>(source, tupleBytes * data->GetNumberOfTuples()),
+          tupleBytes,
+          rust::Slice<std::uint8_t>(
+            static_cast<std::uint8_t*>(out->GetVoidPointer(0)), tupleBytes * numPoints));
+      }
+      else if (numPoints > 0)
+      {
+        if (pointIds->GetNumberOfIds() != numPoints)
+        {
+          pointIds->SetNumberOfIds(numPoints);
+          plan.write_point_ids(rust::Slice<std::int64_t>(
+            reinterpret_cast<std::int64_t*>(pointIds->GetPointer(0)), numPoints));
+        }
+        in->GetTuples(pointIds, out);
+      }
+    }
+
+    // Tetrahedra with 32-bit ids when the points and the offsets allow (half the memory).
+    if (numPoints <= std::numeric_limits<vtkTypeInt32>::max() &&
+      4 * numTets <= std::numeric_limits<vtkTypeInt32>::max())
+    {
+      return WriteTetrahedra<vtkTypeInt32Array>(
+        numTets, output,
+        [&](rust::Slice<std::int32_t> c, rust::Slice<std::int32_t> o,
+          rust::Slice<std::uint8_t> d, rust::Slice<float> e)
+        { return hierarchy.write_tets_i32(plan, c, o, d, e); },
+        maxError, error);
+    }
+    return WriteTetrahedra<vtkTypeInt64Array>(
+      numTets, output,
+      [&](rust::Slice<std::int64_t> c, rust::Slice<std::int64_t> o, rust::Slice<std::uint8_t> d,
+        rust::Slice<float> e) { return hierarchy.write_tets_i64(plan, c, o, d, e); },
+      maxError, error);
+  }
+  catch (const rust::Error& e)
+  {
+    error = e.what();
+    return false;
   }
 }
 

@@ -29,6 +29,15 @@ namespace vtkDiamonds
 void MeshToUnstructuredGrid(
   bridge::Mesh& mesh, vtkImageData* input, const char* errorName, vtkUnstructuredGrid* output);
 
+// Fills `output` with the tetrahedra of `plan` (planned by `hierarchy`) over `input`, written by the
+// core straight into the VTK arrays, each allocated here once with its exact size: connectivity and
+// offsets (32-bit when the ids fit), points at the sample positions, every input point array passed
+// through, cell data "BisectionDepth" and "ApproximationError". Returns false with `error` set (and
+// `output` left incomplete: the caller initializes it again) when an array cannot be allocated or the
+// core fails; else sets `maxError` to the largest error.
+bool PlanToUnstructuredGrid(const bridge::Hierarchy& hierarchy, const bridge::MeshPlan& plan,
+  vtkImageData* input, vtkUnstructuredGrid* output, double& maxError, std::string& error);
+
 // A named array of `n` values copied from `values`.
 template <typename ArrayT>
 vtkSmartPointer<ArrayT> NamedArray(const char* name, vtkIdType n, const void* values)

@@ -124,8 +124,9 @@ def field_value(data, name):
 
 
 def point_arrays(data):
+    """The numeric point arrays of `data` by name (string arrays are checked where they are made)."""
     pd = data.GetPointData()
-    return {pd.GetArrayName(i): pd.GetArray(i) for i in range(pd.GetNumberOfArrays())}
+    return {pd.GetArrayName(i): pd.GetArray(i) for i in range(pd.GetNumberOfArrays()) if pd.GetArray(i)}
 
 
 def mesh_arrays(ug):

@@ -8,6 +8,8 @@ spacing not trivial) and on a uint8 volume (40 x 31 x 26).
 import os
 import sys
 
+import numpy as np
+
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import diamonds_checks as dc  # noqa: E402
 
@@ -38,7 +40,14 @@ odd = dc.programmable_image(
     simple,
     (33, 20, 17),
     "add('front', np.tanh(4.0 * (x + 0.5 * y - 0.3 * z - 3.0)) + 0.05 * np.sin(x) * np.cos(z), scalars=True)\n"
-    "add('ramp', 2.0 * x - y + 0.5 * z)\n",
+    "add('ramp', 2.0 * x - y + 0.5 * z)\n"
+    "add('velocity', np.stack([x, 2.0 * y, z - 1.0], axis=1))\n"
+    "labels = vtk.vtkStringArray()\n"
+    "labels.SetName('label')\n"
+    "labels.SetNumberOfValues(x.size)\n"
+    "for i in range(x.size):\n"
+    "    labels.SetValue(i, str(i % 97))\n"
+    "out.GetPointData().AddArray(labels)\n",
     origin=(-3.0, 1.5, 10.0),
     spacing=(0.25, 0.5, 0.75),
 )
@@ -47,6 +56,18 @@ odd_filter = simple.AdaptiveTetrahedra(Input=odd)
 for tol in (0.0, 0.01, 0.1):
     odd_filter.Tolerance = tol
     dc.check_mesh(odd_image, dc.fetch(odd_filter), "front", tol, f"33x20x17 float64 tol {tol:g}")
+# A string array (no contiguous values: passed through by point id) keeps each point's value.
+odd_mesh = dc.fetch(odd_filter)
+odd_points, _, _ = dc.mesh_arrays(odd_mesh)
+ijk = np.rint((odd_points - np.array([-3.0, 1.5, 10.0])) / np.array([0.25, 0.5, 0.75])).astype(np.int64)
+lin = ijk[:, 0] + 33 * (ijk[:, 1] + 20 * ijk[:, 2])
+labels = odd_mesh.GetPointData().GetAbstractArray("label")
+dc.check(
+    labels is not None
+    and labels.GetNumberOfValues() == len(lin)
+    and [labels.GetValue(k) for k in range(len(lin))] == [str(i % 97) for i in lin],
+    "string point array 'label' passed through unchanged",
+)
 # The linear 'ramp' is reproduced exactly by the coarsest mesh.
 odd_filter.Scalars = ["POINTS", "ramp"]
 odd_filter.Tolerance = 0.0

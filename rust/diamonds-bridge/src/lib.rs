@@ -13,8 +13,10 @@
 //!   isosurface, which also reads the samples again);
 //! - out: an opaque [`Hierarchy`] the filters keep between executions (`rust::Box<Hierarchy>`), an
 //!   opaque [`IsoState`] kept next to it (the adaptive mesh of the last isosurface query, see
-//!   `diamonds::IsoState`), an opaque [`Mesh`] and an opaque [`Surface`] whose arrays C++ reads as
-//!   slices;
+//!   `diamonds::IsoState`), an opaque [`MeshPlan`] (a query's mesh, counted) whose arrays the core
+//!   writes straight into the VTK arrays C++ allocates with their exact sizes and hands over as
+//!   mutable slices (no copy on either side), an opaque [`Mesh`] (carrier tetrahedra) and an opaque
+//!   [`Surface`] whose arrays C++ reads as slices;
 //! - material interfaces ([`material`], for `vtkMaterialInterfaceApproximation`): volume fractions
 //!   and fields as `f32` slices added to a [`MaterialBuilder`], optional interface meshes as a
 //!   triangle soup, out an opaque [`MaterialModel`] (kept between executions), [`MaterialMesh`] and
@@ -69,6 +71,15 @@ mod ffi {
         use_region_of_interest: bool,
         /// World box `[xmin, xmax, ymin, ymax, zmin, zmax]`: refined to `tolerance` inside, coarse outside.
         region_of_interest: [f64; 6],
+    }
+
+    /// Where the points of a mesh go in world space: the point of grid index `(i, j, k)` (relative to
+    /// the grid of the build) is at `origin + (first_index + (i, j, k)) × spacing` per axis — for a
+    /// vtkImageData, its origin, the minima of its extent and its spacing (the formula of its bounds).
+    struct PointFrame {
+        origin: [f64; 3],
+        first_index: [i64; 3],
+        spacing: [f64; 3],
     }
 
     /// One isosurface query (see `diamonds::IsoQuery`); the isovalues are passed separately.
@@ -190,8 +201,7 @@ mod ffi {
         /// Full (`build_hierarchy`: per-diamond records, serves `query` and `isosurface`) or
         /// isosurface-only (`build_isosurface_hierarchy`: serves `isosurface` alone).
         type Hierarchy;
-        /// The adaptive tetrahedral mesh returned by one query, or the tetrahedra carrying an
-        /// isosurface (`take_carrier`).
+        /// The tetrahedra carrying an isosurface (`take_carrier`).
         type Mesh;
         /// The triangles of one isosurface query (and, when asked, the tetrahedra carrying them).
         type Surface;
@@ -215,8 +225,51 @@ mod ffi {
             scalar_type: ScalarType,
             samples: &[u8],
         ) -> Result<Box<Hierarchy>>;
-        /// Extracts the mesh for `query`; cheap compared with the build.
-        fn query(self: &Hierarchy, query: &QuerySpec) -> Result<Box<Mesh>>;
+        /// The adaptive tetrahedral mesh of one query, refined and counted but not written: the
+        /// caller allocates its arrays exactly and has the core write them (`write_tets_*`,
+        /// `write_points`, `gather_point_values`, `write_point_ids`), in parallel, with no copy in
+        /// between. It belongs to the hierarchy that planned it.
+        type MeshPlan;
+
+        /// Refines for `query` and counts the mesh; cheap compared with the build.
+        fn plan_mesh(self: &Hierarchy, query: &QuerySpec) -> Result<Box<MeshPlan>>;
+        /// Number of tetrahedra of the planned mesh.
+        fn number_of_tetrahedra(self: &MeshPlan) -> usize;
+        /// Number of points of the planned mesh.
+        fn number_of_points(self: &MeshPlan) -> usize;
+        /// Writes the tetrahedra of `plan` (planned by this hierarchy) with 32-bit ids: 4 point
+        /// indices each (positively oriented, VTK_TETRA order), offsets `4 i` (tets + 1 of them),
+        /// bisection depths and errors; returns the largest error. Every slice must have exactly the
+        /// size the mesh needs (4 × tets, tets + 1, tets, tets).
+        fn write_tets_i32(
+            self: &Hierarchy,
+            plan: &MeshPlan,
+            connectivity: &mut [i32],
+            offsets: &mut [i32],
+            depths: &mut [u8],
+            errors: &mut [f32],
+        ) -> Result<f64>;
+        /// `write_tets_i32` with 64-bit ids.
+        fn write_tets_i64(
+            self: &Hierarchy,
+            plan: &MeshPlan,
+            connectivity: &mut [i64],
+            offsets: &mut [i64],
+            depths: &mut [u8],
+            errors: &mut [f32],
+        ) -> Result<f64>;
+        /// Writes three world coordinates per point (3 × points values).
+        fn write_points(self: &MeshPlan, frame: &PointFrame, xyz: &mut [f64]) -> Result<()>;
+        /// Copies a point array through: `source` holds one tuple of `tuple_bytes` bytes per grid
+        /// point, `target` gets one per mesh point (points × `tuple_bytes` bytes).
+        fn gather_point_values(
+            self: &MeshPlan,
+            source: &[u8],
+            tuple_bytes: usize,
+            target: &mut [u8],
+        ) -> Result<()>;
+        /// Writes the grid index of each point (for arrays that cannot be gathered as bytes).
+        fn write_point_ids(self: &MeshPlan, ids: &mut [i64]) -> Result<()>;
         /// Bytes of per-diamond metadata held by the hierarchy (0 for an isosurface-only one).
         fn metadata_bytes(self: &Hierarchy) -> usize;
         /// Extracts the isosurfaces of `isovalues`. `samples` (of `scalar_type`) must be the very
@@ -389,7 +442,7 @@ mod ffi {
 
 pub use ffi::{
     ArrayAssociation, ArraySelection, ArrayType, GridSpec, InputArrayInfo, IsoSpec,
-    MaterialQuerySpec, OutputArrayInfo, PlaneSpec, QuerySpec, ScalarType,
+    MaterialQuerySpec, OutputArrayInfo, PlaneSpec, PointFrame, QuerySpec, ScalarType,
 };
 
 pub mod material;
@@ -417,6 +470,13 @@ pub struct IsoState {
 
 /// Opaque handle on a [`TetMesh`] for C++, checked for consistency before it is handed over.
 pub struct Mesh(TetMesh);
+
+/// Opaque handle on a [`diamonds::mesh::MeshPlan`] for C++, with the identity of the [`Hierarchy`]
+/// that planned it (its errors are that hierarchy's).
+pub struct MeshPlan {
+    plan: diamonds::mesh::MeshPlan,
+    hierarchy: u64,
+}
 
 /// Opaque handle on a [`diamonds::IsoSurface`] for C++, checked for consistency before it is handed
 /// over. The carrier mesh is moved out of the surface into a [`Mesh`] so that C++ reads it through
@@ -564,9 +624,9 @@ fn build_hierarchy(
 }
 
 impl Hierarchy {
-    /// Runs `query` on the hierarchy and checks the mesh before C++ indexes with it.
-    pub fn query(&self, query: &QuerySpec) -> Result<Box<Mesh>, String> {
-        guard("extracting the adaptive mesh", || {
+    /// Refines for `query` and counts the mesh ([`diamonds::Hierarchy::plan`]).
+    pub fn plan_mesh(&self, query: &QuerySpec) -> Result<Box<MeshPlan>, String> {
+        guard("refining the adaptive mesh", || {
             let query = Query {
                 tolerance: query.tolerance,
                 max_tetrahedra: query.max_tetrahedra,
@@ -574,10 +634,53 @@ impl Hierarchy {
                     .use_region_of_interest
                     .then_some(query.region_of_interest),
             };
-            let mesh = self.hierarchy.query(&query).map_err(|e| e.to_string())?;
-            check_core(check_mesh_arrays(&mesh, self.hierarchy.grid().len()))?;
-            Ok(Box::new(Mesh(mesh)))
+            let plan = self.hierarchy.plan(&query).map_err(|e| e.to_string())?;
+            Ok(Box::new(MeshPlan {
+                plan,
+                hierarchy: self.id,
+            }))
         })
+    }
+
+    /// Writes the tetrahedra of `plan` into the caller's arrays ([`diamonds::Hierarchy::write_tets`]).
+    pub fn write_tets<I: diamonds::mesh::Index>(
+        &self,
+        plan: &MeshPlan,
+        connectivity: &mut [I],
+        offsets: &mut [I],
+        depths: &mut [u8],
+        errors: &mut [f32],
+    ) -> Result<f64, String> {
+        guard("writing the adaptive mesh", || {
+            if plan.hierarchy != self.id {
+                return Err("the mesh plan belongs to another hierarchy".into());
+            }
+            self.hierarchy
+                .write_tets(&plan.plan, connectivity, offsets, depths, errors)
+                .map_err(|e| e.to_string())
+        })
+    }
+
+    fn write_tets_i32(
+        &self,
+        plan: &MeshPlan,
+        connectivity: &mut [i32],
+        offsets: &mut [i32],
+        depths: &mut [u8],
+        errors: &mut [f32],
+    ) -> Result<f64, String> {
+        self.write_tets(plan, connectivity, offsets, depths, errors)
+    }
+
+    fn write_tets_i64(
+        &self,
+        plan: &MeshPlan,
+        connectivity: &mut [i64],
+        offsets: &mut [i64],
+        depths: &mut [u8],
+        errors: &mut [f32],
+    ) -> Result<f64, String> {
+        self.write_tets(plan, connectivity, offsets, depths, errors)
     }
 
     fn metadata_bytes(&self) -> usize {
@@ -645,6 +748,60 @@ impl Hierarchy {
 /// out-of-bounds write in C++.
 pub(crate) fn check_core(outcome: Result<(), String>) -> Result<(), String> {
     outcome.map_err(|e| format!("internal error in the Diamonds core: {e}"))
+}
+
+impl MeshPlan {
+    fn number_of_tetrahedra(&self) -> usize {
+        self.plan.tets()
+    }
+
+    fn number_of_points(&self) -> usize {
+        self.plan.points()
+    }
+
+    /// Writes the points at `frame`'s positions ([`diamonds::mesh::MeshPlan::write_points`]).
+    pub fn write_points(&self, frame: &PointFrame, xyz: &mut [f64]) -> Result<(), String> {
+        guard("writing the mesh's points", || {
+            let [nx, ny, _] = self.plan.grid_dims();
+            // vtkImageData's formula for its bounds, in its order of operations.
+            let position = |i: usize| {
+                let ijk = [i % nx, i / nx % ny, i / (nx * ny)];
+                std::array::from_fn(|a| {
+                    frame.origin[a]
+                        + (frame.first_index[a] as f64 + ijk[a] as f64) * frame.spacing[a]
+                })
+            };
+            self.plan
+                .write_points(position, xyz)
+                .map_err(|e| e.to_string())
+        })
+    }
+
+    /// Copies a point array through ([`diamonds::mesh::MeshPlan::gather`]).
+    pub fn gather_point_values(
+        &self,
+        source: &[u8],
+        tuple_bytes: usize,
+        target: &mut [u8],
+    ) -> Result<(), String> {
+        guard("passing a point array through", || {
+            self.plan
+                .gather(source, tuple_bytes, target)
+                .map_err(|e| e.to_string())
+        })
+    }
+
+    /// Writes the grid index of each point ([`diamonds::mesh::MeshPlan::write_point_ids`]).
+    pub fn write_point_ids(&self, ids: &mut [i64]) -> Result<(), String> {
+        guard("writing the mesh's point ids", || {
+            self.plan.write_point_ids(ids).map_err(|e| e.to_string())
+        })
+    }
+
+    /// The plan as the core returned it.
+    pub fn inner(&self) -> &diamonds::mesh::MeshPlan {
+        &self.plan
+    }
 }
 
 impl Mesh {
@@ -805,14 +962,55 @@ mod tests {
             use_region_of_interest: false,
             region_of_interest: [0.0; 6],
         };
-        let mesh = h.query(&query).unwrap();
-        let n = mesh.tets().len() / 4;
-        assert!(n > 0);
-        assert_eq!(mesh.depths().len(), n);
-        assert_eq!(mesh.errors().len(), n);
-        assert_eq!(mesh.max_error(), 0.0);
-        let ids = mesh.point_ids();
-        assert!(ids.len() <= 60 && ids.iter().all(|&id| id < 60));
+        let plan = h.plan_mesh(&query).unwrap();
+        let (n, np) = (plan.number_of_tetrahedra(), plan.number_of_points());
+        assert!(n > 0 && np <= 60);
+        // What C++ allocates and has written equals the core's own mesh.
+        let mesh = h.hierarchy.query(&Query::tolerance(0.0)).unwrap();
+        let (mut conn, mut offsets) = (vec![0i32; 4 * n], vec![0i32; n + 1]);
+        let (mut depths, mut errors) = (vec![0u8; n], vec![0f32; n]);
+        let max = h
+            .write_tets_i32(&plan, &mut conn, &mut offsets, &mut depths, &mut errors)
+            .unwrap();
+        assert_eq!(max, 0.0);
+        assert!(conn
+            .iter()
+            .zip(mesh.tets.as_flattened())
+            .all(|(&a, &b)| a as u32 == b));
+        assert_eq!((depths, errors), (mesh.depths.clone(), mesh.errors.clone()));
+        assert_eq!(offsets[n], 4 * n as i32);
+        let mut ids = vec![0i64; np];
+        plan.write_point_ids(&mut ids).unwrap();
+        assert!(ids
+            .iter()
+            .zip(&mesh.point_ids)
+            .all(|(&a, &b)| a as usize == b));
+        // Extent minima (1, 0, 2): the points are shifted by one and two spacings.
+        let frame = PointFrame {
+            origin: grid.origin,
+            first_index: [1, 0, 2],
+            spacing: grid.spacing,
+        };
+        let mut xyz = vec![0.0; 3 * np];
+        plan.write_points(&frame, &mut xyz).unwrap();
+        for (p, q) in xyz.chunks(3).zip(&mesh.points) {
+            assert_eq!([p[0] - 0.5, p[1], p[2] - 4.0], *q);
+        }
+        let bytes: &[u8] = bytemuck::cast_slice(&values);
+        let mut passed = vec![0f64; np];
+        plan.gather_point_values(bytes, 8, bytemuck::cast_slice_mut(&mut passed))
+            .unwrap();
+        assert!(passed
+            .iter()
+            .zip(&ids)
+            .all(|(&v, &i)| v == values[i as usize]));
+        // Wrong sizes and another hierarchy's plan are errors, not writes out of bounds.
+        assert!(plan.write_points(&frame, &mut xyz[1..]).is_err());
+        let other = build_with(&grid, ScalarType::F64, bytes, &mut |_| true).unwrap();
+        let err = other
+            .write_tets_i64(&plan, &mut [0; 0], &mut [], &mut [], &mut [])
+            .unwrap_err();
+        assert!(err.contains("another hierarchy"), "{err}");
     }
 
     #[test]
@@ -830,7 +1028,7 @@ mod tests {
             use_region_of_interest: false,
             region_of_interest: [0.0; 6],
         };
-        assert!(h.query(&negative).err().unwrap().contains("tolerance"));
+        assert!(h.plan_mesh(&negative).err().unwrap().contains("tolerance"));
     }
 
     #[test]
@@ -987,7 +1185,7 @@ mod tests {
         assert_eq!(iso.metadata_bytes(), 0);
         assert_eq!(full.metadata_bytes(), 4 * values.len());
         let err = iso
-            .query(&QuerySpec {
+            .plan_mesh(&QuerySpec {
                 tolerance: 0.1,
                 max_tetrahedra: 0,
                 use_region_of_interest: false,

@@ -1,14 +1,21 @@
 //! Extraction of the current mesh: the leaves of the split set inside the domain, with points
 //! deduplicated by lattice index (every output point is an input sample).
+//!
+//! The mesh is written where the caller wants it, once, in parallel ([`MeshPlan`]): a counting walk
+//! sizes every output array exactly and gives each subtree of the split set its own slice of them; a
+//! second walk writes the tetrahedra into those slices. The points need no walk: every vertex of the
+//! mesh is a root-cube corner or the midpoint of a bisection, i.e. the central vertex of a split
+//! diamond (LEB adds one vertex per split, Gregorski §3), and every split diamond's central vertex in
+//! the domain is a vertex of the leaves around it; so the split set's bitset over the domain, plus the
+//! root corners in it, *is* the set of used points, and a point's id is its rank in it.
 
 use crate::diamond::{bisect, signed_volume6, Diamond};
 use crate::lattice::{Lattice, Placement, Tet};
 use crate::memory;
 use crate::refine::SplitSet;
 use crate::volume::Grid;
-use crate::Result;
+use crate::{Error, Result};
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicU64, Ordering};
 
 /// The current mesh of a query: deduplicated input points and positively oriented tetrahedra.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -34,20 +41,18 @@ fn is_split(split: &SplitSet, t: &Tet) -> bool {
     Diamond::of_tet(t).is_some_and(|d| split.contains(d))
 }
 
-/// Visits the inside leaves below `t`, depth first.
-fn walk(lattice: &Lattice, split: &SplitSet, t: Tet, visit: &mut dyn FnMut(&Tet)) {
-    walk_pruned(lattice, split, t, &|_| false, visit);
-}
-
-/// [`walk`], skipping the subtrees of the tetrahedra for which `prune` holds.
+/// Visits the inside leaves below `t`, depth first, skipping the subtrees of the tetrahedra for
+/// which `prune` holds.
+#[inline]
 fn walk_pruned(
     lattice: &Lattice,
     split: &SplitSet,
     t: Tet,
-    prune: &dyn Fn(&Tet) -> bool,
-    visit: &mut dyn FnMut(&Tet),
+    prune: impl Fn(&Tet) -> bool,
+    mut visit: impl FnMut(&Tet),
 ) {
-    let mut stack = vec![t];
+    let mut stack = Vec::with_capacity(4 * lattice.levels as usize + 4);
+    stack.push(t);
     while let Some(t) = stack.pop() {
         match lattice.place(&t) {
             Placement::Outside => {}
@@ -57,6 +62,12 @@ fn walk_pruned(
             Placement::Straddling => unreachable!("straddling diamonds are split in the base mesh"),
         }
     }
+}
+
+/// Visits the inside leaves below `t`, depth first.
+#[inline]
+fn walk(lattice: &Lattice, split: &SplitSet, t: Tet, visit: impl FnMut(&Tet)) {
+    walk_pruned(lattice, split, t, |_| false, visit);
 }
 
 /// Subtrees of the split set, in order, enough for parallel work: the tetrahedra of its first levels
@@ -104,7 +115,7 @@ pub(crate) fn leaves_below<X>(
     keep: &dyn Fn(&Tet) -> Option<X>,
 ) -> Vec<X> {
     let mut out = Vec::new();
-    walk_pruned(lattice, split, t, prune, &mut |t| out.extend(keep(t)));
+    walk_pruned(lattice, split, t, prune, |t| out.extend(keep(t)));
     out
 }
 
@@ -114,100 +125,454 @@ pub(crate) fn count_tets(lattice: &Lattice, split: &SplitSet) -> usize {
         .into_par_iter()
         .map(|t| {
             let mut n = 0;
-            walk(lattice, split, t, &mut |_| n += 1);
+            walk(lattice, split, t, |_| n += 1);
             n
         })
         .sum()
 }
 
-/// Builds the output mesh of the split set on `grid`, each tetrahedron with the `error` of its
-/// diamond, in two parallel walks, with no intermediate copy of the tetrahedra: the first counts
-/// each subtree's leaves and marks the points they use, the second writes each subtree's leaves
-/// into its own slice of the output.
-pub(crate) fn extract(
-    lattice: &Lattice,
-    grid: &Grid,
-    split: &SplitSet,
-    error: impl Fn(Diamond) -> f64 + Sync,
-) -> Result<TetMesh> {
-    let roots = subtrees(lattice, split);
-    // Pass 1: counts, and used points as a bitset over the input points.
-    let words = grid.len().div_ceil(64);
-    let mut used = memory::with_capacity(words, "the mesh's point set")?;
-    used.extend((0..words).map(|_| AtomicU64::new(0)));
-    let counts: Vec<usize> = roots
-        .par_iter()
-        .map(|&t| {
-            let mut n = 0;
-            walk(lattice, split, t, &mut |t| {
-                n += 1;
-                for p in t {
-                    let i = lattice.index(*p);
-                    used[i / 64].fetch_or(1 << (i % 64), Ordering::Relaxed);
-                }
-            });
-            n
-        })
-        .collect();
-    // Point ids by rank in the bitset.
-    let used: Vec<u64> = used.into_iter().map(AtomicU64::into_inner).collect();
-    let mut rank = memory::with_capacity(used.len(), "the mesh's point ids")?;
-    let mut total = 0u32;
-    for w in &used {
-        rank.push(total);
-        total += w.count_ones();
+/// A point or cell index type of the caller's output arrays (VTK takes 32- or 64-bit signed ids; the
+/// core's own [`TetMesh`] uses `u32`).
+pub trait Index: Copy + Send + Sync {
+    /// `i` as this type; the caller chose a type wide enough for every value written
+    /// ([`MeshPlan::points`] for the connectivity, 4 × [`MeshPlan::tets`] for offsets).
+    fn from_usize(i: usize) -> Self;
+}
+
+macro_rules! index_types {
+    ($($t:ty),*) => {$(
+        impl Index for $t {
+            #[inline]
+            fn from_usize(i: usize) -> Self {
+                i as $t
+            }
+        }
+    )*};
+}
+index_types!(u32, i32, i64, usize);
+
+/// `slice` cut into consecutive pieces of `lens[i] × per` elements.
+fn pieces<'a, T>(mut slice: &'a mut [T], lens: &[usize], per: usize) -> Vec<&'a mut [T]> {
+    let mut out = Vec::with_capacity(lens.len());
+    for &n in lens {
+        let (piece, rest) = slice.split_at_mut(n * per);
+        out.push(piece);
+        slice = rest;
     }
-    let id = |i: usize| rank[i / 64] + (used[i / 64] & ((1u64 << (i % 64)) - 1)).count_ones();
-    let mut point_ids = memory::with_capacity(total as usize, "the mesh's point ids")?;
-    for (w, &bits) in used.iter().enumerate() {
-        let mut b = bits;
-        while b != 0 {
-            point_ids.push(w * 64 + b.trailing_zeros() as usize);
-            b &= b - 1;
+    out
+}
+
+/// The mesh of one query, counted but not written yet: its split set, its subtrees with their
+/// numbers of tetrahedra, and its points (a bitset over the grid's points with the rank of each
+/// word). [`MeshPlan::write_tets`], [`MeshPlan::write_points`] and [`MeshPlan::gather`] write it into
+/// arrays of exactly [`MeshPlan::tets`] and [`MeshPlan::points`] elements, in parallel, each output
+/// array once; [`MeshPlan::to_mesh`] into a [`TetMesh`]. The output is the same whatever the thread count.
+#[derive(Clone, Debug)]
+pub struct MeshPlan {
+    lattice: Lattice,
+    split: SplitSet,
+    roots: Vec<Tet>,
+    /// Number of inside leaves below each root.
+    counts: Vec<usize>,
+    tets: usize,
+    /// Used points, one bit per grid point (x fastest).
+    used: Vec<u64>,
+    /// Used points before each word of `used`.
+    rank: Vec<u32>,
+    points: usize,
+}
+
+/// Words of the point bitset per parallel task.
+const WORDS_PER_TASK: usize = 4096;
+
+impl MeshPlan {
+    /// Counts the mesh of `split` on `lattice`: one parallel walk for the tetrahedra, the bitset of
+    /// the split set for the points.
+    pub(crate) fn new(lattice: &Lattice, split: SplitSet) -> Result<Self> {
+        let roots = subtrees(lattice, &split);
+        let mut counts = memory::with_capacity(roots.len(), "the mesh's subtrees")?;
+        counts.par_extend(roots.par_iter().map(|&t| {
+            let mut n = 0;
+            walk(lattice, &split, t, |_| n += 1);
+            n
+        }));
+        let mut used = memory::copied(split.domain_bits(), "the mesh's point set")?;
+        // The root-cube corners in the domain are vertices of the six root tetrahedra's leaves.
+        for c in 0..8 {
+            let p = glam::IVec3::new(c & 1, c >> 1 & 1, c >> 2) * lattice.size();
+            if lattice.in_domain(p) {
+                let i = lattice.index(p);
+                used[i / 64] |= 1 << (i % 64);
+            }
+        }
+        let mut rank = memory::with_capacity(used.len(), "the mesh's point ids")?;
+        let mut points = 0usize;
+        for w in &used {
+            rank.push(points as u32);
+            points += w.count_ones() as usize;
+        }
+        Ok(Self {
+            lattice: *lattice,
+            tets: counts.iter().sum(),
+            split,
+            roots,
+            counts,
+            used,
+            rank,
+            points,
+        })
+    }
+
+    /// Number of tetrahedra.
+    pub fn tets(&self) -> usize {
+        self.tets
+    }
+
+    /// Number of points.
+    pub fn points(&self) -> usize {
+        self.points
+    }
+
+    /// The lattice the mesh lives on.
+    pub fn lattice(&self) -> &Lattice {
+        &self.lattice
+    }
+
+    /// Points per axis of the grid (the lattice's domain) whose indices the plan's points are.
+    pub fn grid_dims(&self) -> [usize; 3] {
+        let d = self.lattice.hi + glam::IVec3::ONE;
+        [d.x as usize, d.y as usize, d.z as usize]
+    }
+
+    /// The id of used point `i` (grid index): its rank among the used points.
+    #[inline]
+    fn id(&self, i: usize) -> usize {
+        let (w, b) = (i / 64, i % 64);
+        self.rank[w] as usize + (self.used[w] & ((1u64 << b) - 1)).count_ones() as usize
+    }
+
+    /// Checks that `len` elements are `per` per `count` items of `what`.
+    fn check_len(len: usize, count: usize, per: usize, what: &str) -> Result<()> {
+        if len != count * per {
+            return Err(Error::Parameter(format!(
+                "{what}: room for {len} values, the mesh needs {}",
+                count * per
+            )));
+        }
+        Ok(())
+    }
+
+    /// Writes the tetrahedra, in parallel: `connectivity` (4 point ids each, positively oriented,
+    /// VTK_TETRA order), `offsets` (`4 i` for tetrahedron `i`, then `4 × tets`; may be empty),
+    /// `depths` (bisection depth) and `errors` (`error` of each tetrahedron's diamond, 0 for
+    /// unit-cube tetrahedra, which reproduce their samples). Returns the largest error. Every array
+    /// must have exactly the size the mesh needs.
+    pub fn write_tets<I: Index>(
+        &self,
+        error: impl Fn(Diamond) -> f64 + Sync,
+        connectivity: &mut [I],
+        offsets: &mut [I],
+        depths: &mut [u8],
+        errors: &mut [f32],
+    ) -> Result<f64> {
+        let n = self.tets;
+        Self::check_len(connectivity.len(), n, 4, "connectivity")?;
+        Self::check_len(depths.len(), n, 1, "depths")?;
+        Self::check_len(errors.len(), n, 1, "errors")?;
+        if !offsets.is_empty() {
+            Self::check_len(offsets.len(), n + 1, 1, "offsets")?;
+            offsets
+                .par_iter_mut()
+                .enumerate()
+                .for_each(|(i, o)| *o = I::from_usize(4 * i));
+        }
+        let lattice = &self.lattice;
+        let jobs: Vec<_> = self
+            .roots
+            .iter()
+            .zip(pieces(connectivity, &self.counts, 4))
+            .zip(pieces(depths, &self.counts, 1))
+            .zip(pieces(errors, &self.counts, 1))
+            .map(|(((root, c), d), e)| (*root, c, d, e))
+            .collect();
+        let max = jobs
+            .into_par_iter()
+            .map(|(root, c, d, e)| {
+                let mut k = 0;
+                let mut max = 0.0f32;
+                walk(lattice, &self.split, root, |leaf| {
+                    let mut leaf = *leaf;
+                    if signed_volume6(&leaf) < 0 {
+                        leaf.swap(2, 3);
+                    }
+                    // A unit-cube tetrahedron is one bisection below the finest diamonds and
+                    // reproduces its samples.
+                    let (depth, err) = match Diamond::of_tet(&leaf) {
+                        Some(dm) => (dm.depth(lattice), error(dm) as f32),
+                        None => (3 * lattice.levels, 0.0),
+                    };
+                    for (slot, p) in c[4 * k..4 * k + 4].iter_mut().zip(leaf) {
+                        *slot = I::from_usize(self.id(lattice.index(p)));
+                    }
+                    d[k] = depth as u8;
+                    e[k] = err;
+                    max = max.max(err);
+                    k += 1;
+                });
+                max
+            })
+            .reduce(|| 0.0, f32::max);
+        Ok(max as f64)
+    }
+
+    /// Calls `write(i, chunk)` in parallel for consecutive chunks of `out` (`per` elements per
+    /// point), `i` the grid index of each used point of the chunk in order.
+    fn for_points<T: Send>(
+        &self,
+        out: &mut [T],
+        per: usize,
+        write: impl Fn(&mut dyn Iterator<Item = usize>, &mut [T]) + Sync,
+    ) {
+        let words: Vec<usize> = self
+            .used
+            .chunks(WORDS_PER_TASK)
+            .map(|ws| ws.iter().map(|w| w.count_ones() as usize).sum())
+            .collect();
+        pieces(out, &words, per)
+            .into_par_iter()
+            .enumerate()
+            .for_each(|(task, chunk)| {
+                let first = task * WORDS_PER_TASK;
+                let end = (first + WORDS_PER_TASK).min(self.used.len());
+                let mut ids = (first..end).flat_map(|w| {
+                    let mut bits = self.used[w];
+                    std::iter::from_fn(move || {
+                        (bits != 0).then(|| {
+                            let b = bits.trailing_zeros() as usize;
+                            bits &= bits - 1;
+                            w * 64 + b
+                        })
+                    })
+                });
+                write(&mut ids, chunk);
+            });
+    }
+
+    /// Writes the grid index (x fastest) of each point, ascending.
+    pub fn write_point_ids<I: Index>(&self, ids: &mut [I]) -> Result<()> {
+        Self::check_len(ids.len(), self.points, 1, "point ids")?;
+        self.for_points(ids, 1, |grid_ids, chunk| {
+            for (slot, i) in chunk.iter_mut().zip(grid_ids) {
+                *slot = I::from_usize(i);
+            }
+        });
+        Ok(())
+    }
+
+    /// Writes three coordinates per point, `position(i)` for the point of grid index `i`.
+    pub fn write_points(
+        &self,
+        position: impl Fn(usize) -> [f64; 3] + Sync,
+        xyz: &mut [f64],
+    ) -> Result<()> {
+        Self::check_len(xyz.len(), self.points, 3, "point coordinates")?;
+        self.for_points(xyz, 3, |grid_ids, chunk| {
+            for (slot, i) in chunk.chunks_exact_mut(3).zip(grid_ids) {
+                slot.copy_from_slice(&position(i));
+            }
+        });
+        Ok(())
+    }
+
+    /// Copies the values of each point from `source` (one tuple of `tuple_bytes` bytes per grid
+    /// point, x fastest) into `target` (one tuple per mesh point): a point array passed through.
+    pub fn gather(&self, source: &[u8], tuple_bytes: usize, target: &mut [u8]) -> Result<()> {
+        let grid_len = self.grid_dims().iter().product();
+        Self::check_len(
+            source.len(),
+            grid_len,
+            tuple_bytes,
+            "a point array's source",
+        )?;
+        Self::check_len(
+            target.len(),
+            self.points,
+            tuple_bytes,
+            "a point array's target",
+        )?;
+        if tuple_bytes == 0 {
+            return Ok(());
+        }
+        self.for_points(target, tuple_bytes, |grid_ids, chunk| {
+            for (slot, i) in chunk.chunks_exact_mut(tuple_bytes).zip(grid_ids) {
+                slot.copy_from_slice(&source[i * tuple_bytes..(i + 1) * tuple_bytes]);
+            }
+        });
+        Ok(())
+    }
+
+    /// The mesh as a [`TetMesh`] on `grid`, each tetrahedron with the `error` of its diamond.
+    pub fn to_mesh(&self, grid: &Grid, error: impl Fn(Diamond) -> f64 + Sync) -> Result<TetMesh> {
+        let mut point_ids = memory::filled(self.points, 0usize, "the mesh's point ids")?;
+        self.write_point_ids(&mut point_ids)?;
+        let mut points = memory::filled(self.points, [0.0; 3], "the mesh's points")?;
+        self.write_points(|i| grid.point(grid.ijk(i)), points.as_flattened_mut())?;
+        let mut tets = memory::filled(self.tets, [0u32; 4], "the mesh's tetrahedra")?;
+        let mut depths = memory::filled(self.tets, 0u8, "the mesh's depths")?;
+        let mut errors = memory::filled(self.tets, 0f32, "the mesh's errors")?;
+        let max_error = self.write_tets(
+            error,
+            tets.as_flattened_mut(),
+            &mut [],
+            &mut depths,
+            &mut errors,
+        )?;
+        Ok(TetMesh {
+            point_ids,
+            points,
+            tets,
+            depths,
+            errors,
+            max_error,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fields::{marschner_lobb, sample, unit_grid};
+    use crate::{Hierarchy, Query, ScalarSlice};
+    use std::collections::BTreeSet;
+
+    /// The mesh of `plan` the straightforward way, on one thread: every leaf collected (in the
+    /// order of the subtrees), the points deduplicated through a sorted set of their grid indices.
+    fn reference(plan: &MeshPlan, grid: &Grid, error: impl Fn(Diamond) -> f64) -> TetMesh {
+        let lattice = &plan.lattice;
+        let mut leaves = Vec::new();
+        for t in subtrees(lattice, &plan.split) {
+            walk(lattice, &plan.split, t, |t| leaves.push(*t));
+        }
+        let set: BTreeSet<usize> = leaves.iter().flatten().map(|&p| lattice.index(p)).collect();
+        let point_ids: Vec<usize> = set.into_iter().collect();
+        let id = |i: usize| point_ids.binary_search(&i).unwrap() as u32;
+        let mut mesh = TetMesh {
+            points: point_ids.iter().map(|&i| grid.point(grid.ijk(i))).collect(),
+            ..TetMesh::default()
+        };
+        for mut t in leaves {
+            if signed_volume6(&t) < 0 {
+                t.swap(2, 3);
+            }
+            let (depth, e) = Diamond::of_tet(&t).map_or((3 * lattice.levels, 0.0), |d| {
+                (d.depth(lattice), error(d) as f32)
+            });
+            mesh.tets.push(t.map(|p| id(lattice.index(p))));
+            mesh.depths.push(depth as u8);
+            mesh.errors.push(e);
+            mesh.max_error = mesh.max_error.max(e as f64);
+        }
+        mesh.point_ids = point_ids;
+        mesh
+    }
+
+    fn hierarchy(dims: [usize; 3]) -> (Hierarchy, Grid) {
+        let g = unit_grid(dims);
+        let v = sample(&g, |x, y, z| {
+            (marschner_lobb(x, y, z) * 255.0).round() as u8
+        });
+        let h = Hierarchy::build(g, ScalarSlice::U8(&v), &mut |_| true).unwrap();
+        (h, g)
+    }
+
+    #[test]
+    fn written_mesh_is_the_straightforward_one() {
+        for dims in [
+            [17, 17, 17],
+            [33, 20, 17],
+            [10, 3, 7],
+            [2, 2, 2],
+            [40, 9, 26],
+            [3, 70, 2],
+        ] {
+            let (h, g) = hierarchy(dims);
+            let queries = [0.0, 2.0, 8.0, 1000.0]
+                .map(Query::tolerance)
+                .into_iter()
+                .chain([
+                    Query {
+                        max_tetrahedra: 500,
+                        ..Query::tolerance(0.0)
+                    },
+                    Query {
+                        region_of_interest: Some([0.0, 0.3, 0.0, 1.0, 0.2, 0.6]),
+                        ..Query::tolerance(1.0)
+                    },
+                ]);
+            for q in queries {
+                let plan = h.plan(&q).unwrap();
+                let expected = reference(&plan, &g, |d| h.error(d));
+                let mesh = h.query(&q).unwrap();
+                assert_eq!(mesh, expected, "{dims:?} {q:?}");
+                assert_eq!(
+                    (plan.tets(), plan.points()),
+                    (mesh.tets.len(), mesh.points.len())
+                );
+
+                // 32- and 64-bit ids with offsets, as VTK takes them.
+                let n = plan.tets();
+                let (mut c32, mut o32) = (vec![0i32; 4 * n], vec![0i32; n + 1]);
+                let (mut c64, mut o64) = (vec![0i64; 4 * n], vec![0i64; n + 1]);
+                let (mut d, mut e) = (vec![0u8; n], vec![0f32; n]);
+                let max = h
+                    .write_tets(&plan, &mut c32, &mut o32, &mut d, &mut e)
+                    .unwrap();
+                assert_eq!((max, &d, &e), (mesh.max_error, &mesh.depths, &mesh.errors));
+                h.write_tets(&plan, &mut c64, &mut o64, &mut d, &mut e)
+                    .unwrap();
+                let flat: Vec<i64> = mesh.tets.as_flattened().iter().map(|&i| i as i64).collect();
+                assert_eq!(c64, flat);
+                assert_eq!(c32.iter().map(|&i| i as i64).collect::<Vec<_>>(), flat);
+                assert!(o32.iter().enumerate().all(|(i, &o)| o as usize == 4 * i));
+                assert_eq!(o64[n], 4 * n as i64);
+
+                // A 3-byte point array passed through.
+                let source: Vec<u8> = (0..3 * g.len()).map(|b| (b * 7 % 251) as u8).collect();
+                let mut target = vec![0u8; 3 * plan.points()];
+                plan.gather(&source, 3, &mut target).unwrap();
+                for (k, &i) in mesh.point_ids.iter().enumerate() {
+                    assert_eq!(target[3 * k..3 * k + 3], source[3 * i..3 * i + 3]);
+                }
+            }
         }
     }
-    let mut points = memory::with_capacity(point_ids.len(), "the mesh's points")?;
-    points.par_extend(point_ids.par_iter().map(|&i| grid.point(grid.ijk(i))));
-    // Pass 2: each subtree fills its own slices of the output arrays.
-    let n: usize = counts.iter().sum();
-    let mut tets = memory::filled(n, [0u32; 4], "the mesh's tetrahedra")?;
-    let mut depths = memory::filled(n, 0u8, "the mesh's depths")?;
-    let mut errors = memory::filled(n, 0f32, "the mesh's errors")?;
-    let mut jobs = Vec::with_capacity(roots.len());
-    let (mut t_rest, mut d_rest, mut e_rest) = (&mut tets[..], &mut depths[..], &mut errors[..]);
-    for (&root, &count) in roots.iter().zip(&counts) {
-        let (t, tr) = t_rest.split_at_mut(count);
-        let (d, dr) = d_rest.split_at_mut(count);
-        let (e, er) = e_rest.split_at_mut(count);
-        jobs.push((root, t, d, e));
-        (t_rest, d_rest, e_rest) = (tr, dr, er);
+
+    #[test]
+    fn wrongly_sized_arrays_are_refused() {
+        let (h, g) = hierarchy([9, 9, 9]);
+        let plan = h.plan(&Query::tolerance(4.0)).unwrap();
+        let n = plan.tets();
+        let (mut d, mut e) = (vec![0u8; n], vec![0f32; n]);
+        let mut c = vec![0i32; 4 * n - 1];
+        assert!(h
+            .write_tets(&plan, &mut c, &mut [], &mut d, &mut e)
+            .is_err());
+        let mut c = vec![0i32; 4 * n];
+        assert!(h
+            .write_tets(&plan, &mut c, &mut [0; 3], &mut d, &mut e)
+            .is_err());
+        assert!(h
+            .write_tets(&plan, &mut c, &mut [], &mut d[1..], &mut e)
+            .is_err());
+        assert!(plan
+            .write_points(|_| [0.0; 3], &mut vec![0.0; 3 * plan.points() + 3])
+            .is_err());
+        assert!(plan
+            .gather(&vec![0; g.len() - 1], 1, &mut vec![0; plan.points()])
+            .is_err());
+        let (other, _) = hierarchy([9, 9, 10]);
+        assert!(other
+            .write_tets(&plan, &mut c, &mut [], &mut d, &mut e)
+            .is_err());
     }
-    jobs.into_par_iter().for_each(|(root, t, d, e)| {
-        let mut k = 0;
-        walk(lattice, split, root, &mut |leaf| {
-            let mut leaf = *leaf;
-            if signed_volume6(&leaf) < 0 {
-                leaf.swap(2, 3);
-            }
-            // A unit-cube tetrahedron is one bisection below the finest diamonds and reproduces
-            // its samples.
-            let (depth, error) = match Diamond::of_tet(&leaf) {
-                Some(d) => (d.depth(lattice), error(d) as f32),
-                None => (3 * lattice.levels, 0.0),
-            };
-            t[k] = leaf.map(|p| id(lattice.index(p)));
-            d[k] = depth as u8;
-            e[k] = error;
-            k += 1;
-        });
-    });
-    let max_error = errors.iter().fold(0.0f64, |m, &e| m.max(e as f64));
-    Ok(TetMesh {
-        point_ids,
-        points,
-        tets,
-        depths,
-        errors,
-        max_error,
-    })
 }

@@ -19,6 +19,7 @@ use rayon::prelude::*;
 use rustc_hash::FxHashSet;
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
+use std::sync::atomic::{AtomicU64, Ordering as AtomicOrdering};
 
 /// A selective-refinement query.
 #[derive(Clone, Debug, PartialEq)]
@@ -116,6 +117,12 @@ impl SplitSet {
     /// The lattice the set lives on.
     pub fn lattice(&self) -> &Lattice {
         &self.lattice
+    }
+
+    /// The bitset over the domain's points (bit `i` of word `i / 64` for the diamond centred on the
+    /// point of [`Lattice::index`] `i`).
+    pub(crate) fn domain_bits(&self) -> &[u64] {
+        &self.bits
     }
 }
 
@@ -269,6 +276,90 @@ impl<'h> Refiner<'h> {
         let mut r = Self::start(grid, base, query, criterion)?;
         r.refine(&base.candidates, query.max_tetrahedra);
         Ok(r.split)
+    }
+
+    /// [`Refiner::run`] for a `query` without a budget, with the split set shared by all threads:
+    /// the same split set, found in parallel.
+    ///
+    /// Without a budget the split set is the least set that holds the base mesh, is closed under
+    /// parents (those not outside the domain: the closure of Gregorski §4) and holds every child of a
+    /// split diamond, and every unsplit diamond of the base mesh, whose error exceeds the tolerance —
+    /// whatever the order of the splits (Gregorski §8: any diamond above the tolerance may go
+    /// next). So it is grown in rounds: every diamond of a round that sets its bit in the shared
+    /// bitset first (an atomic test-and-set: exactly one thread owns each split) puts its unsplit
+    /// parents and its children above the tolerance into the next round; a round's diamonds are
+    /// handled in parallel. Diamonds centred outside the domain are all split in the base mesh
+    /// (they straddle a far face) or lie outside it, so the shared part is the bitset alone.
+    pub(crate) fn run_concurrent(
+        grid: &Grid,
+        base: &BaseMesh,
+        query: &Query,
+        criterion: &'h (dyn Fn(Diamond) -> f64 + Sync),
+    ) -> Result<SplitSet> {
+        if query.max_tetrahedra > 0 {
+            return Err(Error::Parameter(
+                "concurrent refinement takes no tetrahedron budget".into(),
+            ));
+        }
+        let r = Self::start(grid, base, query, criterion)?;
+        let (lattice, tolerance, roi) = (r.lattice, r.tolerance, r.roi);
+        let mut split = r.split;
+        let error = |d: Diamond| {
+            if roi.is_some_and(|roi| outside_roi(roi, &lattice, d)) {
+                0.0
+            } else {
+                criterion(d)
+            }
+        };
+        let bits: Vec<AtomicU64> = split.bits.iter().map(|&w| AtomicU64::new(w)).collect();
+        let outside = &split.outside;
+        let is_split = |d: Diamond| {
+            if lattice.in_domain(d.center) {
+                let i = lattice.index(d.center);
+                bits[i / 64].load(AtomicOrdering::Relaxed) >> (i % 64) & 1 == 1
+            } else {
+                outside.contains(&d.center)
+            }
+        };
+        let mut round: Vec<Diamond> = base
+            .candidates
+            .par_iter()
+            .copied()
+            .filter(|&d| !is_split(d) && error(d) > tolerance)
+            .collect();
+        while !round.is_empty() {
+            let next: Result<Vec<Diamond>> = round
+                .par_iter()
+                .try_fold(Vec::new, |mut next, &d| {
+                    if !lattice.in_domain(d.center) {
+                        return Err(Error::Parameter(format!(
+                            "internal error: diamond {:?} outside the domain is not in the base mesh",
+                            d.center
+                        )));
+                    }
+                    let i = lattice.index(d.center);
+                    let bit = 1u64 << (i % 64);
+                    if bits[i / 64].fetch_or(bit, AtomicOrdering::Relaxed) & bit != 0 {
+                        return Ok(next); // split by another diamond of this round
+                    }
+                    next.extend(d.parents(&lattice).into_iter().filter(|&p| {
+                        !is_split(p) && p.placement(&lattice) != Placement::Outside
+                    }));
+                    next.extend(
+                        d.children(&lattice)
+                            .into_iter()
+                            .filter(|&c| !is_split(c) && error(c) > tolerance),
+                    );
+                    Ok(next)
+                })
+                .try_reduce(Vec::new, |mut a, mut b| {
+                    a.append(&mut b);
+                    Ok(a)
+                });
+            round = next?;
+        }
+        split.bits = bits.into_iter().map(AtomicU64::into_inner).collect();
+        Ok(split)
     }
 
     /// A refiner of `grid` at `base`, set up for `query` (queue, tolerance, region).
@@ -501,15 +592,13 @@ impl<'h> Refiner<'h> {
     }
 
     /// The error that drives refinement: the criterion inside the region of interest, 0 outside
-    /// (except for diamonds straddling a far face, which the criterion may require to split).
+    /// ([`outside_roi`]).
     fn error(&self, d: Diamond) -> f64 {
-        if let Some((lo, hi)) = self.roi {
-            let (dlo, dhi) = d.bounds();
-            if (dlo.as_dvec3().cmpgt(hi).any() || dhi.as_dvec3().cmplt(lo).any())
-                && d.placement(&self.lattice) != Placement::Straddling
-            {
-                return 0.0;
-            }
+        if self
+            .roi
+            .is_some_and(|roi| outside_roi(roi, &self.lattice, d))
+        {
+            return 0.0;
         }
         (self.criterion)(d)
     }
@@ -559,6 +648,14 @@ impl<'h> Refiner<'h> {
     }
 }
 
+/// Whether `d` lies outside the region of interest `(lo, hi)` (lattice coordinates), so that its
+/// error does not count — unless it straddles a far face, which the criterion may require to split.
+fn outside_roi((lo, hi): (glam::DVec3, glam::DVec3), lattice: &Lattice, d: Diamond) -> bool {
+    let (dlo, dhi) = d.bounds();
+    (dlo.as_dvec3().cmpgt(hi).any() || dhi.as_dvec3().cmplt(lo).any())
+        && d.placement(lattice) != Placement::Straddling
+}
+
 /// Converts a world-space box to lattice coordinates, refusing boxes that miss the grid.
 fn lattice_box(g: &Grid, roi: [f64; 6]) -> Result<(glam::DVec3, glam::DVec3)> {
     let b = g.bounds();
@@ -592,6 +689,43 @@ fn lattice_box(g: &Grid, roi: [f64; 6]) -> Result<(glam::DVec3, glam::DVec3)> {
 mod tests {
     use super::*;
     use crate::hierarchy::base_mesh;
+
+    #[test]
+    fn concurrent_refinement_splits_what_sequential_refinement_splits() {
+        // Grids with and without a base mesh, an error that is not monotone along the hierarchy
+        // (closures split extra parents), with and without a region of interest.
+        for dims in [[13, 9, 11], [17, 17, 17], [33, 5, 20], [2, 2, 2]] {
+            let grid = crate::fields::unit_grid(dims);
+            let lattice = Lattice::new(dims).unwrap();
+            let base = base_mesh(lattice);
+            let criterion = |d: Diamond| {
+                let c = d.center;
+                let h = (c.x * 73 + c.y * 37 + c.z * 11).rem_euclid(17) as f64;
+                if lattice.in_domain(c) {
+                    h * d.scale() as f64 / 8.0
+                } else {
+                    0.0
+                }
+            };
+            for tolerance in [0.0, 0.5, 2.0, 6.0] {
+                for roi in [None, Some([0.1, 0.4, 0.0, 1.0, 0.5, 0.9])] {
+                    let query = Query {
+                        region_of_interest: roi,
+                        ..Query::tolerance(tolerance)
+                    };
+                    let sequential = Refiner::run(&grid, &base, &query, &criterion).unwrap();
+                    let concurrent =
+                        Refiner::run_concurrent(&grid, &base, &query, &criterion).unwrap();
+                    assert_eq!(concurrent, sequential, "{dims:?} {query:?}");
+                }
+            }
+            let budget = Query {
+                max_tetrahedra: 10,
+                ..Query::tolerance(0.0)
+            };
+            assert!(Refiner::run_concurrent(&grid, &base, &budget, &criterion).is_err());
+        }
+    }
 
     #[test]
     fn parallel_refinement_splits_what_sequential_refinement_splits() {

@@ -19,7 +19,7 @@ pub mod record;
 use crate::diamond::Diamond;
 use crate::lattice::{Lattice, Placement};
 use crate::memory;
-use crate::mesh::{self, TetMesh};
+use crate::mesh::{self, Index, MeshPlan, TetMesh};
 use crate::refine::{BaseMesh, Query, Refiner, SplitSet};
 use crate::scan::{scan_finest_diamond, scan_tet, Stencils, TetStats};
 use crate::volume::{Grid, Sample, ScalarSlice, Volume};
@@ -179,16 +179,47 @@ impl Hierarchy {
         Ok(hierarchy)
     }
 
-    /// Extracts the adaptive mesh for `query` (Gregorski §4 selective refinement with closure).
+    /// Extracts the adaptive mesh for `query` (Gregorski §4 selective refinement with closure):
+    /// [`Hierarchy::plan`], then the mesh written into new vectors.
     pub fn query(&self, query: &Query) -> Result<TetMesh> {
+        self.plan(query)?.to_mesh(&self.grid, |d| self.error(d))
+    }
+
+    /// Refines for `query` (Gregorski §4 selective refinement with closure) and counts the mesh:
+    /// the caller allocates its arrays from [`MeshPlan::tets`] and [`MeshPlan::points`] and has it
+    /// written there ([`Hierarchy::write_tets`], [`MeshPlan::write_points`], [`MeshPlan::gather`]).
+    pub fn plan(&self, query: &Query) -> Result<MeshPlan> {
         if !self.has_records() {
             return Err(Error::Parameter(
                 "this hierarchy was built for isosurfaces only: it holds no per-diamond errors"
                     .into(),
             ));
         }
-        let split = Refiner::run(&self.grid, &self.base, query, &|d| self.error(d))?;
-        mesh::extract(&self.lattice, &self.grid, &split, |d| self.error(d))
+        let error = |d| self.error(d);
+        let split = if query.max_tetrahedra == 0 {
+            Refiner::run_concurrent(&self.grid, &self.base, query, &error)?
+        } else {
+            Refiner::run(&self.grid, &self.base, query, &error)?
+        };
+        MeshPlan::new(&self.lattice, split)
+    }
+
+    /// Writes the tetrahedra of `plan`, a plan of this hierarchy, with their errors
+    /// ([`MeshPlan::write_tets`]); returns the largest error.
+    pub fn write_tets<I: Index>(
+        &self,
+        plan: &MeshPlan,
+        connectivity: &mut [I],
+        offsets: &mut [I],
+        depths: &mut [u8],
+        errors: &mut [f32],
+    ) -> Result<f64> {
+        if *plan.lattice() != self.lattice {
+            return Err(Error::Parameter(
+                "the mesh plan belongs to another hierarchy".into(),
+            ));
+        }
+        plan.write_tets(|d| self.error(d), connectivity, offsets, depths, errors)
     }
 
     /// The grid the hierarchy was built for.
