@@ -9,6 +9,9 @@ set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 bash scripts/setup.sh >/dev/null
 cargo build --release --locked -p diamonds-cli   # the material benchmark generates its data with it
+# bench.py writes the file's header and the Adaptive Tetrahedra tables; the others append or replace
+# their own sections: start from an empty file.
+: >docs/benchmarks.md
 pvpython scripts/bench.py "$@"
 pvpython scripts/bench_isosurface.py
 pvpython scripts/bench_isovalue_change.py
