@@ -9,16 +9,20 @@
 //! - every point of [`triangle_samples`] of the triangles of `S` (its vertices and points spaced at
 //!   most `h`, the smallest grid spacing) lies within the tolerance of `F`.
 //!
-//! Distances are certified cheaply where possible: with blocks (cubes of world space whose diagonal is
-//! the tolerance), a point of `F` in a block that holds a sample of `S` is within the tolerance of `S`,
-//! and a sample of `S` in a block that holds a vertex of `F` is within it of `F`. The rest are measured
-//! exactly: the triangles of `S` within the tolerance of a vertex of `F` in an [`rstar`] R-tree, the
-//! triangles of `F` within the tolerance of a sample of `S` from the grid cells around it
+//! Distances are certified cheaply where possible ([`super::blocks`]): a point of `F` within a block
+//! of a sample of `S` is within the tolerance of `S`, and a sample of `S` within a block of a vertex
+//! of `F` is within it of `F`. The rest are measured exactly: the vertices of `F` within the
+//! tolerance of each triangle of `S` from an [`rstar`] R-tree of the vertices left, the triangles of
+//! `F` within the tolerance of a sample of `S` from the grid cells around it that `F` crosses
 //! ([`super::fine::cell_triangles`]). Every point that fails is a *violation*: the leaf holding it is
 //! split — the diamonds on the path from the root down to the tetrahedra around the point no larger
 //! than the tolerance, or, when the leaf already is, down to the finest tetrahedra — with closure,
 //! refinement continues from that mesh, and the check runs again. On the finest tetrahedra `S` is `F`,
-//! so this ends; every round splits at least one more diamond.
+//! so this ends; every round splits at least one more diamond. A round after the first checks only
+//! what the splits may have changed: the surface of the new carriers and of the carriers that held a
+//! violation, and the vertices of F within the tolerance of a carrier that was split (the surface
+//! that certified them may be gone) or that were violations; everything else was certified by
+//! surface that is still there, against the same `F`.
 //!
 //! Both directions are checked against the tolerance less a millionth of the volume's diagonal (at
 //! most half the tolerance), for rounding (points written in single precision). Points outside the region of interest are not
@@ -26,15 +30,16 @@
 
 use super::blocks::{bits, set_bit, Blocks};
 use super::error::{child_coordinates, tet_size2, RootTets};
-use super::fine::{cell_triangles, vertices_from};
-use super::marching::{carries, marching_tetrahedra};
+use super::fine::{cell_triangles, tet_triangles, vertices_from};
+use super::marching::carries;
+use super::{value, world};
 use super::{Extraction, IsoQuery};
 use crate::diamond::{child_of, Diamond};
 use crate::geometry::{point_triangle_distance, triangle_samples};
 use crate::lattice::Tet;
 use crate::mesh;
 use crate::refine::{Refiner, SplitSet};
-use crate::volume::Sample;
+use crate::volume::{Grid, Sample};
 use crate::Result;
 use glam::{DVec3, IVec3};
 use rayon::prelude::*;
@@ -106,10 +111,20 @@ impl<T: Sample> Extraction<'_, '_, T> {
                 })
             })
             .collect::<Result<Vec<Fine>>>()?;
+        // What each round checks, per isovalue: the first everything; then what the splits of the
+        // round before may have changed (see `Pending`).
+        let mut pending: Vec<Pending> = fine.iter().map(|_| Pending::All).collect();
         for _ in 0..MAX_ROUNDS {
             let mut violations = Vec::new();
-            for (&v, fine) in isovalues.iter().zip(&fine) {
-                violations.extend(self.violations(v, &carriers, fine, reach, &inside)?);
+            let mut far = Vec::with_capacity(isovalues.len());
+            for ((&v, fine), pending) in isovalues.iter().zip(&fine).zip(&pending) {
+                let found = self.violations(v, &carriers, fine, pending, reach, &inside)?;
+                // One per block: the splits a violation causes cover its neighbours in the block.
+                let mut seen = FxHashSet::default();
+                violations.extend(
+                    (found.points.iter().copied()).filter(|&p| seen.insert(fine.blocks.block(p))),
+                );
+                far.push(found);
             }
             if violations.is_empty() {
                 break;
@@ -118,105 +133,221 @@ impl<T: Sample> Extraction<'_, '_, T> {
             if forced.is_empty() {
                 break;
             }
-            (split, carriers) =
+            let (removed, kept);
+            (split, carriers, removed, kept) =
                 self.force(isovalues, split, carriers, &forced, &criterion, tolerance);
+            let near_removed = self.cells_near(&removed, reach);
+            let gone: FxHashSet<Tet> = removed.into_iter().collect();
+            pending = (far.into_iter().zip(&fine))
+                .map(|(far, fine)| {
+                    let mut again = carriers[kept..].to_vec();
+                    again.extend(far.carriers.into_iter().filter(|t| !gone.contains(t)));
+                    let mut vertices: Vec<u32> = (0..fine.vertices.len() as u32)
+                        .into_par_iter()
+                        .filter(|&i| near_removed.holds(fine.vertices[i as usize]))
+                        .collect();
+                    vertices.extend(far.vertices);
+                    vertices.sort_unstable();
+                    vertices.dedup();
+                    Pending::Some {
+                        carriers: again,
+                        vertices,
+                    }
+                })
+                .collect();
         }
         Ok((split, carriers))
     }
 }
 
+/// What a round of the check looks at for one isovalue. A point certified in a round stays
+/// certified while the surface that certified it is there: splits remove the surface of the
+/// carriers they split only, and F does not change.
+enum Pending {
+    /// Every sample of the surface and every vertex of F (the first round).
+    All,
+    /// After splits: the samples of the surface of `carriers` (the new carriers, and the old ones
+    /// that held a violation and were not split) and the vertices of F numbered `vertices` (those
+    /// within the reach of a carrier that was split, whose surface may have certified them, and
+    /// those that were violations).
+    Some {
+        carriers: Vec<Tet>,
+        vertices: Vec<u32>,
+    },
+}
+
+/// The violations of one round for one isovalue.
+struct Far {
+    /// Every violating point (world).
+    points: Vec<DVec3>,
+    /// The carriers whose surface holds a violating sample.
+    carriers: Vec<Tet>,
+    /// The vertices of F that violate (numbers).
+    vertices: Vec<u32>,
+}
+
+/// Grid cells marked in a bitset (a bit per lower corner's point index).
+struct Cells<'g> {
+    grid: &'g Grid,
+    bits: Vec<u64>,
+}
+
+impl Cells<'_> {
+    /// Is `p` in a marked cell (the one `floor` gives, clamped to the grid)?
+    fn holds(&self, p: DVec3) -> bool {
+        let g = self.grid;
+        let top = DVec3::from(g.dims.map(|d| d as f64 - 2.0));
+        let c = ((p - DVec3::from(g.origin)) / DVec3::from(g.spacing)).floor();
+        let c = c.clamp(DVec3::ZERO, top);
+        let i = g.index(c.x as usize, c.y as usize, c.z as usize);
+        self.bits[i / 64] & (1 << (i % 64)) != 0
+    }
+}
+
 impl<T: Sample> Extraction<'_, '_, T> {
-    /// The points that break the bound for isovalue `v` on the surface of `carriers`: vertices of F
-    /// (`fine`) farther than `reach` from it, samples of it farther than `reach` from F; one per
-    /// block.
+    /// The grid cells within `reach` (world) of the bounding box of one of `tets`.
+    fn cells_near(&self, tets: &[Tet], reach: f64) -> Cells<'_> {
+        let grid = &self.volume.grid;
+        let marked = bits(grid.len());
+        let (margin, hi) = (
+            reach / DVec3::from(grid.spacing),
+            IVec3::from(grid.dims.map(|d| d as i32 - 2)),
+        );
+        tets.par_iter().for_each(|t| {
+            let lo = t[0].min(t[1]).min(t[2].min(t[3])).as_dvec3() - margin;
+            let up = t[0].max(t[1]).max(t[2].max(t[3])).as_dvec3() + margin;
+            let (lo, up) = (
+                lo.floor().as_ivec3().max(IVec3::ZERO),
+                up.floor().as_ivec3().min(hi),
+            );
+            for z in lo.z..=up.z {
+                for y in lo.y..=up.y {
+                    for x in lo.x..=up.x {
+                        set_bit(&marked, grid.index(x as usize, y as usize, z as usize));
+                    }
+                }
+            }
+        });
+        Cells {
+            grid,
+            bits: marked.into_iter().map(AtomicU64::into_inner).collect(),
+        }
+    }
+}
+
+impl<T: Sample> Extraction<'_, '_, T> {
+    /// The points that break the bound for isovalue `v` on the surface of `carriers`, among those
+    /// `pending` names: vertices of F (`fine`) farther than `reach` from the surface, samples of the
+    /// surface farther than `reach` from F.
     fn violations(
         &self,
         v: f64,
         carriers: &[Tet],
         fine: &Fine,
+        pending: &Pending,
         reach: f64,
         inside: &(dyn Fn(DVec3) -> bool + Sync),
-    ) -> Result<Vec<DVec3>> {
+    ) -> Result<Far> {
         let volume = self.volume;
         let grid = &volume.grid;
-        let surface = marching_tetrahedra(volume, carriers, &[v], false)?;
-        let corners = |t: &[u32; 3]| t.map(|i| DVec3::from(surface.points[i as usize]));
+        // The surface of a carrier as marching tetrahedra draws it (the polygon of a linear
+        // function in a tetrahedron is planar, so any triangulation covers the same points).
+        let surface_of = |t: &Tet| {
+            let corners = t.map(|q| world(volume, q));
+            tet_triangles(corners, t.map(|q| value(volume, q)), v)
+                .into_iter()
+                .filter(|t| (t[1] - t[0]).cross(t[2] - t[0]) != DVec3::ZERO)
+        };
         let h = grid.spacing.into_iter().fold(f64::INFINITY, f64::min);
-        let samples: Vec<DVec3> = surface
-            .triangles
-            .par_iter()
-            .flat_map_iter(|t| triangle_samples(corners(t), h).filter(|&p| inside(p)))
-            .collect();
-        // Blocks: a point near a block of the other set is within `reach` of it.
-        let b = grid.bounds();
-        let (lo, hi) = (DVec3::new(b[0], b[2], b[4]), DVec3::new(b[1], b[3], b[5]));
-        let with_samples = Blocks::around(lo, hi, reach, &samples)?;
-        let with_fine = &fine.blocks;
-        // F → S.
-        let open: Vec<DVec3> = fine
-            .vertices
-            .par_iter()
-            .copied()
-            .filter(|&q| !with_samples.near(q))
-            .collect();
-        // The few left, from each triangle of S: those within `reach` of it, in an R-tree of the
+        let checked = match pending {
+            Pending::All => carriers,
+            Pending::Some { carriers, .. } => carriers,
+        };
+        let (samples, owners): (Vec<DVec3>, Vec<u32>) = (checked.par_iter().enumerate())
+            .flat_map_iter(|(k, t)| {
+                surface_of(t)
+                    .flat_map(|t| triangle_samples(t, h))
+                    .filter(|&p| inside(p))
+                    .map(move |p| (p, k as u32))
+            })
+            .unzip();
+        // F → S: in the first round, vertices of F near a block of the surface's samples are
+        // within `reach` of it (blocks: a point near a block of the other set is within `reach` of
+        // it); the others from each triangle of S: those within `reach` of it, in an R-tree of the
         // points (much cheaper to build than one of S).
+        let open: Vec<u32> = match pending {
+            Pending::All => {
+                let b = grid.bounds();
+                let (lo, hi) = (DVec3::new(b[0], b[2], b[4]), DVec3::new(b[1], b[3], b[5]));
+                let with_samples = Blocks::around(lo, hi, reach, &samples)?;
+                (0..fine.vertices.len() as u32)
+                    .into_par_iter()
+                    .filter(|&i| !with_samples.near(fine.vertices[i as usize]))
+                    .collect()
+            }
+            Pending::Some { vertices, .. } => vertices.clone(),
+        };
         let tree = RTree::bulk_load(
             (open.iter().enumerate())
-                .map(|(i, q)| GeomWithData::new(q.to_array(), i))
+                .map(|(k, &i)| GeomWithData::new(fine.vertices[i as usize].to_array(), k))
                 .collect(),
         );
         let covered = bits(open.len());
-        surface.triangles.par_iter().for_each(|t| {
-            let t = corners(t);
-            let lo = t[0].min(t[1]).min(t[2]) - reach;
-            let hi = t[0].max(t[1]).max(t[2]) + reach;
-            for q in tree.locate_in_envelope(&AABB::from_corners(lo.to_array(), hi.to_array())) {
-                if point_triangle_distance(DVec3::from(*q.geom()), t) <= reach {
-                    set_bit(&covered, q.data);
+        if !open.is_empty() {
+            carriers.par_iter().flat_map_iter(surface_of).for_each(|t| {
+                let lo = t[0].min(t[1]).min(t[2]) - reach;
+                let hi = t[0].max(t[1]).max(t[2]) + reach;
+                let envelope = AABB::from_corners(lo.to_array(), hi.to_array());
+                for q in tree.locate_in_envelope(&envelope) {
+                    if point_triangle_distance(DVec3::from(*q.geom()), t) <= reach {
+                        set_bit(&covered, q.data);
+                    }
                 }
-            }
-        });
+            });
+        }
         let covered: Vec<u64> = covered.into_iter().map(AtomicU64::into_inner).collect();
-        let mut far: Vec<DVec3> = (open.into_iter().enumerate())
-            .filter(|(i, _)| covered[i / 64] & (1 << (i % 64)) == 0)
-            .map(|(_, q)| q)
+        let vertices: Vec<u32> = (open.iter().enumerate())
+            .filter(|(k, _)| covered[k / 64] & (1 << (k % 64)) == 0)
+            .map(|(_, &i)| i)
             .collect();
         // S → F.
         let (origin, spacing) = (DVec3::from(grid.origin), DVec3::from(grid.spacing));
         let hi = IVec3::from(grid.dims.map(|d| d as i32 - 2));
-        far.par_extend(
-            samples
-                .par_iter()
-                .copied()
-                .filter(|&p| !with_fine.near(p))
-                .filter(|&p| {
-                    // The crossed cells around p's, then all those within `reach` of p (lower
-                    // corners).
-                    let cell = |p: DVec3| ((p - origin) / spacing).floor().as_ivec3();
-                    let near = |lo: IVec3, up: IVec3| {
-                        let (lo, up) = (lo.max(IVec3::ZERO), up.min(hi));
-                        (lo.z..=up.z).any(|z| {
-                            (lo.y..=up.y).any(|y| {
-                                (lo.x..=up.x).any(|x| {
-                                    let i = grid.index(x as usize, y as usize, z as usize);
-                                    fine.crossed[i / 64] & (1 << (i % 64)) != 0
-                                        && cell_triangles(volume, IVec3::new(x, y, z), v)
-                                            .iter()
-                                            .any(|t| point_triangle_distance(p, *t) <= reach)
-                                })
+        let far_samples: Vec<usize> = (0..samples.len())
+            .into_par_iter()
+            .filter(|&k| !fine.blocks.near(samples[k]))
+            .filter(|&k| {
+                // The crossed cells around p's, then all those within `reach` of p (lower
+                // corners).
+                let p = samples[k];
+                let cell = |p: DVec3| ((p - origin) / spacing).floor().as_ivec3();
+                let near = |lo: IVec3, up: IVec3| {
+                    let (lo, up) = (lo.max(IVec3::ZERO), up.min(hi));
+                    (lo.z..=up.z).any(|z| {
+                        (lo.y..=up.y).any(|y| {
+                            (lo.x..=up.x).any(|x| {
+                                let i = grid.index(x as usize, y as usize, z as usize);
+                                fine.crossed[i / 64] & (1 << (i % 64)) != 0
+                                    && cell_triangles(volume, IVec3::new(x, y, z), v)
+                                        .iter()
+                                        .any(|t| point_triangle_distance(p, *t) <= reach)
                             })
                         })
-                    };
-                    let c = cell(p);
-                    !(near(c - IVec3::ONE, c + IVec3::ONE)
-                        || near(cell(p - reach), cell(p + reach)))
-                }),
-        );
-        // One per block: the splits a violation causes cover its neighbours in the block.
-        let mut seen = FxHashSet::default();
-        far.retain(|&p| seen.insert(with_fine.block(p)));
-        Ok(far)
+                    })
+                };
+                let c = cell(p);
+                !(near(c - IVec3::ONE, c + IVec3::ONE) || near(cell(p - reach), cell(p + reach)))
+            })
+            .collect();
+        let mut far_carriers: Vec<u32> = far_samples.iter().map(|&k| owners[k]).collect();
+        far_carriers.dedup();
+        Ok(Far {
+            points: (vertices.iter().map(|&i| fine.vertices[i as usize]))
+                .chain(far_samples.iter().map(|&k| samples[k]))
+                .collect(),
+            carriers: far_carriers.iter().map(|&k| checked[k as usize]).collect(),
+            vertices,
+        })
     }
 
     /// The diamonds to split for `violations` (world points): for each, the diamonds on the path from
@@ -273,7 +404,8 @@ impl<T: Sample> Extraction<'_, '_, T> {
 impl<T: Sample> Extraction<'_, '_, T> {
     /// `split` with the `forced` diamonds split too (with closure) and refinement by `criterion` at
     /// `tolerance` continued from there, and its leaves that carry the surface of `isovalues`
-    /// (`carriers`, those of `split`, patched).
+    /// (`carriers`, those of `split`, patched: those still leaves first, their number last), and the
+    /// carriers that were split.
     fn force(
         &self,
         isovalues: &[f64],
@@ -282,7 +414,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
         forced: &[Diamond],
         criterion: &dyn Fn(Diamond) -> f64,
         tolerance: f64,
-    ) -> (SplitSet, Vec<Tet>) {
+    ) -> (SplitSet, Vec<Tet>, Vec<Tet>, usize) {
         let (volume, lattice) = (self.volume, *self.lattice());
         // Continue from this mesh: split the forced diamonds (with closure) and whatever their new
         // children need. Every diamond above the tolerance in the result is reachable from the
@@ -308,10 +440,10 @@ impl<T: Sample> Extraction<'_, '_, T> {
                 .iter()
                 .any(|p| (p.center == t[2] || p.center == t[3]) && newly_split.contains(p))
         };
-        let mut carriers: Vec<Tet> = carriers
+        let (removed, mut carriers): (Vec<Tet>, Vec<Tet>) = carriers
             .into_iter()
-            .filter(|t| !Diamond::of_tet(t).is_some_and(|d| newly_split.contains(&d)))
-            .collect();
+            .partition(|t| Diamond::of_tet(t).is_some_and(|d| newly_split.contains(&d)));
+        let kept = carriers.len();
         let empty = |t: &Tet| self.misses(isovalues, t);
         let keep = |t: &Tet| carries(volume, isovalues, t).then_some(*t);
         for d in &newly {
@@ -319,7 +451,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
                 carriers.extend(mesh::leaves_below(&lattice, &split, t, &empty, &keep));
             }
         }
-        (split, carriers)
+        (split, carriers, removed, kept)
     }
 }
 
