@@ -470,11 +470,11 @@ vtkMaterialInterfaceApproximation::vtkInternals::UpdateModel(vtkMaterialInterfac
     {
       if (f.from_materials)
       {
-        (*builder)->add_field_from_materials();
+        (*builder)->add_field_from_materials(f.name);
       }
       else
       {
-        (*builder)->add_field(SliceOf(values[i]));
+        (*builder)->add_field(f.name, SliceOf(values[i]));
       }
       ++i;
     }

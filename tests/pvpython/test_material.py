@@ -461,6 +461,8 @@ vector_input = simple.Calculator(Input=reader, ResultArrayName="Vec", Function="
 expect_error(M(Input=vector_input, VolumeFractionArrays=FRACTIONS, FieldArrays=["Vec"]), "components", "3-component field")
 nan_image = dc.programmable_image(simple, (9, 8, 7), "f = np.clip(x / 8.0, 0, 1)\nf[100] = np.nan\nadd('Volume Fraction for A', f)\nadd('Volume Fraction for B', 1 - f)\n")
 expect_error(M(Input=nan_image), ("nan", "non-finite"), "NaN fraction")
+nan_field = dc.programmable_image(simple, (9, 8, 7), "f = np.clip(x / 8.0, 0, 1)\nadd('Volume Fraction for A', f)\nadd('Volume Fraction for B', 1 - f)\np = x.copy()\np[100] = np.inf\nadd('Pressure', p)\n")
+expect_error(M(Input=nan_field, FieldArrays=["Pressure"]), '"pressure" holds a non-finite value', "non-finite field: the message names the array")
 flat_image = dc.programmable_image(simple, (9, 8, 1), "f = np.clip(x / 8.0, 0, 1)\nadd('Volume Fraction for A', f)\nadd('Volume Fraction for B', 1 - f)\n")
 expect_error(M(Input=flat_image), "at least 2 points", "2-D image")
 uneven_grid = simple.ProgrammableSource(OutputDataSetType="vtkRectilinearGrid")

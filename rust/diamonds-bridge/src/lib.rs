@@ -362,11 +362,11 @@ mod ffi {
         fn grid_from_coordinates(x: &[f64], y: &[f64], z: &[f64]) -> Result<GridSpec>;
         /// Adds the point volume fraction of the next material (copied).
         fn add_fraction(self: &mut MaterialBuilder, values: &[f32]) -> Result<()>;
-        /// Adds the next point field to approximate (copied).
-        fn add_field(self: &mut MaterialBuilder, values: &[f32]) -> Result<()>;
-        /// Adds the next field as one given only per material: its mixed values are the
+        /// Adds the next point field to approximate (copied), named `name` in messages.
+        fn add_field(self: &mut MaterialBuilder, name: &str, values: &[f32]) -> Result<()>;
+        /// Adds the next field, `name`, as one given only per material: its mixed values are the
         /// fraction-weighted sum of its per-material arrays (materials without one count 0).
-        fn add_field_from_materials(self: &mut MaterialBuilder) -> Result<()>;
+        fn add_field_from_materials(self: &mut MaterialBuilder, name: &str) -> Result<()>;
         /// Adds the point values (copied) of field `field` (the order of `add_field` and
         /// `add_field_from_materials`) inside material `material` (the order of `add_fraction`),
         /// read at the samples of that material only.

@@ -46,6 +46,8 @@ pub struct MaterialBuilder {
     /// The mixed fields; `None` for a field given only per material (its mixed values are computed
     /// by the core, see [`MaterialInput::fields`]).
     fields: Vec<Option<Vec<f32>>>,
+    /// The names of `fields`, for messages.
+    field_names: Vec<String>,
     /// (field, material, values).
     material_fields: Vec<(usize, u8, Vec<f32>)>,
     interfaces: Option<Vec<InterfaceMesh>>,
@@ -90,6 +92,7 @@ pub fn new_material_builder(grid: &GridSpec) -> Result<Box<MaterialBuilder>, Str
             grid,
             fractions: Vec::new(),
             fields: Vec::new(),
+            field_names: Vec::new(),
             material_fields: Vec::new(),
             interfaces: None,
         }))
@@ -137,12 +140,13 @@ impl MaterialBuilder {
         })
     }
 
-    /// Adds the next field to approximate (one value per grid point).
-    pub fn add_field(&mut self, values: &[f32]) -> Result<(), String> {
+    /// Adds the next field to approximate (one value per grid point), `name` in messages.
+    pub fn add_field(&mut self, name: &str, values: &[f32]) -> Result<(), String> {
         guard("copying a field array", || {
-            let what = format!("field {}", self.fields.len());
+            let what = format!("field \"{name}\"");
             self.check_length(&what, values)?;
             self.fields.push(Some(copy(&what, values)?));
+            self.field_names.push(name.to_string());
             Ok(())
         })
     }
@@ -150,9 +154,10 @@ impl MaterialBuilder {
     /// Adds the next field as one given only per material: its mixed values are `Σ fraction ×
     /// per-material value` over the materials with an array ([`MaterialBuilder::add_material_field`];
     /// the others count 0), computed by the core in [`MaterialBuilder::build`].
-    pub fn add_field_from_materials(&mut self) -> Result<(), String> {
+    pub fn add_field_from_materials(&mut self, name: &str) -> Result<(), String> {
         guard("adding a per-material field", || {
             self.fields.push(None);
+            self.field_names.push(name.to_string());
             Ok(())
         })
     }
@@ -219,6 +224,7 @@ impl MaterialBuilder {
             grid: self.grid,
             fractions: self.fractions.iter().map(Vec::as_slice).collect(),
             fields: self.fields.iter().map(Option::as_deref).collect(),
+            field_names: self.field_names.iter().map(String::as_str).collect(),
             material_fields: MaterialField::borrow_all(&self.material_fields),
             interfaces: self.interfaces.clone(),
         };
@@ -561,7 +567,10 @@ mod tests {
             .add_fraction(&[0.5; 26])
             .unwrap_err()
             .contains("26 values"));
-        assert!(b.add_field(&[0.5; 28]).unwrap_err().contains("28 values"));
+        assert!(b
+            .add_field("Density", &[0.5; 28])
+            .unwrap_err()
+            .contains("28 values"));
         b.add_fraction(&[1.0; 27]).unwrap();
         assert!(b.build().err().unwrap().contains("at least 2 materials"));
         b.add_fraction(&[0.0; 27]).unwrap();
@@ -641,7 +650,7 @@ mod tests {
         for f in &case.fractions {
             b.add_fraction(f).unwrap();
         }
-        b.add_field(&case.density).unwrap();
+        b.add_field("Density", &case.density).unwrap();
         let model = b.build().unwrap();
         assert!(model.model.interfaces().len() >= 2);
         let query = MaterialQuerySpec {
@@ -759,9 +768,9 @@ mod tests {
                 b.add_fraction(f).unwrap();
             }
             if mixed {
-                b.add_field(&case.density).unwrap();
+                b.add_field("Density", &case.density).unwrap();
             } else {
-                b.add_field_from_materials().unwrap();
+                b.add_field_from_materials("Density").unwrap();
             }
             for &m in materials {
                 b.add_material_field(0, m, &case.material_density[m])

@@ -424,6 +424,7 @@ pub fn material(opts: &MaterialOptions) -> Result<MaterialSummary> {
         grid,
         fractions: fraction_values.iter().map(Vec::as_slice).collect(),
         fields: field_values.iter().map(Option::as_deref).collect(),
+        field_names: fields.iter().map(String::as_str).collect(),
         material_fields: MaterialField::borrow_all(&material_values),
         interfaces: None,
     })

@@ -27,6 +27,7 @@ fn impact_base_tetrahedra() -> usize {
         grid: case.grid,
         fractions: case.fractions.iter().map(|f| f.as_slice()).collect(),
         fields: Vec::new(),
+        field_names: Vec::new(),
         material_fields: Vec::new(),
         interfaces: None,
     };

@@ -112,6 +112,8 @@ pub struct MaterialInput<'a> {
     /// value` over the materials `material_fields` gives it for (the others count 0; see
     /// [`mixed_from_materials`]), and at least one must be given.
     pub fields: Vec<Option<&'a [f32]>>,
+    /// The names of `fields`, for messages (a field without one is called by its index).
+    pub field_names: Vec<&'a str>,
     /// Optional per-material values of the fields, at most one per (field, material). Where given, the
     /// own value of the material (its vertex values, ghost values and the samples its field error is
     /// measured at) comes from it instead of the mixed field; plain interpolation ignores them.

@@ -165,13 +165,17 @@ impl MaterialModel {
         }
         check_material_field_ranges(input, &grid)?;
         let fields = mixed_fields(input)?;
-        for f in &fields {
+        for (i, f) in fields.iter().enumerate() {
             if let Some(p) = f.iter().position(|v| !v.is_finite()) {
-                return Err(Error::NonFinite {
-                    index: p,
-                    ijk: grid.ijk(p),
-                    value: f[p] as f64,
-                });
+                let name = input
+                    .field_names
+                    .get(i)
+                    .map_or_else(|| format!("field {i}"), |n| format!("field \"{n}\""));
+                return Err(Error::Parameter(format!(
+                    "the {name} holds a non-finite value ({}) at point {p} (i, j, k = {:?}); replace NaN/Inf first",
+                    f[p],
+                    grid.ijk(p)
+                )));
             }
         }
         check_fractions(&input.fractions, &grid)?;

@@ -106,6 +106,7 @@ impl Case {
             grid: self.grid,
             fractions: self.fractions.iter().map(|f| f.as_slice()).collect(),
             fields: self.fields.iter().map(|f| Some(f.as_slice())).collect(),
+            field_names: Vec::new(),
             material_fields: MaterialField::borrow_all(&self.material_fields),
             interfaces: None,
         }
