@@ -31,6 +31,15 @@ pub fn marschner_lobb(x: f64, y: f64, z: f64) -> f64 {
     (1.0 - (PI * z / 2.0).sin() + alpha * (1.0 + rho)) / (2.0 * (1.0 + alpha))
 }
 
+/// The Marschner–Lobb signal on a [`unit_grid`] of `dims`, quantised to bytes (0..=255).
+pub fn marschner_lobb_u8(dims: [usize; 3]) -> (Grid, Vec<u8>) {
+    let grid = unit_grid(dims);
+    let values = sample(&grid, |x, y, z| {
+        (marschner_lobb(x, y, z) * 255.0).round() as u8
+    });
+    (grid, values)
+}
+
 /// Distance to the sphere of radius `r` centred at the origin (negative inside).
 pub fn sphere_distance(r: f64) -> impl Fn(f64, f64, f64) -> f64 {
     move |x, y, z| (x * x + y * y + z * z).sqrt() - r

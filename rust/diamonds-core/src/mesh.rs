@@ -441,7 +441,7 @@ impl MeshPlan {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fields::{marschner_lobb, sample, unit_grid};
+    use crate::fields::marschner_lobb_u8;
     use crate::{Hierarchy, Query, ScalarSlice};
     use std::collections::BTreeSet;
 
@@ -477,10 +477,7 @@ mod tests {
     }
 
     fn hierarchy(dims: [usize; 3]) -> (Hierarchy, Grid) {
-        let g = unit_grid(dims);
-        let v = sample(&g, |x, y, z| {
-            (marschner_lobb(x, y, z) * 255.0).round() as u8
-        });
+        let (g, v) = marschner_lobb_u8(dims);
         let h = Hierarchy::build(g, ScalarSlice::U8(&v), &mut |_| true).unwrap();
         (h, g)
     }

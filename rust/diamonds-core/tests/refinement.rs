@@ -2,20 +2,12 @@
 //! at every sample (independent brute force), lossless at 0, monotone tet counts, budget and region of
 //! interest, every sample type.
 
-use diamonds::fields::{marschner_lobb, sample, sphere_distance, unit_grid};
+use diamonds::fields::{marschner_lobb_u8, sample, sphere_distance, unit_grid};
 use diamonds::validate::{check_mesh, check_tolerance};
 use diamonds::{Grid, Hierarchy, Query, ScalarSlice, Volume};
 
 fn build(grid: Grid, s: ScalarSlice<'_>) -> Hierarchy {
     Hierarchy::build(grid, s, &mut |_| true).expect("build")
-}
-
-fn ml_u8(dims: [usize; 3]) -> (Grid, Vec<u8>) {
-    let g = unit_grid(dims);
-    let v = sample(&g, |x, y, z| {
-        (marschner_lobb(x, y, z) * 255.0).round() as u8
-    });
-    (g, v)
 }
 
 #[test]
@@ -29,7 +21,7 @@ fn tolerance_holds_at_every_sample_on_odd_dims() {
         [130, 2, 3],
         [3, 70, 2],
     ] {
-        let (g, v) = ml_u8(dims);
+        let (g, v) = marschner_lobb_u8(dims);
         let h = build(g, ScalarSlice::U8(&v));
         let vol = Volume::new(g, &v[..]).unwrap();
         let mut last = usize::MAX;
@@ -107,7 +99,7 @@ fn linear_field_needs_only_the_base_mesh() {
 
 #[test]
 fn budget_takes_the_largest_errors_first() {
-    let (g, v) = ml_u8([33, 33, 33]);
+    let (g, v) = marschner_lobb_u8([33, 33, 33]);
     let h = build(g, ScalarSlice::U8(&v));
     let vol = Volume::new(g, &v[..]).unwrap();
     let full = h.query(&Query::tolerance(0.0)).unwrap();
@@ -141,7 +133,7 @@ fn budget_takes_the_largest_errors_first() {
 
 #[test]
 fn region_of_interest_refines_inside_only() {
-    let (g, v) = ml_u8([33, 33, 33]);
+    let (g, v) = marschner_lobb_u8([33, 33, 33]);
     let h = build(g, ScalarSlice::U8(&v));
     let vol = Volume::new(g, &v[..]).unwrap();
     let roi = [-1.0, 0.0, -1.0, 0.0, -1.0, 0.0];
@@ -190,7 +182,7 @@ fn region_of_interest_refines_inside_only() {
 
 #[test]
 fn bad_parameters_are_refused() {
-    let (g, v) = ml_u8([9, 9, 9]);
+    let (g, v) = marschner_lobb_u8([9, 9, 9]);
     let h = build(g, ScalarSlice::U8(&v));
     for tol in [-1.0, f64::NAN, f64::INFINITY] {
         let e = h.query(&Query::tolerance(tol)).unwrap_err();
