@@ -268,12 +268,6 @@ impl fmt::Display for IsoSummary {
     }
 }
 
-/// Length of the diagonal of the grid's bounds.
-fn diagonal(grid: &Grid) -> f64 {
-    let b = grid.bounds();
-    ((b[1] - b[0]).powi(2) + (b[3] - b[2]).powi(2) + (b[5] - b[4]).powi(2)).sqrt()
-}
-
 /// `diamonds iso`: reads the image, builds the hierarchy, extracts the isosurface(s) and writes the
 /// `.vtp` (and the carrier tetrahedra's `.vtu`).
 pub fn iso(opts: &IsoOptions) -> Result<IsoSummary> {
@@ -299,7 +293,7 @@ pub fn iso(opts: &IsoOptions) -> Result<IsoSummary> {
     let (image, read_seconds) = read_input(&opts.input, opts.array.as_deref())?;
     let array = image.scalars(opts.array.as_deref())?;
     let grid = image.grid;
-    let diagonal = diagonal(&grid);
+    let diagonal = grid.diagonal();
     let tolerance = match opts.tolerance {
         IsoTolerance::Absolute(t) => t,
         IsoTolerance::Relative(r) => r * diagonal,

@@ -104,6 +104,17 @@ impl Grid {
             hi[2],
         ]
     }
+
+    /// Length of the diagonal of [`Grid::bounds`].
+    pub fn diagonal(&self) -> f64 {
+        bounds_diagonal(&self.bounds())
+    }
+}
+
+/// Length of the diagonal of `bounds` (`[xmin, xmax, ymin, ymax, zmin, zmax]`).
+pub fn bounds_diagonal(bounds: &[f64; 6]) -> f64 {
+    let d = (0..3).map(|a| (bounds[2 * a + 1] - bounds[2 * a]).powi(2));
+    d.sum::<f64>().sqrt()
 }
 
 /// A sample type the hierarchy can read in place.

@@ -363,8 +363,7 @@ fn the_two_sided_bound_holds_on_noisy_volumes_thin_tubes_and_specks() {
         v[i] = 180.0;
     }
     let h = build(g, &v);
-    let b = g.bounds();
-    let diagonal = DVec3::new(b[1] - b[0], b[3] - b[2], b[5] - b[4]).length();
+    let diagonal = g.diagonal();
     for isovalue in [100.5, 100.0, 57.0] {
         for fraction in [0.005, 0.01, 0.02, 0.04] {
             let tol = fraction * diagonal;
@@ -372,7 +371,7 @@ fn the_two_sided_bound_holds_on_noisy_volumes_thin_tubes_and_specks() {
             let s = extract(&h, ScalarSlice::F32(&v), &q).unwrap();
             let what = format!("isovalue {isovalue}, {fraction} of the diagonal");
             assert_bound(g, &v, &[isovalue], tol, &s, &what);
-            check_surface(&s.points, &s.triangles, Some(b))
+            check_surface(&s.points, &s.triangles, Some(g.bounds()))
                 .and_then(|report| report.passed())
                 .unwrap_or_else(|e| panic!("{what}: {e}"));
         }

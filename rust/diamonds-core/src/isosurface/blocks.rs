@@ -32,6 +32,9 @@ pub(super) fn set_bit(bits: &[AtomicU64], i: usize) -> bool {
 /// The blocks within one block of a set of points (see the module documentation).
 pub(super) struct Blocks {
     origin: DVec3,
+    /// The upper corner of the box and the reach the blocks were made for.
+    hi: DVec3,
+    reach: f64,
     side: f64,
     /// Blocks along each axis (dense bitset) or none (hash set).
     dims: [usize; 3],
@@ -60,6 +63,8 @@ impl Blocks {
         let row = dims[0].div_ceil(64);
         let mut blocks = Self {
             origin: lo,
+            hi,
+            reach,
             side,
             dims,
             row,
@@ -90,6 +95,11 @@ impl Blocks {
             Storage::Sparse(grown)
         };
         Ok(blocks)
+    }
+
+    /// The blocks around `points` over the same box and of the same side as these.
+    pub(super) fn alike(&self, points: &[DVec3]) -> Result<Self> {
+        Self::around(self.origin, self.hi, self.reach, points)
     }
 
     /// Is `p` within one block of one of the points (so within `reach` of it)?

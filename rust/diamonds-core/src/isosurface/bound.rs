@@ -73,33 +73,25 @@ impl<T: Sample> Extraction<'_, '_, T> {
     ) -> Result<(SplitSet, Vec<Tet>)> {
         let isovalues = &query.isovalues;
         let mut carriers = self.carriers_of(isovalues, &split);
-        let bounds = self.volume.grid.bounds();
-        let diagonal = DVec3::new(
-            bounds[1] - bounds[0],
-            bounds[3] - bounds[2],
-            bounds[5] - bounds[4],
-        )
-        .length();
-        let reach = tolerance - (1e-6 * diagonal).min(0.5 * tolerance);
+        let grid = &self.volume.grid;
+        let reach = tolerance - (1e-6 * grid.diagonal()).min(0.5 * tolerance);
         let inside = |p: DVec3| {
             query
                 .region_of_interest
                 .is_none_or(|r| (0..3).all(|a| r[2 * a] <= p[a] && p[a] <= r[2 * a + 1]))
         };
         // F, per isovalue, once.
-        let (lo, hi) = (
-            DVec3::new(bounds[0], bounds[2], bounds[4]),
-            DVec3::new(bounds[1], bounds[3], bounds[5]),
-        );
+        let b = grid.bounds();
+        let (lo, hi) = (DVec3::new(b[0], b[2], b[4]), DVec3::new(b[1], b[3], b[5]));
         let fine = isovalues
             .iter()
             .map(|&v| {
                 let cells = self.cache.bricks.cells_crossed(self.volume, v);
-                let points = super::error::corners_of(self.volume.grid.dims, &cells);
+                let points = super::error::corners_of(grid.dims, &cells);
                 let mut vertices = vertices_from(self.volume, v, &points);
                 vertices.retain(|&p| inside(p));
                 let blocks = Blocks::around(lo, hi, reach, &vertices)?;
-                let crossed = bits(self.volume.grid.len());
+                let crossed = bits(grid.len());
                 cells.par_iter().for_each(|&c| {
                     set_bit(&crossed, c as usize);
                 });
@@ -277,9 +269,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
         // points (much cheaper to build than one of S).
         let open: Vec<u32> = match pending {
             Pending::All => {
-                let b = grid.bounds();
-                let (lo, hi) = (DVec3::new(b[0], b[2], b[4]), DVec3::new(b[1], b[3], b[5]));
-                let with_samples = Blocks::around(lo, hi, reach, &samples)?;
+                let with_samples = fine.blocks.alike(&samples)?;
                 (0..fine.vertices.len() as u32)
                     .into_par_iter()
                     .filter(|&i| !with_samples.near(fine.vertices[i as usize]))

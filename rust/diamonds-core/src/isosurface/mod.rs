@@ -185,8 +185,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
             // Budget: the smallest tolerance whose surface fits, by bisection on the tolerance (the
             // triangle count does not grow with it; it is counted without building the surface). At
             // the data diagonal nothing non-empty is split.
-            let b = self.hierarchy.grid().bounds();
-            let diagonal = DVec3::new(b[1] - b[0], b[3] - b[2], b[5] - b[4]).length();
+            let diagonal = self.hierarchy.grid().diagonal();
             let (mut lo, mut hi) = (query.tolerance, diagonal.max(query.tolerance));
             carriers = self.carriers_at(query, hi)?;
             for _ in 0..24 {

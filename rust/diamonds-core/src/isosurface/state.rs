@@ -209,8 +209,7 @@ mod tests {
     }
 
     fn diagonal(h: &Hierarchy) -> f64 {
-        let b = h.grid().bounds();
-        ((b[1] - b[0]).powi(2) + (b[3] - b[2]).powi(2) + (b[5] - b[4]).powi(2)).sqrt()
+        h.grid().diagonal()
     }
 
     fn area(s: &IsoSurface) -> f64 {

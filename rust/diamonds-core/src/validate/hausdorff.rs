@@ -11,7 +11,6 @@
 //!
 //! The isosurface bound ([`crate::isosurface`]) is that both are at most the tolerance.
 
-use super::diagonal;
 use crate::geometry::{triangle_samples, triangle_tree, Triangle};
 use crate::isosurface::{full_resolution_triangles, full_resolution_vertices};
 use crate::volume::{Sample, Volume};
@@ -128,7 +127,7 @@ pub fn surface_distances<T: Sample>(
         fine_triangles: n_fine,
         surface_samples: samples.len(),
         slack: h / 3f64.sqrt(),
-        rounding: 1e-9 * diagonal(&volume.grid.bounds()),
+        rounding: 1e-9 * volume.grid.diagonal(),
     }
 }
 

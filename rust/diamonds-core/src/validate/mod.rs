@@ -61,13 +61,7 @@ fn faces_of_bounds(points: &[[f64; 3]], bounds: &[f64; 6], eps: f64) -> Vec<u8> 
 
 /// A tolerance for "on a face of `bounds`": a millionth of its diagonal.
 fn bounds_eps(bounds: &[f64; 6]) -> f64 {
-    1e-6 * diagonal(bounds)
-}
-
-/// The length of the diagonal of `bounds` (`[xmin, xmax, ymin, ymax, zmin, zmax]`).
-fn diagonal(bounds: &[f64; 6]) -> f64 {
-    let d = (0..3).map(|a| (bounds[2 * a + 1] - bounds[2 * a]).powi(2));
-    d.sum::<f64>().sqrt()
+    1e-6 * crate::volume::bounds_diagonal(bounds)
 }
 
 /// Every edge of the closed `polygons` (lists of point ids) as `(smaller id, larger id, whether the
