@@ -29,6 +29,8 @@
 //!   [`IsoState::extract`].
 //! - [`fields`]: generated volumes (Marschner–Lobb, distance fields) for the demo and the tests.
 //! - [`material`]: material interfaces with ghost values (Gregorski §5).
+//! - [`view`]: view-dependent meshes and the exact visibility order of their tetrahedra from the
+//!   bisection tree (Marchesin §6).
 //! - [`validate`]: independent checks of tetrahedra, surfaces and polygons (conformity, volume, the
 //!   tolerance at every sample, watertight and oriented surfaces, crack-free interfaces, array
 //!   consistency) used by the tests, the CLI and the bridge.
@@ -45,6 +47,7 @@ pub mod mesh;
 pub mod refine;
 pub mod scan;
 pub mod validate;
+pub mod view;
 pub mod volume;
 
 pub use hierarchy::{Hierarchy, Progress};

@@ -238,6 +238,24 @@ impl MeshPlan {
         &self.lattice
     }
 
+    /// The split set the mesh is made of.
+    pub(crate) fn split(&self) -> &SplitSet {
+        &self.split
+    }
+
+    /// The subtrees the tetrahedra are written by, in order, each with the index of its first
+    /// tetrahedron: below each, the tetrahedra follow [`walk`]'s depth-first order (the second
+    /// child of a bisection first).
+    pub(crate) fn subtrees(&self) -> impl Iterator<Item = (&Tet, usize)> {
+        self.roots
+            .iter()
+            .zip(self.counts.iter().scan(0, |first, &n| {
+                let this = *first;
+                *first += n;
+                Some(this)
+            }))
+    }
+
     /// Points per axis of the grid (the lattice's domain) whose indices the plan's points are.
     pub fn grid_dims(&self) -> [usize; 3] {
         let d = self.lattice.hi + glam::IVec3::ONE;

@@ -9,7 +9,8 @@
 //! - [`hausdorff`]: both one-sided Hausdorff distances between a surface and the full-resolution
 //!   marching-tetrahedra surface of a volume (the isosurface bound), exact point–triangle distances;
 //! - [`polygons`]: crack-free polygons (material interfaces) and the array consistency of a
-//!   [`crate::material::PolygonMesh`].
+//!   [`crate::material::PolygonMesh`];
+//! - [`visibility`]: back-to-front orders of tetrahedra for an eye position, face by face.
 //!
 //! The `check_*_arrays` functions are *structural*: lengths and index ranges, what C++ relies on when it
 //! indexes VTK arrays with a result. They are cheap and the bridge runs them on every result it hands
@@ -20,6 +21,7 @@ pub mod hausdorff;
 pub mod polygons;
 pub mod surfaces;
 pub mod tetrahedra;
+pub mod visibility;
 
 pub use hausdorff::{surface_distances, Farthest, SurfaceDistances};
 pub use polygons::{check_crack_free, check_polygon_arrays};
@@ -28,6 +30,7 @@ pub use tetrahedra::{
     check_conforming, check_material_mesh_arrays, check_mesh, check_mesh_arrays, check_tolerance,
     MeshReport,
 };
+pub use visibility::{check_back_to_front, VisibilityReport};
 
 use rayon::prelude::*;
 
