@@ -152,7 +152,7 @@ impl Diamond {
 
     /// For a 1-diamond: the two in-face axes (odd) and the normal axis (even).
     #[inline]
-    fn face_axes(self) -> (usize, usize, usize) {
+    pub(crate) fn face_axes(self) -> (usize, usize, usize) {
         let odd = (self.center >> IVec3::splat(self.sigma() as i32)) & IVec3::ONE;
         match (odd.x, odd.y, odd.z) {
             (0, _, _) => (1, 2, 0),

@@ -90,7 +90,6 @@ impl SplitSet {
     }
 
     /// Marks `d` unsplit (merged).
-    #[cfg(test)]
     pub(crate) fn remove(&mut self, d: Diamond) {
         if self.lattice.in_domain(d.center) {
             let i = self.lattice.index(d.center);
@@ -237,7 +236,7 @@ impl<'h> Refiner<'h> {
                 continue;
             }
             let mut closure = Vec::new();
-            r.closure(d, &mut closure);
+            Self::closure(&r.lattice, &r.split, d, &mut closure);
             for a in closure {
                 r.split.insert(a);
                 stack.extend(a.children(&lattice));
@@ -446,11 +445,11 @@ impl<'h> Refiner<'h> {
                 continue;
             }
             // `current` is closed, so the closure stays inside it.
-            r.closure(d, &mut closure);
+            Self::closure(&r.lattice, &r.split, d, &mut closure);
             for &a in &closure {
                 debug_assert!(current.contains(a));
                 r.split.insert(a);
-                r.tets += r.inside_tets(a);
+                r.tets += Self::inside_tets(&r.lattice, a);
                 for c in a.children(&r.lattice) {
                     within(&mut r, c, &mut split_queue);
                 }
@@ -530,7 +529,7 @@ impl<'h> Refiner<'h> {
                 if r.split.contains(d) {
                     continue;
                 }
-                r.closure(d, &mut closure);
+                Self::closure(&r.lattice, &r.split, d, &mut closure);
                 for &a in &closure {
                     r.split(a);
                 }
@@ -551,9 +550,12 @@ impl<'h> Refiner<'h> {
             if r.split.contains(d) {
                 continue; // already split through another parent's closure
             }
-            r.closure(d, &mut closure);
+            Self::closure(&r.lattice, &r.split, d, &mut closure);
             if budget > 0 {
-                let added: usize = closure.iter().map(|&a| r.inside_tets(a)).sum();
+                let added: usize = closure
+                    .iter()
+                    .map(|&a| Self::inside_tets(&r.lattice, a))
+                    .sum();
                 if r.tets + added > budget {
                     break;
                 }
@@ -570,7 +572,7 @@ impl<'h> Refiner<'h> {
         if let Some(log) = &mut self.log {
             log.push(d);
         }
-        self.tets += self.inside_tets(d);
+        self.tets += Self::inside_tets(&self.lattice, d);
         for c in d.children(&self.lattice) {
             self.consider(c);
         }
@@ -604,23 +606,29 @@ impl<'h> Refiner<'h> {
     }
 
     /// Number of `d`'s tetrahedra inside the domain (each becomes two when `d` is split).
-    fn inside_tets(&self, d: Diamond) -> usize {
+    pub(crate) fn inside_tets(lattice: &Lattice, d: Diamond) -> usize {
         let (lo, hi) = d.bounds();
-        if self.lattice.in_domain(lo) && self.lattice.in_domain(hi) {
+        if lattice.in_domain(lo) && lattice.in_domain(hi) {
             return [6, 4, 8][d.class() as usize];
         }
-        d.tet_boxes(&self.lattice)
+        d.tet_boxes(lattice)
             .iter()
-            .filter(|(lo, hi, _)| self.lattice.place_box(*lo, *hi) == Placement::Inside)
+            .filter(|(lo, hi, _)| lattice.place_box(*lo, *hi) == Placement::Inside)
             .map(|(_, _, n)| n)
             .sum()
     }
 
-    /// `d` and its unsplit ancestors that touch the domain, parents before children, into `order`.
-    fn closure(&self, d: Diamond, order: &mut Vec<Diamond>) {
+    /// `d` and its ancestors unsplit in `split` that touch the domain, parents before children, into
+    /// `order`.
+    pub(crate) fn closure(
+        lattice: &Lattice,
+        split: &SplitSet,
+        d: Diamond,
+        order: &mut Vec<Diamond>,
+    ) {
         order.clear();
-        let parents = d.parents(&self.lattice);
-        if parents.iter().all(|&p| self.split.contains(p)) {
+        let parents = d.parents(lattice);
+        if parents.iter().all(|&p| split.contains(p)) {
             order.push(d); // the common case: nothing to close
             return;
         }
@@ -636,10 +644,10 @@ impl<'h> Refiner<'h> {
                 continue;
             }
             stack.push((x, true));
-            for p in x.parents(&self.lattice) {
-                if !self.split.contains(p)
+            for p in x.parents(lattice) {
+                if !split.contains(p)
                     && !visited.contains(&p)
-                    && p.placement(&self.lattice) != Placement::Outside
+                    && p.placement(lattice) != Placement::Outside
                 {
                     stack.push((p, false));
                 }
