@@ -27,6 +27,9 @@
 //!   [`IsoState`] kept between queries (mesh reuse, isovalue changes "from the current mesh",
 //!   measured, §6.1; the isosurface cache). Entry points: [`isosurface::extract`] and
 //!   [`IsoState::extract`].
+//! - [`progressive`]: progressive tetrahedral meshes of unstructured input (Labsik et al.): half-edge
+//!   collapses with the weighted cost of §3.3 into a base mesh and vertex splits, replayable to any
+//!   level, with the exact field error at every removed vertex.
 //! - [`fields`]: generated volumes (Marschner–Lobb, distance fields) for the demo and the tests.
 //! - [`material`]: material interfaces with ghost values (Gregorski §5).
 //! - [`view`]: view-dependent meshes and the exact visibility order of their tetrahedra from the
@@ -44,6 +47,7 @@ pub mod lattice;
 pub mod material;
 pub mod memory;
 pub mod mesh;
+pub mod progressive;
 pub mod refine;
 pub mod scan;
 pub mod validate;
@@ -101,6 +105,12 @@ pub enum Error {
     /// A query parameter out of range.
     #[error("invalid parameter: {0}")]
     Parameter(String),
+    /// An unstructured input mesh the progressive simplification cannot take ([`progressive`]).
+    #[error("invalid tetrahedral mesh: {0}")]
+    Mesh(String),
+    /// A progressive mesh stream that cannot be read ([`progressive::stream`]).
+    #[error("invalid progressive mesh stream: {0}")]
+    Stream(String),
     /// The caller asked to stop.
     #[error("aborted")]
     Aborted,

@@ -27,8 +27,8 @@ pub use hausdorff::{surface_distances, Farthest, SurfaceDistances};
 pub use polygons::{check_crack_free, check_polygon_arrays};
 pub use surfaces::{check_isosurface_arrays, check_surface, check_unit_normals, SurfaceReport};
 pub use tetrahedra::{
-    check_conforming, check_material_mesh_arrays, check_mesh, check_mesh_arrays, check_tolerance,
-    MeshReport,
+    check_conforming, check_manifold_tets, check_material_mesh_arrays, check_mesh,
+    check_mesh_arrays, check_tolerance, MeshReport,
 };
 pub use visibility::{check_back_to_front, VisibilityReport};
 

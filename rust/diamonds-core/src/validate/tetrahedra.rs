@@ -82,6 +82,7 @@ pub fn check_mesh(mesh: &TetMesh, grid: &Grid) -> Result<MeshReport, String> {
             (0..3).any(|a| p.iter().all(|q| q[a] == 0) || p.iter().all(|q| q[a] == hi[a]))
         },
         |f| format!("{:?}", corners(f)),
+        None,
     )?;
     Ok(MeshReport {
         tets: mesh.tets.len(),
@@ -123,7 +124,55 @@ pub fn check_conforming(
         tets,
         |f| faces[f[0] as usize] & faces[f[1] as usize] & faces[f[2] as usize] != 0,
         |f| format!("{:?}", f.map(|v| points[v as usize])),
+        None,
     )?;
+    Ok(MeshReport {
+        tets: tets.len(),
+        interior_faces,
+        boundary_faces,
+    })
+}
+
+/// Checks that `tets` (corners indexing `points`) form a manifold tetrahedralisation of whatever domain
+/// they cover: positive volumes (relative to the cube of the longest edge, so inverted and flat
+/// tetrahedra are named), every face shared by one (boundary) or two (interior) tetrahedra, and every
+/// edge of the boundary surface shared by exactly two boundary faces (no two parts touching along an
+/// edge). For unstructured input and the levels of a progressive mesh, whose domain is not a box.
+pub fn check_manifold_tets(points: &[[f64; 3]], tets: &[[u32; 4]]) -> Result<MeshReport, String> {
+    check_corners(tets, points.len(), "tetrahedron")?;
+    if let Some((c, x, v)) = tets.par_iter().enumerate().find_map_first(|(c, t)| {
+        let x = t.map(|v| DVec3::from_array(points[v as usize]));
+        let v = (x[1] - x[0]).dot((x[2] - x[0]).cross(x[3] - x[0])) / 6.0;
+        let longest = (0..4)
+            .flat_map(|a| (a + 1..4).map(move |b| (a, b)))
+            .map(|(a, b)| x[a].distance(x[b]))
+            .fold(0.0, f64::max);
+        (v.is_nan() || v <= 1e-12 * longest.powi(3)).then_some((c, x, v))
+    }) {
+        return Err(format!(
+            "tetrahedron {c} {:?} is inverted or degenerate (volume {v})",
+            x.map(|p| p.to_array())
+        ));
+    }
+    let mut boundary: Vec<[u32; 3]> = Vec::new();
+    let (interior_faces, boundary_faces) = match_faces(
+        tets,
+        |_| true,
+        |f| format!("{:?}", f.map(|v| points[v as usize])),
+        Some(&mut boundary),
+    )?;
+    let mut edges: Vec<[u32; 2]> = boundary
+        .iter()
+        .flat_map(|f| [[f[0], f[1]], [f[0], f[2]], [f[1], f[2]]])
+        .collect();
+    edges.par_sort_unstable();
+    if let Some(g) = edges.chunk_by(|a, b| a == b).find(|g| g.len() != 2) {
+        return Err(format!(
+            "the boundary edge {:?} is shared by {} boundary faces: the mesh is not manifold there",
+            g[0].map(|v| points[v as usize]),
+            g.len()
+        ));
+    }
     Ok(MeshReport {
         tets: tets.len(),
         interior_faces,
@@ -138,6 +187,7 @@ fn match_faces(
     tets: &[[u32; 4]],
     on_boundary: impl Fn([u32; 3]) -> bool,
     describe: impl Fn([u32; 3]) -> String,
+    mut boundary_faces: Option<&mut Vec<[u32; 3]>>,
 ) -> Result<(usize, usize), String> {
     let mut faces: Vec<[u32; 3]> = tets
         .par_iter()
@@ -157,9 +207,18 @@ fn match_faces(
     for group in faces.chunk_by(|a, b| a == b) {
         let f = group[0];
         let on_boundary = on_boundary(f);
+        // Without a box (`boundary_faces` given), any face used once is on the boundary and any
+        // face used twice is interior.
+        let free = boundary_faces.is_some();
         match (group.len(), on_boundary) {
             (2, false) => interior += 1,
-            (1, true) => boundary += 1,
+            (2, true) if free => interior += 1,
+            (1, true) => {
+                boundary += 1;
+                if let Some(faces) = boundary_faces.as_deref_mut() {
+                    faces.push(f);
+                }
+            }
             (count, _) => {
                 return Err(format!(
                     "face {} is shared by {count} tets (boundary: {on_boundary}): the mesh is not conforming",

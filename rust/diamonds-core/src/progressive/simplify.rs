@@ -1,0 +1,678 @@
+//! The reduction algorithm (§3.2): every vertex `p_i` offers its cheapest valid half-edge collapse
+//! `hec(p_i → p_j)` to a priority queue ordered by the weighted cost of §3.3; the cheapest is made,
+//! and the vertices whose star it changed offer theirs again, until the target is reached or no
+//! collapse is left.
+//!
+//! **Field error.** The queue's field term is the paper's local estimate at `p_i` (Eq. 6, the
+//! difference of the field at `p_i` before and after the collapse) raised to the largest error
+//! already carried by the tetrahedra around `p_i`. Before a collapse is made its error is measured
+//! *exactly*: every removed original vertex lying in the changed region (the star of `p_i`) is
+//! located in the new tetrahedra and its error `|f(v) - L(v)|` recomputed; if that exceeds the queued
+//! estimate the collapse goes back into the queue at its exact cost. So the reported error of every
+//! level is the exact maximum over all removed original vertices (a vertex outside the simplified
+//! mesh, where the boundary moved, is measured at the nearest place of its tetrahedron), and the
+//! maximum field error stop is exact. Each tetrahedron carries the removed vertices inside it.
+//!
+//! **Boundary.** Boundary vertices collapse only along boundary edges (§3.2); the geometric error is
+//! the boundary quadric (Eq. 4). With `preserve_boundary`, corners stay, vertices of feature edges
+//! move only along them, and every removed boundary vertex is kept within the boundary tolerance of
+//! the boundary faces (carried like the field's vertices, by the tetrahedron of the nearest face).
+
+use super::cost::{barycentric, interpolate, is_proper, shape_measure, Quadric};
+use super::record::{LevelError, ProgressiveMesh, VertexSplit};
+use super::validity::{feature_edges_at, is_feature_edge, link_condition, Link};
+use super::{Params, TetInput};
+use crate::geometry::point_triangle_distance;
+use crate::hierarchy::Progress;
+use crate::{Error, Result};
+use glam::DVec3;
+use priority_queue::PriorityQueue;
+use rayon::prelude::*;
+use std::cmp::Ordering;
+use std::collections::BTreeMap;
+
+/// A collapse cost in the queue: the lowest comes first.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Cost(f64);
+
+impl Eq for Cost {}
+
+impl Ord for Cost {
+    fn cmp(&self, other: &Self) -> Ordering {
+        other.0.total_cmp(&self.0)
+    }
+}
+
+impl PartialOrd for Cost {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+/// The best collapse a vertex offers.
+#[derive(Clone, Copy, Debug)]
+struct Candidate {
+    target: u32,
+    /// The geometric and shape terms (weighted).
+    base: f64,
+    /// The whole cost with the field term.
+    cost: f64,
+    /// Whether the field term is the exact one (measured when the collapse was popped).
+    exact: bool,
+}
+
+/// Where an original vertex lies on the boundary, for `preserve_boundary`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    Interior,
+    Surface,
+    /// On exactly two feature edges.
+    Crease,
+    /// On one or more than two feature edges.
+    Corner,
+}
+
+/// A multiset of non-negative errors with its maximum and sum of squares.
+#[derive(Default)]
+struct ErrorSet {
+    counts: BTreeMap<u64, u32>,
+    sum_squares: f64,
+}
+
+impl ErrorSet {
+    fn insert(&mut self, e: f64) {
+        *self.counts.entry(e.to_bits()).or_insert(0) += 1;
+        self.sum_squares += e * e;
+    }
+
+    fn remove(&mut self, e: f64) {
+        if let Some(c) = self.counts.get_mut(&e.to_bits()) {
+            *c -= 1;
+            if *c == 0 {
+                self.counts.remove(&e.to_bits());
+            }
+            self.sum_squares -= e * e;
+        }
+    }
+
+    fn max(&self) -> f64 {
+        self.counts
+            .last_key_value()
+            .map_or(0.0, |(&b, _)| f64::from_bits(b))
+    }
+
+    fn rms(&self, n: usize) -> f64 {
+        if n == 0 {
+            0.0
+        } else {
+            (self.sum_squares.max(0.0) / n as f64).sqrt()
+        }
+    }
+}
+
+/// A removed original vertex placed in a tetrahedron, with its error there.
+#[derive(Clone, Copy, Debug)]
+struct Placed {
+    vertex: u32,
+    tet: u32,
+    error: f64,
+}
+
+/// What a collapse changes, measured before it is made.
+struct Exact {
+    removed: Vec<u32>,
+    moved: Vec<u32>,
+    field: Vec<Placed>,
+    boundary: Vec<Placed>,
+    max_field: f64,
+}
+
+/// The state of the reduction.
+struct Simplifier<'a> {
+    params: &'a Params,
+    pos: Vec<DVec3>,
+    f: &'a [f64],
+    tets: Vec<[u32; 4]>,
+    alive: Vec<bool>,
+    /// The live tetrahedra around each vertex.
+    star: Vec<Vec<u32>>,
+    removed: Vec<bool>,
+    kind: Vec<Kind>,
+    quadric: Vec<Quadric>,
+    /// Removed original vertices inside each tetrahedron (field error) and nearest to one of its
+    /// boundary faces (boundary distance, with `preserve_boundary`).
+    field_bins: Vec<Vec<u32>>,
+    boundary_bins: Vec<Vec<u32>>,
+    /// The largest field error carried by each tetrahedron.
+    tet_max: Vec<f64>,
+    field_error: Vec<f64>,
+    boundary_distance: Vec<f64>,
+    field_set: ErrorSet,
+    boundary_set: ErrorSet,
+    /// Normalisations of Eq. 2's terms: squared diagonal and squared value range.
+    diagonal2: f64,
+    range2: f64,
+    queue: PriorityQueue<u32, Cost>,
+    offer: Vec<Option<Candidate>>,
+    /// Vertices whose star changed since their offer: re-evaluated when they come out of the queue
+    /// (lazy updates: a vertex's star usually changes several times before its turn).
+    dirty: Vec<bool>,
+    live: usize,
+    removed_count: usize,
+}
+
+/// Simplifies `input` by half-edge collapses (§3.2) until `params.target_tets` is reached or no valid
+/// collapse within `params.max_field_error` is left, and records the result as a progressive mesh.
+/// `progress` is called on the calling thread; returning `false` aborts with [`Error::Aborted`].
+pub fn simplify(
+    input: TetInput<'_>,
+    params: &Params,
+    progress: Progress<'_>,
+) -> Result<ProgressiveMesh> {
+    params.check()?;
+    let cleaned = input.clean()?;
+    let mut s = Simplifier::new(input, &cleaned.tets, params);
+    for &(v, kept) in &cleaned.merged {
+        s.seed_merged(v, kept);
+    }
+    let start = s.live;
+    let goal = start.saturating_sub(params.target_tets).max(1);
+    let mut collapses = Vec::new();
+    let mut errors = vec![s.level_error()];
+    let all: Vec<u32> = (0..s.pos.len() as u32).collect();
+    s.offer_all(&all);
+    let mut popped = 0usize;
+    while s.live > params.target_tets {
+        let Some((i, _)) = s.queue.pop() else { break };
+        popped += 1;
+        if popped % 1024 == 1 && !progress(((start - s.live) as f64 / goal as f64).min(1.0)) {
+            return Err(Error::Aborted);
+        }
+        if std::mem::take(&mut s.dirty[i as usize]) {
+            s.offer_all(&[i]);
+            continue;
+        }
+        let Some(c) = s.offer[i as usize].take() else {
+            continue;
+        };
+        if !s.still_valid(i, c.target) {
+            s.offer_all(&[i]);
+            continue;
+        }
+        let Some(exact) = s.measure(i, c.target) else {
+            continue;
+        };
+        if params.max_field_error > 0.0 && exact.max_field > params.max_field_error {
+            continue;
+        }
+        let cost = c.base + s.field_term(exact.max_field);
+        if !c.exact && cost > c.cost {
+            s.offer[i as usize] = Some(Candidate {
+                cost,
+                exact: true,
+                ..c
+            });
+            s.queue.push(i, Cost(cost));
+            continue;
+        }
+        collapses.push(s.collapse(i, c.target, exact));
+        errors.push(s.level_error());
+    }
+    progress(1.0);
+    // Levels go up from the base mesh: reverse the errors, recorded from the original down.
+    errors.reverse();
+    Ok(ProgressiveMesh {
+        points: input.points.to_vec(),
+        tets: cleaned.tets,
+        collapses,
+        errors,
+        merged_points: cleaned.merged.len(),
+        dropped_tets: cleaned.dropped,
+    })
+}
+
+impl<'a> Simplifier<'a> {
+    fn new(input: TetInput<'a>, tets: &[[u32; 4]], params: &'a Params) -> Self {
+        let n = input.points.len();
+        let pos: Vec<DVec3> = input.points.iter().map(|&p| DVec3::from_array(p)).collect();
+        let mut star = vec![Vec::new(); n];
+        for (t, c) in tets.iter().enumerate() {
+            for &v in c {
+                star[v as usize].push(t as u32);
+            }
+        }
+        let tets = tets.to_vec();
+        let links: Vec<Link> = (0..n as u32)
+            .into_par_iter()
+            .map(|v| Link::of(&tets, &star[v as usize], v))
+            .collect();
+        let kind = links
+            .par_iter()
+            .enumerate()
+            .map(
+                |(v, l)| match (l.on_boundary(), feature_edges_at(&pos, v as u32, l)) {
+                    (false, _) => Kind::Interior,
+                    (true, 0) => Kind::Surface,
+                    (true, 2) => Kind::Crease,
+                    (true, _) => Kind::Corner,
+                },
+            )
+            .collect();
+        // Q_v: the planes of the boundary faces around v (Eq. 3).
+        let quadric = links
+            .par_iter()
+            .enumerate()
+            .map(|(v, l)| {
+                let mut q = Quadric::default();
+                for (a, b, _) in l.boundary_faces() {
+                    let p = |k: u32| pos[k as usize];
+                    q.add(&Quadric::of_plane(p(v as u32), p(a), p(b)));
+                }
+                q
+            })
+            .collect();
+        let (lo, hi) =
+            input
+                .points
+                .iter()
+                .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
+                    let p = DVec3::from_array(*p);
+                    (lo.min(p), hi.max(p))
+                });
+        let (fmin, fmax) = input
+            .scalars
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+                (a.min(v), b.max(v))
+            });
+        let m = tets.len();
+        Self {
+            params,
+            f: input.scalars,
+            alive: vec![true; m],
+            removed: vec![false; n],
+            kind,
+            quadric,
+            field_bins: vec![Vec::new(); m],
+            boundary_bins: vec![Vec::new(); m],
+            tet_max: vec![0.0; m],
+            field_error: vec![0.0; n],
+            boundary_distance: vec![0.0; n],
+            field_set: ErrorSet::default(),
+            boundary_set: ErrorSet::default(),
+            diagonal2: (hi - lo).length_squared().max(f64::MIN_POSITIVE),
+            range2: ((fmax - fmin) * (fmax - fmin)).max(f64::MIN_POSITIVE),
+            queue: PriorityQueue::with_capacity(n),
+            offer: vec![None; n],
+            dirty: vec![false; n],
+            live: m,
+            removed_count: 0,
+            pos,
+            tets,
+            star,
+        }
+    }
+
+    /// Counts the merged point `v` as removed from the start, carried by a tetrahedron around the point
+    /// `kept` at its position (its error is its value's difference from `kept`'s).
+    fn seed_merged(&mut self, v: u32, kept: u32) {
+        let Some(&t) = self.star[kept as usize].first() else {
+            return; // neither point is in a tetrahedron
+        };
+        let e = (self.f[v as usize] - self.f[kept as usize]).abs();
+        self.removed[v as usize] = true;
+        self.removed_count += 1;
+        self.kind[v as usize] = self.kind[kept as usize];
+        self.field_error[v as usize] = e;
+        self.field_set.insert(e);
+        self.field_bins[t as usize].push(v);
+        self.tet_max[t as usize] = self.tet_max[t as usize].max(e);
+        if self.params.preserve_boundary && self.kind[v as usize] != Kind::Interior {
+            self.boundary_set.insert(0.0);
+            self.boundary_bins[t as usize].push(v);
+        }
+    }
+
+    fn level_error(&self) -> LevelError {
+        LevelError {
+            tets: self.live,
+            max_field_error: self.field_set.max(),
+            rms_field_error: self.field_set.rms(self.removed_count),
+            max_boundary_distance: self.boundary_set.max(),
+        }
+    }
+
+    /// The weighted field term of Eq. 2 for a field error `e` (data units).
+    fn field_term(&self, e: f64) -> f64 {
+        self.params.field_weight * e * e / self.range2
+    }
+
+    /// The corners of `t` with `i` replaced by `j`.
+    fn moved_corners(&self, t: u32, i: u32, j: u32) -> [u32; 4] {
+        self.tets[t as usize].map(|c| if c == i { j } else { c })
+    }
+
+    fn points(&self, c: [u32; 4]) -> [DVec3; 4] {
+        c.map(|v| self.pos[v as usize])
+    }
+
+    /// Recomputes the offers of `verts` (in parallel) and updates the queue.
+    fn offer_all(&mut self, verts: &[u32]) {
+        let offers: Vec<Option<Candidate>> = if verts.len() > 64 {
+            verts.par_iter().map(|&v| self.best(v)).collect()
+        } else {
+            verts.iter().map(|&v| self.best(v)).collect()
+        };
+        for (&v, o) in verts.iter().zip(offers) {
+            self.offer[v as usize] = o;
+            match o {
+                Some(c) => {
+                    self.queue.push(v, Cost(c.cost));
+                }
+                None => {
+                    self.queue.remove(&v);
+                }
+            }
+        }
+    }
+
+    /// The cheapest valid collapse of `i` (§3.2 tests, §3.3 cost with the estimated field term).
+    fn best(&self, i: u32) -> Option<Candidate> {
+        let preserve = self.params.preserve_boundary;
+        if self.removed[i as usize] || (preserve && self.kind[i as usize] == Kind::Corner) {
+            return None;
+        }
+        let star = &self.star[i as usize];
+        let link = Link::of(&self.tets, star, i);
+        let on_boundary = link.on_boundary();
+        let carried = star
+            .iter()
+            .map(|&t| self.tet_max[t as usize])
+            .fold(0.0, f64::max);
+        let pi = self.pos[i as usize];
+        let fi = self.f[i as usize];
+        let mut candidates = Vec::with_capacity(link.verts().len());
+        for &j in link.verts() {
+            // §3.2: a boundary vertex moves only along a boundary edge.
+            if on_boundary && !link.boundary_edge_to(j) {
+                continue;
+            }
+            if preserve
+                && self.kind[i as usize] == Kind::Crease
+                && (!matches!(self.kind[j as usize], Kind::Crease | Kind::Corner)
+                    || !is_feature_edge(&self.pos, i, &link, j))
+            {
+                continue;
+            }
+            let mut proper = true;
+            let (mut shape, mut n) = (0.0, 0usize);
+            let (mut inside, mut value) = (f64::NEG_INFINITY, 0.0);
+            for &t in star {
+                if self.tets[t as usize].contains(&j) {
+                    continue;
+                }
+                let c = self.moved_corners(t, i, j);
+                let x = self.points(c);
+                if !is_proper(&x) {
+                    proper = false;
+                    break;
+                }
+                shape += shape_measure(&x);
+                n += 1;
+                let b = barycentric(&x, pi);
+                let m = b.iter().copied().fold(f64::INFINITY, f64::min);
+                if m > inside {
+                    inside = m;
+                    value = interpolate(b, c.map(|v| self.f[v as usize]));
+                }
+            }
+            if !proper || n == 0 {
+                continue;
+            }
+            let geometric = if on_boundary {
+                let mut q = self.quadric[i as usize];
+                q.add(&self.quadric[j as usize]);
+                q.eval(self.pos[j as usize])
+            } else {
+                0.0
+            };
+            let base = self.params.geometry_weight * geometric / self.diagonal2
+                + self.params.shape_weight * shape / n as f64;
+            let field = (fi - value).abs().max(carried);
+            candidates.push(Candidate {
+                target: j,
+                base,
+                cost: base + self.field_term(field),
+                exact: false,
+            });
+        }
+        candidates.sort_by(|a, b| a.cost.total_cmp(&b.cost).then(a.target.cmp(&b.target)));
+        candidates
+            .into_iter()
+            .find(|c| self.link_ok(i, &link, c.target))
+    }
+
+    /// The link condition of `hec(i → j)`.
+    fn link_ok(&self, i: u32, link: &Link, j: u32) -> bool {
+        let edge: Vec<u32> = self.star[i as usize]
+            .iter()
+            .copied()
+            .filter(|&t| self.tets[t as usize].contains(&j))
+            .collect();
+        let lj = Link::of(&self.tets, &self.star[j as usize], j);
+        link_condition(&self.tets, &edge, (i, link), (j, &lj))
+    }
+
+    /// Is `hec(i → j)` still valid? (Its offer was made before neighbouring collapses changed `j`'s
+    /// star.)
+    fn still_valid(&self, i: u32, j: u32) -> bool {
+        !self.removed[j as usize] && {
+            let link = Link::of(&self.tets, &self.star[i as usize], i);
+            link.verts().binary_search(&j).is_ok() && self.link_ok(i, &link, j)
+        }
+    }
+
+    /// Places `v` in the best of the tetrahedra `new` (corners after the collapse): the one it is
+    /// inside, else the one it is least outside; returns the index in `new` and the field error.
+    fn place_field(&self, v: u32, new: &[(u32, [u32; 4])]) -> (u32, f64) {
+        let p = self.pos[v as usize];
+        let mut best = (f64::NEG_INFINITY, 0, 0.0);
+        for &(t, c) in new {
+            let b = barycentric(&self.points(c), p);
+            let m = b.iter().copied().fold(f64::INFINITY, f64::min);
+            if m > best.0 {
+                let value = interpolate(b, c.map(|k| self.f[k as usize]));
+                best = (m, t, (self.f[v as usize] - value).abs());
+            }
+        }
+        (best.1, best.2)
+    }
+
+    /// Measures `hec(i → j)` exactly: the field error of every removed original vertex in the star of
+    /// `i` (and of `i`) in the new tetrahedra, and with `preserve_boundary` their distance to the new
+    /// boundary faces. `None` if a boundary vertex would leave the tolerance.
+    fn measure(&self, i: u32, j: u32) -> Option<Exact> {
+        let star = &self.star[i as usize];
+        let (removed, moved): (Vec<u32>, Vec<u32>) = star
+            .iter()
+            .partition(|&&t| self.tets[t as usize].contains(&j));
+        let new: Vec<(u32, [u32; 4])> = moved
+            .iter()
+            .map(|&t| (t, self.moved_corners(t, i, j)))
+            .collect();
+        if new.is_empty() {
+            return None;
+        }
+        let carried = std::iter::once(i).chain(
+            star.iter()
+                .flat_map(|&t| self.field_bins[t as usize].iter().copied()),
+        );
+        let field: Vec<Placed> = carried
+            .map(|v| {
+                let (tet, error) = self.place_field(v, &new);
+                Placed {
+                    vertex: v,
+                    tet,
+                    error,
+                }
+            })
+            .collect();
+        let max_field = field.iter().map(|p| p.error).fold(0.0, f64::max);
+        let mut boundary = Vec::new();
+        if self.params.preserve_boundary {
+            let on_boundary = |v: u32| self.kind[v as usize] != Kind::Interior;
+            let carried: Vec<u32> = std::iter::once(i)
+                .filter(|&v| on_boundary(v))
+                .chain(
+                    star.iter()
+                        .flat_map(|&t| self.boundary_bins[t as usize].iter().copied()),
+                )
+                .collect();
+            if !carried.is_empty() {
+                let faces = self.new_boundary_faces(j, &removed, &new);
+                for v in carried {
+                    let p = self.pos[v as usize];
+                    let (tet, d) = faces
+                        .iter()
+                        .map(|&(t, f)| (t, point_triangle_distance(p, f)))
+                        .min_by(|a, b| a.1.total_cmp(&b.1))?;
+                    if d > self.params.boundary_tolerance {
+                        return None;
+                    }
+                    boundary.push(Placed {
+                        vertex: v,
+                        tet,
+                        error: d,
+                    });
+                }
+            }
+        }
+        Some(Exact {
+            removed,
+            moved,
+            field,
+            boundary,
+            max_field,
+        })
+    }
+
+    /// The boundary faces of the tetrahedra `new` (after `hec(i → j)`, `removed` the tetrahedra around
+    /// the edge): a face through `j` is on the boundary if no other tetrahedron around `j` after the
+    /// collapse has it, any other face if no other live tetrahedron has it now.
+    fn new_boundary_faces(
+        &self,
+        j: u32,
+        removed: &[u32],
+        new: &[(u32, [u32; 4])],
+    ) -> Vec<(u32, [DVec3; 3])> {
+        let around_j: Vec<[u32; 4]> = new
+            .iter()
+            .map(|&(_, c)| c)
+            .chain(
+                self.star[j as usize]
+                    .iter()
+                    .filter(|t| !removed.contains(t))
+                    .map(|&t| self.tets[t as usize]),
+            )
+            .collect();
+        let has = |c: &[u32; 4], f: &[u32; 3]| f.iter().all(|v| c.contains(v));
+        let mut faces = Vec::new();
+        for &(t, c) in new {
+            for skip in 0..4 {
+                let f: [u32; 3] = std::array::from_fn(|k| c[if k < skip { k } else { k + 1 }]);
+                let count = if f.contains(&j) {
+                    around_j.iter().filter(|o| has(o, &f)).count()
+                } else {
+                    self.star[f[0] as usize]
+                        .iter()
+                        .filter(|&&o| has(&self.tets[o as usize], &f))
+                        .count()
+                };
+                if count == 1 {
+                    faces.push((t, f.map(|v| self.pos[v as usize])));
+                }
+            }
+        }
+        faces
+    }
+
+    /// Makes `hec(i → j)` (§3.1) with what [`Self::measure`] found, and re-offers the vertices
+    /// around.
+    fn collapse(&mut self, i: u32, j: u32, exact: Exact) -> VertexSplit {
+        let Exact {
+            removed,
+            moved,
+            field,
+            boundary,
+            ..
+        } = exact;
+        for &t in &removed {
+            self.alive[t as usize] = false;
+            for v in self.tets[t as usize] {
+                if v != i {
+                    self.star[v as usize].retain(|&o| o != t);
+                }
+            }
+        }
+        for &t in &moved {
+            let c = self.moved_corners(t, i, j);
+            self.tets[t as usize] = c;
+            self.star[j as usize].push(t);
+        }
+        for &t in removed.iter().chain(&moved) {
+            self.field_bins[t as usize].clear();
+            self.boundary_bins[t as usize].clear();
+            self.tet_max[t as usize] = 0.0;
+        }
+        self.star[i as usize].clear();
+        self.removed[i as usize] = true;
+        self.removed_count += 1;
+        let qi = self.quadric[i as usize];
+        self.quadric[j as usize].add(&qi);
+        self.live -= removed.len();
+        for p in field {
+            if p.vertex != i {
+                self.field_set.remove(self.field_error[p.vertex as usize]);
+            }
+            self.field_error[p.vertex as usize] = p.error;
+            self.field_set.insert(p.error);
+            self.field_bins[p.tet as usize].push(p.vertex);
+            let m = &mut self.tet_max[p.tet as usize];
+            *m = m.max(p.error);
+        }
+        for p in boundary {
+            if p.vertex != i {
+                self.boundary_set
+                    .remove(self.boundary_distance[p.vertex as usize]);
+            }
+            self.boundary_distance[p.vertex as usize] = p.error;
+            self.boundary_set.insert(p.error);
+            self.boundary_bins[p.tet as usize].push(p.vertex);
+        }
+        self.queue.remove(&i);
+        self.offer[i as usize] = None;
+        self.dirty[i as usize] = false;
+        let mut around: Vec<u32> = self.star[j as usize]
+            .iter()
+            .chain(&removed)
+            .flat_map(|&t| self.tets[t as usize])
+            .filter(|&v| !self.removed[v as usize])
+            .collect();
+        around.sort_unstable();
+        around.dedup();
+        // Queued vertices are re-evaluated when their turn comes, the others (with no valid collapse
+        // before) now.
+        around.retain(|&v| {
+            let queued = self.queue.get(&v).is_some();
+            self.dirty[v as usize] |= queued;
+            !queued
+        });
+        self.offer_all(&around);
+        VertexSplit {
+            vertex: i,
+            target: j,
+            removed,
+            moved,
+        }
+    }
+}

@@ -1,0 +1,387 @@
+//! Properties of progressive meshes on generated tetrahedralised grids: every level manifold with
+//! positive volumes, the reported field error bounding the error at every removed vertex (measured
+//! here by brute-force point location), replay equal to direct simplification, stops, bad input.
+
+use super::*;
+use crate::validate::check_manifold_tets;
+use crate::Error;
+use glam::DVec3;
+
+/// A grid of `n³` cubes over `[0, 1]³`, each cut into the six tetrahedra around its main diagonal
+/// (conforming: every cube face is cut along the diagonal through its lowest corner), with the field
+/// `field` at the points.
+struct Generated {
+    points: Vec<[f64; 3]>,
+    tets: Vec<[u32; 4]>,
+    scalars: Vec<f64>,
+}
+
+fn grid(n: usize, field: impl Fn(DVec3) -> f64) -> Generated {
+    let id = |i: usize, j: usize, k: usize| (i + (n + 1) * (j + (n + 1) * k)) as u32;
+    let mut points = Vec::new();
+    for k in 0..=n {
+        for j in 0..=n {
+            for i in 0..=n {
+                points.push([i, j, k].map(|c| c as f64 / n as f64));
+            }
+        }
+    }
+    let mut tets = Vec::new();
+    for k in 0..n {
+        for j in 0..n {
+            for i in 0..n {
+                let corner = |d: [usize; 3]| id(i + d[0], j + d[1], k + d[2]);
+                for perm in [
+                    [0, 1, 2],
+                    [0, 2, 1],
+                    [1, 0, 2],
+                    [1, 2, 0],
+                    [2, 0, 1],
+                    [2, 1, 0],
+                ] {
+                    let mut d = [0usize; 3];
+                    let mut t = [corner(d); 4];
+                    for (s, &axis) in perm.iter().enumerate() {
+                        d[axis] = 1;
+                        t[s + 1] = corner(d);
+                    }
+                    let x = t.map(|v| DVec3::from_array(points[v as usize]));
+                    if (x[1] - x[0]).dot((x[2] - x[0]).cross(x[3] - x[0])) < 0.0 {
+                        t.swap(2, 3);
+                    }
+                    tets.push(t);
+                }
+            }
+        }
+    }
+    let scalars = points
+        .iter()
+        .map(|&p| field(DVec3::from_array(p)))
+        .collect();
+    Generated {
+        points,
+        tets,
+        scalars,
+    }
+}
+
+fn smooth(p: DVec3) -> f64 {
+    (3.0 * p.x).sin() + (2.0 * p.y).cos() * p.z + 0.5 * p.z * p.z
+}
+
+impl Generated {
+    fn input(&self) -> TetInput<'_> {
+        TetInput {
+            points: &self.points,
+            tets: &self.tets,
+            scalars: &self.scalars,
+        }
+    }
+
+    fn simplify(&self, params: &Params) -> Result<ProgressiveMesh> {
+        simplify(self.input(), params, &mut |_| true)
+    }
+}
+
+fn params(target_tets: usize) -> Params {
+    Params {
+        target_tets,
+        boundary_tolerance: 1e-9,
+        ..Params::default()
+    }
+}
+
+/// The level's points and tetrahedra in original coordinates.
+fn level(pm: &ProgressiveMesh, l: usize) -> (Vec<[f64; 3]>, Vec<[u32; 4]>, Vec<u32>) {
+    let mut r = Replay::new(pm);
+    r.set_level(pm, l);
+    let mesh = r.mesh(pm.points().len());
+    let points = mesh
+        .point_ids
+        .iter()
+        .map(|&v| pm.points()[v as usize])
+        .collect();
+    (points, mesh.tets, mesh.point_ids)
+}
+
+/// Checks level `l` independently: manifold with positive volumes, the volume of the unit cube
+/// (the boundary is kept exactly), and every removed vertex inside the mesh with an error at most the
+/// reported maximum, whose RMS is the reported one.
+fn check_level(g: &Generated, pm: &ProgressiveMesh, l: usize) {
+    let (points, tets, ids) = level(pm, l);
+    check_manifold_tets(&points, &tets).unwrap_or_else(|e| panic!("level {l}: {e}"));
+    let x = |t: &[u32; 4]| t.map(|v| DVec3::from_array(points[v as usize]));
+    let volume: f64 = tets.iter().map(|t| cost::volume6(&x(t)) / 6.0).sum();
+    assert!((volume - 1.0).abs() < 1e-9, "level {l}: volume {volume}");
+    let reported = pm.error(l);
+    assert_eq!(reported.tets, tets.len());
+    let mut kept = vec![false; g.points.len()];
+    for &v in &ids {
+        kept[v as usize] = true;
+    }
+    let (mut max, mut squares, mut n) = (0.0f64, 0.0, 0usize);
+    for v in (0..g.points.len()).filter(|&v| !kept[v]) {
+        let p = DVec3::from_array(g.points[v]);
+        let (inside, value) = tets
+            .iter()
+            .map(|t| {
+                let b = cost::barycentric(&x(t), p);
+                let m = b.iter().copied().fold(f64::INFINITY, f64::min);
+                let f = t.map(|k| g.scalars[ids[k as usize] as usize]);
+                (m, (0..4).map(|k| b[k] * f[k]).sum::<f64>())
+            })
+            .max_by(|a, b| a.0.total_cmp(&b.0))
+            .unwrap();
+        assert!(
+            inside > -1e-9,
+            "level {l}: removed vertex {v} outside the mesh"
+        );
+        let e = (g.scalars[v] - value).abs();
+        assert!(
+            e <= reported.max_field_error + 1e-9,
+            "level {l}: vertex {v} has error {e} > reported {}",
+            reported.max_field_error
+        );
+        max = max.max(e);
+        squares += e * e;
+        n += 1;
+    }
+    assert!(
+        (max - reported.max_field_error).abs() < 1e-9,
+        "level {l}: max {max} vs {reported:?}"
+    );
+    let rms = if n == 0 {
+        0.0
+    } else {
+        (squares / n as f64).sqrt()
+    };
+    assert!(
+        (rms - reported.rms_field_error).abs() < 1e-6,
+        "level {l}: rms {rms} vs {reported:?}"
+    );
+}
+
+#[test]
+fn every_level_is_manifold_and_its_error_bounds_every_removed_vertex() {
+    let g = grid(5, smooth);
+    let pm = g.simplify(&params(0)).unwrap();
+    let n = pm.levels();
+    assert!(
+        pm.error(0).tets < g.tets.len() / 5,
+        "base mesh {:?}",
+        pm.error(0)
+    );
+    assert_eq!(pm.error(n).tets, g.tets.len());
+    assert_eq!(pm.error(n).max_field_error, 0.0);
+    for l in (0..=n).step_by(7).chain([0, 1, n - 1, n]) {
+        check_level(&g, &pm, l);
+    }
+}
+
+#[test]
+fn a_linear_field_simplifies_without_field_error() {
+    let g = grid(4, |p| 2.0 * p.x - p.y + 3.0 * p.z);
+    let pm = g.simplify(&params(0)).unwrap();
+    assert!(pm.error(0).tets <= 12, "{:?}", pm.error(0));
+    assert!(pm.error(0).max_field_error < 1e-12, "{:?}", pm.error(0));
+    check_level(&g, &pm, 0);
+}
+
+#[test]
+fn replay_to_a_level_equals_simplifying_directly_to_it() {
+    let g = grid(4, smooth);
+    let pm = g.simplify(&params(0)).unwrap();
+    let n = pm.levels();
+    let mut r = Replay::new(&pm);
+    // Down to the base, up to the original, down to k again: each move replays splits or collapses.
+    assert_eq!(r.set_level(&pm, 0), n);
+    assert_eq!(r.tets(), pm.error(0).tets);
+    assert_eq!(r.set_level(&pm, n), n);
+    assert_eq!(r.mesh(g.points.len()).tets, g.tets);
+    for k in [n / 3, n / 2, 2 * n / 3] {
+        r.set_level(&pm, k);
+        let direct = g.simplify(&params(pm.error(k).tets)).unwrap();
+        let mut base = Replay::new(&direct);
+        base.set_level(&direct, 0);
+        assert_eq!(direct.levels(), n - k);
+        assert_eq!(
+            base.mesh(g.points.len()),
+            r.mesh(g.points.len()),
+            "level {k}"
+        );
+        assert_eq!(direct.error(0), pm.error(k));
+    }
+}
+
+#[test]
+fn the_maximum_field_error_stops_the_reduction() {
+    let g = grid(5, smooth);
+    let limit = 0.02;
+    let pm = g
+        .simplify(&Params {
+            max_field_error: limit,
+            ..params(0)
+        })
+        .unwrap();
+    let free = g.simplify(&params(0)).unwrap();
+    assert!(free.error(0).max_field_error > limit);
+    assert!(pm.levels() > 0 && pm.levels() < free.levels());
+    for l in 0..=pm.levels() {
+        assert!(pm.error(l).max_field_error <= limit, "{:?}", pm.error(l));
+    }
+    check_level(&g, &pm, 0);
+}
+
+#[test]
+fn a_target_count_is_reached() {
+    let g = grid(5, smooth);
+    let target = g.tets.len() / 4;
+    let pm = g.simplify(&params(target)).unwrap();
+    let reached = pm.error(0).tets;
+    assert!(
+        reached <= target && reached + 12 > target,
+        "reached {reached}, target {target}"
+    );
+    assert_eq!(pm.level_for_tets(target), 0);
+    assert_eq!(pm.level_for_tets(g.tets.len()), pm.levels());
+}
+
+#[test]
+fn a_free_boundary_moves_within_its_quadric_cost_and_stays_manifold() {
+    let g = grid(4, smooth);
+    let pm = g
+        .simplify(&Params {
+            preserve_boundary: false,
+            ..params(0)
+        })
+        .unwrap();
+    for l in [0, pm.levels() / 2] {
+        let (points, tets, _) = level(&pm, l);
+        check_manifold_tets(&points, &tets).unwrap_or_else(|e| panic!("level {l}: {e}"));
+    }
+}
+
+#[test]
+fn bad_input_is_refused_with_a_message() {
+    let g = grid(2, smooth);
+    let run = |points: &[[f64; 3]], tets: &[[u32; 4]], scalars: &[f64], params: &Params| {
+        simplify(
+            TetInput {
+                points,
+                tets,
+                scalars,
+            },
+            params,
+            &mut |_| true,
+        )
+        .unwrap_err()
+    };
+    let p = Params::default();
+    let mut inverted = g.tets.clone();
+    inverted[3].swap(0, 1);
+    let e = run(&g.points, &inverted, &g.scalars, &p);
+    assert!(
+        matches!(&e, Error::Mesh(m) if m.contains("inverted")),
+        "{e}"
+    );
+    let mut nan = g.scalars.clone();
+    nan[5] = f64::NAN;
+    let e = run(&g.points, &g.tets, &nan, &p);
+    assert!(
+        matches!(&e, Error::Mesh(m) if m.contains("non-finite")),
+        "{e}"
+    );
+    let e = run(&g.points, &g.tets, &g.scalars[1..], &p);
+    assert!(matches!(&e, Error::Mesh(m) if m.contains("values")), "{e}");
+    let e = run(&g.points, &[], &g.scalars, &p);
+    assert!(matches!(&e, Error::Mesh(_)), "{e}");
+    // Three tetrahedra on one face: not manifold.
+    let pts = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.2, 0.2, 1.0],
+        [0.2, 0.2, -1.0],
+        [0.3, 0.3, 2.0],
+    ];
+    let tets = [[0, 1, 2, 3], [0, 2, 1, 4], [0, 1, 2, 5]];
+    let e = run(&pts, &tets, &[0.0; 6], &p);
+    assert!(
+        matches!(&e, Error::Mesh(m) if m.contains("shared by 3")),
+        "{e}"
+    );
+    // Two tetrahedra touching along an edge only: not manifold.
+    let pts = [
+        [0.0, 0.0, 0.0],
+        [0.0, 0.0, 1.0],
+        [1.0, 0.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [-1.0, 0.0, 0.0],
+        [-1.0, -1.0, 0.0],
+    ];
+    let orient = |t: [u32; 4]| {
+        let x = t.map(|v| DVec3::from_array(pts[v as usize]));
+        if cost::volume6(&x) < 0.0 {
+            [t[0], t[1], t[3], t[2]]
+        } else {
+            t
+        }
+    };
+    let tets = [orient([0, 1, 2, 3]), orient([0, 1, 4, 5])];
+    let e = run(&pts, &tets, &[0.0; 6], &p);
+    assert!(
+        matches!(&e, Error::Mesh(m) if m.contains("not manifold")),
+        "{e}"
+    );
+    for bad in [
+        Params {
+            field_weight: f64::NAN,
+            ..Params::default()
+        },
+        Params {
+            max_field_error: -1.0,
+            ..Params::default()
+        },
+        Params {
+            geometry_weight: 0.0,
+            field_weight: 0.0,
+            shape_weight: 0.0,
+            ..Params::default()
+        },
+    ] {
+        let e = run(&g.points, &g.tets, &g.scalars, &bad);
+        assert!(matches!(e, Error::Parameter(_)), "{e}");
+    }
+}
+
+#[test]
+fn abort_is_an_error() {
+    let g = grid(6, smooth);
+    let e = simplify(g.input(), &params(0), &mut |_| false).unwrap_err();
+    assert_eq!(e, Error::Aborted);
+}
+#[test]
+fn coincident_points_are_merged_and_flat_tetrahedra_dropped() {
+    let mut g = grid(3, smooth);
+    // A copy of point 0 (a corner) used by a flat tetrahedron on the boundary face at z = 0, and by
+    // one of the corner's tetrahedra in place of the corner.
+    g.points.push(g.points[0]);
+    g.scalars.push(g.scalars[0] + 0.25);
+    let d = (g.points.len() - 1) as u32;
+    let t = g.tets.iter().position(|t| t.contains(&0)).unwrap();
+    g.tets[t] = g.tets[t].map(|v| if v == 0 { d } else { v });
+    g.tets.push([0, d, 1, 4]);
+    let pm = g.simplify(&params(0)).unwrap();
+    assert_eq!(pm.cleaning(), (1, 1));
+    assert_eq!(pm.original_tets().len(), g.tets.len() - 1);
+    let n = pm.levels();
+    // The merged point's value differs by 0.25 from the kept one's: the original level says so.
+    assert!(
+        (pm.error(n).max_field_error - 0.25).abs() < 1e-12,
+        "{:?}",
+        pm.error(n)
+    );
+    for l in [0, n / 2, n] {
+        check_level(&g, &pm, l);
+    }
+}

@@ -1,0 +1,187 @@
+//! The validity tests of a half-edge collapse `hec(p_i → p_j)` (§3.2): the boundary rule (a boundary
+//! vertex moves only along a boundary edge), the link condition (the mesh stays a manifold
+//! tetrahedralisation: Dey et al.'s `Lk(i) ∩ Lk(j) = Lk(ij)`, with the boundary closed by a vertex at
+//! infinity) and feature edges. Flipped or degenerate tetrahedra are tested where the cost is
+//! computed ([`super::cost::is_proper`]).
+
+use glam::DVec3;
+
+/// Two boundary faces meeting at more than this angle (between outward normals) make a feature edge
+/// (ParaView's Feature Edges default).
+const FEATURE_ANGLE_DEGREES: f64 = 30.0;
+
+/// The link of a vertex `v` in the current mesh, from its star (the tetrahedra around it).
+#[derive(Debug, Default)]
+pub(super) struct Link {
+    /// The vertices adjacent to `v`, sorted.
+    verts: Vec<u32>,
+    /// The edges `ab` of the triangles `vab`, sorted pairs, deduplicated.
+    edges: Vec<[u32; 2]>,
+    /// The faces opposite `v`, sorted triples.
+    tris: Vec<[u32; 3]>,
+    /// The boundary faces `vab` as the sorted pair `ab` and the fourth corner of their tetrahedron.
+    boundary: Vec<([u32; 2], u32)>,
+    /// The vertices `a` of the boundary edges `va`, sorted.
+    boundary_verts: Vec<u32>,
+}
+
+/// The three corners of `t` other than `v`, in `t`'s order.
+fn others(t: [u32; 4], v: u32) -> [u32; 3] {
+    let mut o = [0; 3];
+    let mut k = 0;
+    for c in t {
+        if c != v && k < 3 {
+            o[k] = c;
+            k += 1;
+        }
+    }
+    o
+}
+
+fn sorted_pair(a: u32, b: u32) -> [u32; 2] {
+    [a.min(b), a.max(b)]
+}
+
+impl Link {
+    /// The link of `v` whose star is the tetrahedra `star` of `tets`.
+    pub(super) fn of(tets: &[[u32; 4]], star: &[u32], v: u32) -> Self {
+        let mut link = Link::default();
+        // Every face `vab` with the fourth corner; a face seen once is on the boundary.
+        let mut faces: Vec<([u32; 2], u32)> = Vec::with_capacity(3 * star.len());
+        for &t in star {
+            let o = others(tets[t as usize], v);
+            let mut tri = o;
+            tri.sort_unstable();
+            link.tris.push(tri);
+            link.verts.extend_from_slice(&o);
+            for (a, b, d) in [(o[0], o[1], o[2]), (o[0], o[2], o[1]), (o[1], o[2], o[0])] {
+                faces.push((sorted_pair(a, b), d));
+            }
+        }
+        link.verts.sort_unstable();
+        link.verts.dedup();
+        link.tris.sort_unstable();
+        faces.sort_unstable();
+        for group in faces.chunk_by(|x, y| x.0 == y.0) {
+            link.edges.push(group[0].0);
+            if group.len() == 1 {
+                link.boundary.push(group[0]);
+                link.boundary_verts.extend_from_slice(&group[0].0);
+            }
+        }
+        link.boundary_verts.sort_unstable();
+        link.boundary_verts.dedup();
+        link
+    }
+
+    /// The vertices adjacent to `v`.
+    pub(super) fn verts(&self) -> &[u32] {
+        &self.verts
+    }
+
+    /// Is `v` on the boundary of the mesh?
+    pub(super) fn on_boundary(&self) -> bool {
+        !self.boundary.is_empty()
+    }
+
+    /// Is the edge from `v` to `a` on the boundary?
+    pub(super) fn boundary_edge_to(&self, a: u32) -> bool {
+        self.boundary_verts.binary_search(&a).is_ok()
+    }
+
+    /// The boundary faces `vab` as `(a, b, fourth corner)`.
+    pub(super) fn boundary_faces(&self) -> impl Iterator<Item = (u32, u32, u32)> + '_ {
+        self.boundary.iter().map(|&([a, b], d)| (a, b, d))
+    }
+}
+
+/// Does every element of both sorted `a` and `b` lie in sorted `within`?
+fn common_within<T: Ord>(a: &[T], b: &[T], within: &[T]) -> bool {
+    a.iter()
+        .filter(|x| b.binary_search(x).is_ok())
+        .all(|x| within.binary_search(x).is_ok())
+}
+
+/// Do the sorted `a` and `b` share no element?
+fn disjoint<T: Ord>(a: &[T], b: &[T]) -> bool {
+    !a.iter().any(|x| b.binary_search(x).is_ok())
+}
+
+/// The link condition of the collapse of the edge `ij` (§3.2, "the mesh stays a manifold"): with
+/// `li`, `lj` the links of `i` and `j` and `edge_tets` the tetrahedra around `ij`, the simplices
+/// common to both links are those of the edge's link, the boundary closed by a vertex ω at infinity
+/// (joined to every boundary simplex): common vertices, edges and faces of `Lk(i)` and `Lk(j)` lie in
+/// `Lk(ij)` (which has no faces), and likewise for the simplices joined to ω — if both ends are on
+/// the boundary the edge is, a vertex `a` with boundary edges `ia` and `ja` spans a boundary face
+/// `ija`, and no boundary edge `ab` has both `iab` and `jab` as boundary faces.
+pub(super) fn link_condition(
+    tets: &[[u32; 4]],
+    edge_tets: &[u32],
+    (i, li): (u32, &Link),
+    (j, lj): (u32, &Link),
+) -> bool {
+    let mut edge_verts = Vec::with_capacity(2 * edge_tets.len());
+    let mut edge_edges = Vec::with_capacity(edge_tets.len());
+    let mut edge_faces: Vec<u32> = Vec::with_capacity(2 * edge_tets.len());
+    for &t in edge_tets {
+        let o = others(tets[t as usize], i);
+        let ab: Vec<u32> = o.into_iter().filter(|&c| c != j).collect();
+        let (a, b) = (ab[0], ab[1]);
+        edge_verts.extend([a, b]);
+        edge_edges.push(sorted_pair(a, b));
+        edge_faces.extend([a, b]);
+    }
+    edge_verts.sort_unstable();
+    edge_verts.dedup();
+    edge_edges.sort_unstable();
+    // A face `ija` seen once around the edge is on the boundary.
+    edge_faces.sort_unstable();
+    let boundary_faces: Vec<u32> = edge_faces
+        .chunk_by(|a, b| a == b)
+        .filter(|g| g.len() == 1)
+        .map(|g| g[0])
+        .collect();
+    let edge_on_boundary = !boundary_faces.is_empty();
+    let strip =
+        |v: &[u32], other: u32| -> Vec<u32> { v.iter().copied().filter(|&a| a != other).collect() };
+    let (vi, vj) = (strip(&li.verts, j), strip(&lj.verts, i));
+    let (bi, bj) = (strip(&li.boundary_verts, j), strip(&lj.boundary_verts, i));
+    let boundary_edges = |l: &Link| -> Vec<[u32; 2]> { l.boundary.iter().map(|b| b.0).collect() };
+    common_within(&vi, &vj, &edge_verts)
+        && common_within(&li.edges, &lj.edges, &edge_edges)
+        && disjoint(&li.tris, &lj.tris)
+        && (!li.on_boundary() || !lj.on_boundary() || edge_on_boundary)
+        && common_within(&bi, &bj, &boundary_faces)
+        && disjoint(&boundary_edges(li), &boundary_edges(lj))
+}
+
+/// The outward normal (not normalised) of the boundary face `vab` whose tetrahedron's fourth corner
+/// is `d`.
+fn outward_normal(pos: &[DVec3], v: u32, a: u32, b: u32, d: u32) -> DVec3 {
+    let p = |k: u32| pos[k as usize];
+    let n = (p(a) - p(v)).cross(p(b) - p(v));
+    if n.dot(p(d) - p(v)) > 0.0 {
+        -n
+    } else {
+        n
+    }
+}
+
+/// Is the boundary edge `vw` (`link` the link of `v`) a feature edge: do its two boundary faces
+/// meet at more than [`FEATURE_ANGLE_DEGREES`]?
+pub(super) fn is_feature_edge(pos: &[DVec3], v: u32, link: &Link, w: u32) -> bool {
+    let normals: Vec<DVec3> = link
+        .boundary_faces()
+        .filter(|&(a, b, _)| a == w || b == w)
+        .map(|(a, b, d)| outward_normal(pos, v, a, b, d).normalize_or_zero())
+        .collect();
+    normals.len() == 2 && normals[0].dot(normals[1]) < FEATURE_ANGLE_DEGREES.to_radians().cos()
+}
+
+/// How many feature edges of the boundary meet at `v` (0 for an interior vertex).
+pub(super) fn feature_edges_at(pos: &[DVec3], v: u32, link: &Link) -> usize {
+    link.boundary_verts
+        .iter()
+        .filter(|&&w| is_feature_edge(pos, v, link, w))
+        .count()
+}
