@@ -1,7 +1,7 @@
 //! The subcommands as library functions: [`tetra`], [`iso`], [`generate`], [`verify`] and
 //! [`verify_surface`].
 
-use crate::read::{read_image, read_polydata, read_unstructured};
+use crate::read::{read_image, read_polydata, read_unstructured, tetrahedra};
 use crate::write::{
     checked_extension, write_image, write_tets, write_triangles, TetGrid, Triangles,
 };
@@ -601,26 +601,11 @@ pub fn verify(
     };
     // Cells: tetrahedra only.
     let n_cells = ugrid.types.len();
-    let cells_ok = (|| {
-        if let Some(c) = ugrid.types.iter().position(|&t| t != 10) {
-            return Err(format!(
-                "cell {c} has VTK type {}, not VTK_TETRA (10)",
-                ugrid.types[c]
-            ));
-        }
-        if ugrid
-            .offsets
-            .iter()
-            .enumerate()
-            .any(|(c, &o)| o != 4 * (c + 1))
-        {
-            return Err("cell offsets are not those of tetrahedra".to_string());
-        }
-        Ok(format!(
-            "{n_cells} tetrahedra, {} points",
-            ugrid.points.len()
-        ))
-    })();
+    let tets = tetrahedra(&ugrid);
+    let cells_ok = tets
+        .as_ref()
+        .map(|_| format!("{n_cells} tetrahedra, {} points", ugrid.points.len()))
+        .map_err(Clone::clone);
     if !report.check("cells", cells_ok) {
         return Ok(finish(report));
     }
@@ -644,11 +629,7 @@ pub fn verify(
     let mesh = TetMesh {
         point_ids: ids,
         points: ugrid.points.clone(),
-        tets: ugrid
-            .connectivity
-            .chunks_exact(4)
-            .map(|t| [t[0] as u32, t[1] as u32, t[2] as u32, t[3] as u32])
-            .collect(),
+        tets: tets.unwrap_or_default(),
         depths: match cell_values("BisectionDepth") {
             Some(a) => (0..n_cells).map(|c| a.value(c) as u8).collect(),
             None => vec![0; n_cells],

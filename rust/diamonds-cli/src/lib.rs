@@ -9,11 +9,14 @@
 //! - [`write`]: `.vti`, `.vtu` and `.vtp` output through [`vtkxml`].
 //! - [`commands`]: the `tetra`, `iso`, `generate`, `verify` and `verify-surface` subcommands as library
 //!   functions.
+//! - [`progressive`]: the `progressive encode` and `decode` subcommands (progressive tetrahedral
+//!   meshes of `.vtu` grids, streams valid at any prefix).
 //! - [`material`]: the `material` subcommand (material interfaces with ghost values) and the impact
 //!   case of `generate --field impact`.
 
 pub mod commands;
 pub mod material;
+pub mod progressive;
 pub mod read;
 pub mod write;
 

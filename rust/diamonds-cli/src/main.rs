@@ -5,6 +5,7 @@ use diamonds_cli::commands::{
     self, Field, IsoOptions, IsoTolerance, SampleType, TetraOptions, DEFAULT_ISO_TOLERANCE,
 };
 use diamonds_cli::material::{self, MaterialOptions, IMPACT_DIMS};
+use diamonds_cli::progressive;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -206,6 +207,10 @@ enum Command {
         #[arg(long)]
         resample: bool,
     },
+    /// Progressive tetrahedral meshes of unstructured grids (Labsik et al.): encode a .vtu as a base
+    /// mesh plus vertex splits, decode any level.
+    #[command(subcommand)]
+    Progressive(ProgressiveCommand),
     /// Check a mesh written by `tetra` against its volume, independently of the hierarchy.
     ///
     /// Checks that the cells are tetrahedra at input sample positions, conforming (every interior face
@@ -400,6 +405,42 @@ fn run(cli: Cli) -> diamonds_cli::Result<ExitCode> {
             })?;
             println!("{summary}");
         }
+        Command::Progressive(ProgressiveCommand::Encode {
+            input,
+            output,
+            array,
+            target_reduction,
+            max_field_error,
+            geometry_weight,
+            field_weight,
+            shape_weight,
+            free_boundary,
+            boundary_tolerance,
+        }) => {
+            let report = progressive::encode(&progressive::EncodeOptions {
+                input,
+                output,
+                array,
+                target_reduction,
+                max_field_error,
+                geometry_weight,
+                field_weight,
+                shape_weight,
+                preserve_boundary: !free_boundary,
+                boundary_tolerance,
+            })?;
+            println!("{report}");
+        }
+        Command::Progressive(ProgressiveCommand::Decode {
+            input,
+            level,
+            output,
+        }) => {
+            println!(
+                "{}",
+                progressive::decode(&input, level.unwrap_or(usize::MAX), &output)?
+            );
+        }
         Command::Verify {
             input,
             mesh,
@@ -436,6 +477,90 @@ fn run(cli: Cli) -> diamonds_cli::Result<ExitCode> {
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+#[derive(Subcommand, Debug)]
+enum ProgressiveCommand {
+    /// Simplify a tetrahedral mesh (.vtu) by half-edge collapses into a progressive mesh stream (.dpm).
+    ///
+    /// The stream holds the base mesh, then one vertex split per removed vertex: any prefix decodes to
+    /// a valid mesh. Every kept vertex is an original one, with all its point arrays. The field error
+    /// reported is the exact maximum over the removed original vertices.
+    Encode {
+        /// Input unstructured grid of tetrahedra (.vtu).
+        input: PathBuf,
+        /// Output stream (.dpm).
+        output: PathBuf,
+        /// Point-data array of the field error [default: the first single-component one].
+        #[arg(long, value_name = "NAME")]
+        array: Option<String>,
+        /// Fraction of the tetrahedra to remove (0-1), like Decimate's.
+        #[arg(
+            long,
+            default_value_t = 0.9,
+            value_name = "R",
+            allow_negative_numbers = true
+        )]
+        target_reduction: f64,
+        /// Largest field error at a removed vertex, data units (0 = no limit).
+        #[arg(
+            long,
+            default_value_t = 0.0,
+            value_name = "E",
+            allow_negative_numbers = true
+        )]
+        max_field_error: f64,
+        /// Weight of the geometric (boundary quadric) error.
+        #[arg(
+            long,
+            default_value_t = 1.0,
+            value_name = "W",
+            allow_negative_numbers = true
+        )]
+        geometry_weight: f64,
+        /// Weight of the field error.
+        #[arg(
+            long,
+            default_value_t = 1.0,
+            value_name = "W",
+            allow_negative_numbers = true
+        )]
+        field_weight: f64,
+        /// Weight of the shape error.
+        #[arg(
+            long,
+            default_value_t = 1e-3,
+            value_name = "W",
+            allow_negative_numbers = true
+        )]
+        shape_weight: f64,
+        /// Let the boundary move (only the quadric error limits it) instead of keeping corners, feature
+        /// edges and the boundary tolerance.
+        #[arg(long)]
+        free_boundary: bool,
+        /// Largest distance of a removed boundary vertex from the boundary, as a fraction of the
+        /// bounding-box diagonal.
+        #[arg(
+            long,
+            default_value_t = 1e-3,
+            value_name = "F",
+            allow_negative_numbers = true
+        )]
+        boundary_tolerance: f64,
+    },
+    /// Write one level of a progressive mesh stream (.dpm) as a .vtu.
+    ///
+    /// Level 0 is the base mesh; the last level is the original. A stream cut short gives its last
+    /// complete level. Field data: Level, NumberOfLevels, MaximumFieldError, RMSFieldError.
+    Decode {
+        /// Input stream (.dpm).
+        input: PathBuf,
+        /// Level to decode [default: the last, the original mesh].
+        #[arg(long, value_name = "L")]
+        level: Option<usize>,
+        /// Output unstructured grid (.vtu).
+        output: PathBuf,
+    },
 }
 
 fn main() -> ExitCode {

@@ -30,6 +30,36 @@ pub struct Image {
     pub warnings: Vec<String>,
 }
 
+/// The cells of an unstructured grid as tetrahedra: refuses other cell types (mixed cells) with the
+/// first one named, and more than 2^32 - 1 points.
+pub fn tetrahedra(grid: &Unstructured) -> std::result::Result<Vec<[u32; 4]>, String> {
+    if let Some(c) = grid.types.iter().position(|&t| t != 10) {
+        return Err(format!(
+            "cell {c} has VTK type {}, not VTK_TETRA (10): tetrahedra only (apply Tetrahedralize first)",
+            grid.types[c]
+        ));
+    }
+    if grid
+        .offsets
+        .iter()
+        .enumerate()
+        .any(|(c, &o)| o != 4 * (c + 1))
+    {
+        return Err("cell offsets are not those of tetrahedra".to_string());
+    }
+    if u32::try_from(grid.points.len()).is_err() {
+        return Err(format!(
+            "{} points: at most 2^32 - 1 are supported",
+            grid.points.len()
+        ));
+    }
+    Ok(grid
+        .connectivity
+        .chunks_exact(4)
+        .map(|t| [t[0] as u32, t[1] as u32, t[2] as u32, t[3] as u32])
+        .collect())
+}
+
 /// The core's grid of image data.
 fn core_grid(g: UniformGrid) -> Grid {
     Grid {

@@ -139,6 +139,27 @@ impl Values {
             Values::F64(_) => "Float64",
         }
     }
+
+    /// The values of the type named by `type_name` (one of [`Values::type_name`]'s names) converted
+    /// from `f64` (`as` casts: exact for values that came from that type).
+    pub fn from_f64(type_name: &str, v: Vec<f64>) -> Option<Values> {
+        fn cast<T>(v: Vec<f64>, f: impl Fn(f64) -> T) -> Vec<T> {
+            v.into_iter().map(f).collect()
+        }
+        Some(match type_name {
+            "Int8" => Values::I8(cast(v, |x| x as i8)),
+            "UInt8" => Values::U8(cast(v, |x| x as u8)),
+            "Int16" => Values::I16(cast(v, |x| x as i16)),
+            "UInt16" => Values::U16(cast(v, |x| x as u16)),
+            "Int32" => Values::I32(cast(v, |x| x as i32)),
+            "UInt32" => Values::U32(cast(v, |x| x as u32)),
+            "Int64" => Values::I64(cast(v, |x| x as i64)),
+            "UInt64" => Values::U64(cast(v, |x| x as u64)),
+            "Float32" => Values::F32(cast(v, |x| x as f32)),
+            "Float64" => Values::F64(v),
+            _ => return None,
+        })
+    }
 }
 
 /// A named data array: `components` values per tuple (point or cell), stored flat.
