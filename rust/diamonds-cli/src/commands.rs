@@ -112,7 +112,7 @@ pub struct TetGridData {
 /// Reads the input image of `tetra` and `iso`, checks that it holds the array to mesh (refusing it with
 /// the file's name in the message) and prints the reader's warnings; returns the image and the seconds
 /// it took.
-fn read_input(path: &Path, array: Option<&str>) -> Result<(crate::read::Image, f64)> {
+pub(crate) fn read_input(path: &Path, array: Option<&str>) -> Result<(crate::read::Image, f64)> {
     let start = Instant::now();
     let mut image = read_image(path)?;
     let converted = match image.exact_scalars(array) {

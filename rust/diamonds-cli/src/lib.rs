@@ -11,6 +11,8 @@
 //!   functions.
 //! - [`progressive`]: the `progressive encode` and `decode` subcommands (progressive tetrahedral
 //!   meshes of `.vtu` grids, streams valid at any prefix).
+//! - [`view`]: the `view` subcommand (a view-dependent mesh for a camera, optionally in exact
+//!   visibility order, after an optional orbit).
 //! - [`material`]: the `material` subcommand (material interfaces with ghost values) and the impact
 //!   case of `generate --field impact`.
 
@@ -18,6 +20,7 @@ pub mod commands;
 pub mod material;
 pub mod progressive;
 pub mod read;
+pub mod view;
 pub mod write;
 
 use diamonds::ScalarSlice;

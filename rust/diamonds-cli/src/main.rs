@@ -1,11 +1,13 @@
 //! `diamonds`: adaptive tetrahedral meshes of volumes by longest-edge bisection (diamond hierarchies).
 
 use clap::{Parser, Subcommand};
+use diamonds::view::{Camera, Direction, Metric};
 use diamonds_cli::commands::{
     self, Field, IsoOptions, IsoTolerance, SampleType, TetraOptions, DEFAULT_ISO_TOLERANCE,
 };
 use diamonds_cli::material::{self, MaterialOptions, IMPACT_DIMS};
 use diamonds_cli::progressive;
+use diamonds_cli::view::{self, ViewOptions};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -123,6 +125,68 @@ enum Command {
         /// MaximumError (the largest IsosurfaceError).
         #[arg(long, value_name = "MESH")]
         carrier: Option<PathBuf>,
+    },
+    /// Build the view-dependent mesh (.vtu) of a volume for a camera (Gregorski 2002 section 4,
+    /// Marchesin 2004).
+    ///
+    /// Diamonds are split while their view-dependent error exceeds the tolerance: the largest
+    /// approximation error of their subtree projected at its nearest distance to the eye, in pixels
+    /// (the value range spanning the volume's diagonal) or as error over distance; diamonds outside
+    /// the view frustum stay coarse. With --max-tets the tolerance rises until the mesh fits. With
+    /// --orbit the camera turns about the view-up axis through the focal point, frame after frame,
+    /// each frame starting from the last one's mesh (split and merge queues); the last frame is
+    /// written and every frame's splits, merges and time are printed. With --sort the cells are in
+    /// exact visibility order from the camera position (the bisection tree as a BSP). Output as
+    /// `tetra`'s plus cell data Level (bisection depth / 3); field data Tolerance is the
+    /// view-dependent tolerance reached.
+    View {
+        /// Input image: VTK XML ImageData (.vti) or legacy VTK STRUCTURED_POINTS (.vtk).
+        input: PathBuf,
+        /// Output unstructured grid (.vtu).
+        output: PathBuf,
+        /// Point-data array to mesh [default: the active scalars, else the first single-component array].
+        #[arg(long, value_name = "NAME")]
+        array: Option<String>,
+        /// Camera position (world).
+        #[arg(long, num_args = 3, required = true, allow_negative_numbers = true, value_names = ["X", "Y", "Z"])]
+        position: Vec<f64>,
+        /// The point the camera looks at (world).
+        #[arg(long, num_args = 3, required = true, allow_negative_numbers = true, value_names = ["X", "Y", "Z"])]
+        focal_point: Vec<f64>,
+        /// Camera up direction.
+        #[arg(long, num_args = 3, default_values_t = [0.0, 0.0, 1.0], allow_negative_numbers = true, value_names = ["X", "Y", "Z"])]
+        view_up: Vec<f64>,
+        /// Vertical view angle in degrees.
+        #[arg(
+            long,
+            default_value_t = 30.0,
+            allow_negative_numbers = true,
+            value_name = "DEGREES"
+        )]
+        view_angle: f64,
+        /// Viewport width and height in pixels.
+        #[arg(long, num_args = 2, default_values_t = [800, 600], value_names = ["W", "H"])]
+        viewport: Vec<u32>,
+        /// View-dependent tolerance (pixels with --metric pixels).
+        #[arg(
+            long,
+            default_value_t = 1.0,
+            allow_negative_numbers = true,
+            value_name = "T"
+        )]
+        tolerance: f64,
+        /// Unit of the view-dependent error.
+        #[arg(long, value_enum, default_value_t = ViewMetric::Pixels)]
+        metric: ViewMetric,
+        /// Largest number of tetrahedra (0 = no limit).
+        #[arg(long, default_value_t = 0, value_name = "N")]
+        max_tets: usize,
+        /// Cell order of the output, from the camera position.
+        #[arg(long, value_enum, default_value_t = Sort::None)]
+        sort: Sort,
+        /// Frames of an orbit before the written frame, and the degrees the camera turns per frame.
+        #[arg(long, num_args = 2, allow_negative_numbers = true, value_names = ["FRAMES", "DEGREES"])]
+        orbit: Option<Vec<f64>>,
     },
     /// Write a generated volume (.vti) for demos and tests.
     ///
@@ -270,6 +334,26 @@ enum Command {
     },
 }
 
+/// `diamonds view --metric`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum ViewMetric {
+    /// Gregorski's screen-space error in pixels.
+    Pixels,
+    /// Marchesin's approximation error over distance.
+    DistanceRatio,
+}
+
+/// `diamonds view --sort`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum Sort {
+    /// The mesh's own order.
+    None,
+    /// Farthest tetrahedron first.
+    BackToFront,
+    /// Nearest tetrahedron first.
+    FrontToBack,
+}
+
 fn run(cli: Cli) -> diamonds_cli::Result<ExitCode> {
     if cli.threads > 0 {
         rayon::ThreadPoolBuilder::new()
@@ -330,6 +414,63 @@ fn run(cli: Cli) -> diamonds_cli::Result<ExitCode> {
                 scalars,
                 carrier,
             })?;
+            println!("{}: {summary}", output.display());
+        }
+        Command::View {
+            input,
+            output,
+            array,
+            position,
+            focal_point,
+            view_up,
+            view_angle,
+            viewport,
+            tolerance,
+            metric,
+            max_tets,
+            sort,
+            orbit,
+        } => {
+            let three = |v: Vec<f64>| <[f64; 3]>::try_from(v).expect("clap gives 3 values");
+            let orbit = match orbit {
+                None => None,
+                Some(o) if o[0] >= 1.0 && o[0].fract() == 0.0 => Some((o[0] as usize, o[1])),
+                Some(o) => {
+                    return Err(diamonds_cli::Error(format!(
+                        "--orbit needs a whole number of frames ≥ 1 (got {})",
+                        o[0]
+                    )))
+                }
+            };
+            let summary = view::view(&ViewOptions {
+                input,
+                output: output.clone(),
+                array,
+                camera: Camera {
+                    position: three(position),
+                    focal_point: three(focal_point),
+                    view_up: three(view_up),
+                    view_angle,
+                    viewport: <[u32; 2]>::try_from(viewport).expect("clap gives 2 values"),
+                },
+                metric: match metric {
+                    ViewMetric::Pixels => Metric::ScreenSpace,
+                    ViewMetric::DistanceRatio => Metric::DistanceRatio,
+                },
+                tolerance,
+                max_tets,
+                sort: match sort {
+                    Sort::None => None,
+                    Sort::BackToFront => Some(Direction::BackToFront),
+                    Sort::FrontToBack => Some(Direction::FrontToBack),
+                },
+                orbit,
+            })?;
+            if summary.frames.len() > 1 {
+                for line in summary.frame_lines() {
+                    println!("{line}");
+                }
+            }
             println!("{}: {summary}", output.display());
         }
         Command::Generate {

@@ -32,7 +32,7 @@ use crate::lattice::Lattice;
 use crate::memory;
 use crate::volume::Grid;
 use crate::{Error, Hierarchy, Result};
-use glam::{DVec3, IVec3};
+use glam::{DQuat, DVec3, IVec3};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU16, Ordering};
 
@@ -49,6 +49,27 @@ pub struct Camera {
     pub view_angle: f64,
     /// Viewport width and height in pixels, both ≥ 1.
     pub viewport: [u32; 2],
+}
+
+impl Camera {
+    /// The camera turned by `degrees` about its view-up axis through its focal point (one step of
+    /// an orbit).
+    pub fn orbited(&self, degrees: f64) -> Result<Self> {
+        let axis = DVec3::from(self.view_up).normalize_or_zero();
+        if axis == DVec3::ZERO || !degrees.is_finite() {
+            return Err(Error::Parameter(format!(
+                "an orbit needs a non-zero view up and a finite angle (got {:?}, {degrees})",
+                self.view_up
+            )));
+        }
+        let turn = DQuat::from_axis_angle(axis, degrees.to_radians());
+        let focal = DVec3::from(self.focal_point);
+        let position = focal + turn * (DVec3::from(self.position) - focal);
+        Ok(Self {
+            position: position.to_array(),
+            ..*self
+        })
+    }
 }
 
 /// The unit of the view-dependent error.

@@ -13,5 +13,5 @@ pub mod order;
 pub mod queues;
 
 pub use error::{Camera, Metric, View, ViewErrors};
-pub use order::{BspTree, Direction};
+pub use order::{sorted, BspTree, Direction};
 pub use queues::{FrameStats, ViewQuery, ViewState};

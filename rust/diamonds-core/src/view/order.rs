@@ -18,7 +18,7 @@ use crate::diamond::{bisect, Diamond};
 use crate::lattice::{Placement, Tet};
 use crate::mesh::MeshPlan;
 use crate::volume::Grid;
-use crate::{Error, Result};
+use crate::{Error, Result, TetMesh};
 use glam::{DVec3, I64Vec3, IVec3};
 use rustc_hash::FxHashMap;
 
@@ -197,6 +197,36 @@ impl BspTree {
     }
 }
 
+/// `mesh` with its tetrahedra (and their depths and errors) in `order`, a permutation of their
+/// indices such as [`BspTree::order`] gives.
+pub fn sorted(mesh: TetMesh, order: &[u32]) -> Result<TetMesh> {
+    let n = mesh.tets.len();
+    let mut seen = vec![false; n];
+    for &i in order {
+        match seen.get_mut(i as usize) {
+            Some(s) if !*s => *s = true,
+            _ => {
+                return Err(Error::Parameter(format!(
+                    "the order is no permutation of the mesh's {n} tetrahedra (index {i})"
+                )))
+            }
+        }
+    }
+    if order.len() != n {
+        return Err(Error::Parameter(format!(
+            "the order names {} of the mesh's {n} tetrahedra",
+            order.len()
+        )));
+    }
+    let pick = |i: &u32| *i as usize;
+    Ok(TetMesh {
+        tets: order.iter().map(|i| mesh.tets[pick(i)]).collect(),
+        depths: order.iter().map(|i| mesh.depths[pick(i)]).collect(),
+        errors: order.iter().map(|i| mesh.errors[pick(i)]).collect(),
+        ..mesh
+    })
+}
+
 #[inline]
 fn wide(v: IVec3) -> I64Vec3 {
     v.as_i64vec3()
@@ -207,7 +237,6 @@ mod tests {
     use super::*;
     use crate::fields::marschner_lobb_u8;
     use crate::validate::check_back_to_front;
-    use crate::TetMesh;
     use crate::{Hierarchy, Query, ScalarSlice};
 
     /// The hierarchy of the Marschner–Lobb bytes on `dims` with the given geometry.
@@ -324,5 +353,14 @@ mod tests {
             .is_err());
         let other = Grid::new([9, 9, 10]);
         assert!(BspTree::new(&plan, &other).is_err());
+        // `sorted` takes permutations only, and reorders every per-tetrahedron array alike.
+        let mesh = plan.to_mesh(h.grid(), |d| h.error(d)).unwrap();
+        let n = mesh.tets.len() as u32;
+        for bad in [vec![0; n as usize], (1..=n).collect(), (0..n - 1).collect()] {
+            assert!(sorted(mesh.clone(), &bad).is_err());
+        }
+        let reverse: Vec<u32> = (0..n).rev().collect();
+        let back = sorted(mesh.clone(), &reverse).unwrap();
+        assert_eq!(sorted(back, &reverse).unwrap(), mesh);
     }
 }
