@@ -152,7 +152,11 @@ macro_rules! index_types {
 index_types!(u32, i32, i64, usize);
 
 /// `slice` cut into consecutive pieces of `lens[i] × per` elements.
-fn pieces<'a, T>(mut slice: &'a mut [T], lens: &[usize], per: usize) -> Vec<&'a mut [T]> {
+pub(crate) fn pieces<'a, T>(
+    mut slice: &'a mut [T],
+    lens: &[usize],
+    per: usize,
+) -> Vec<&'a mut [T]> {
     let mut out = Vec::with_capacity(lens.len());
     for &n in lens {
         let (piece, rest) = slice.split_at_mut(n * per);

@@ -16,10 +16,11 @@
 
 use crate::diamond::{bisect, Diamond};
 use crate::lattice::{Placement, Tet};
-use crate::mesh::MeshPlan;
+use crate::mesh::{pieces, MeshPlan};
 use crate::volume::Grid;
 use crate::{Error, Result, TetMesh};
 use glam::{DVec3, I64Vec3, IVec3};
+use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 
 /// Which end of the order comes first.
@@ -45,6 +46,9 @@ pub struct BspTree {
     nodes: Vec<u32>,
     /// The six root tetrahedra and the position of their nodes.
     roots: Vec<(Tet, u32)>,
+    /// The nodes of the mesh plan's subtrees (its parallel work units) and their numbers of
+    /// tetrahedra: an order visits them in turn, then fills each one's slice in parallel.
+    subtrees: FxHashMap<u32, usize>,
     tets: usize,
 }
 
@@ -62,16 +66,27 @@ impl BspTree {
             )));
         }
         let split = plan.split();
-        let first: FxHashMap<Tet, usize> = plan.subtrees().map(|(t, i)| (*t, i)).collect();
+        // Each subtree of the plan with the index of its first tetrahedron and its count.
+        let firsts: Vec<(Tet, usize)> = plan.subtrees().map(|(t, i)| (*t, i)).collect();
+        let mut first: FxHashMap<Tet, (usize, usize)> = FxHashMap::default();
+        for (k, &(t, i)) in firsts.iter().enumerate() {
+            let end = firsts.get(k + 1).map_or(plan.tets(), |next| next.1);
+            first.insert(t, (i, end - i));
+        }
+        // Subtrees are the first levels of the tree: no lookups below the deepest.
+        let depth_of =
+            |t: &Tet| Diamond::of_tet(t).map_or(3 * lattice.levels, |d| d.depth(lattice));
+        let deepest = firsts.iter().map(|(t, _)| depth_of(t)).max().unwrap_or(0);
         let mut nodes = Vec::with_capacity(2 * plan.tets() + 64);
         let mut roots = Vec::with_capacity(6);
+        let mut subtrees = FxHashMap::default();
         let mut next = 0usize;
-        // (tetrahedron, the inner node whose first child it is)
-        let mut stack: Vec<(Tet, Option<usize>)> = Vec::new();
+        // (tetrahedron, its depth, the inner node whose first child it is)
+        let mut stack: Vec<(Tet, u32, Option<usize>)> = Vec::new();
         for t in Diamond::root(lattice).tets(lattice) {
             roots.push((t, nodes.len() as u32));
-            stack.push((t, None));
-            while let Some((t, parent)) = stack.pop() {
+            stack.push((t, 0, None));
+            while let Some((t, depth, parent)) = stack.pop() {
                 let at = nodes.len();
                 if at >= LEAF as usize {
                     return Err(Error::Parameter(
@@ -81,16 +96,19 @@ impl BspTree {
                 if let Some(p) = parent {
                     nodes[p] = at as u32;
                 }
-                if let Some(&i) = first.get(&t) {
-                    next = i; // a subtree of the plan: its tetrahedra are numbered from here
+                if depth <= deepest {
+                    if let Some(&(i, count)) = first.get(&t) {
+                        next = i; // a subtree of the plan: its tetrahedra are numbered from here
+                        subtrees.insert(at as u32, count);
+                    }
                 }
                 match lattice.place(&t) {
                     Placement::Outside => nodes.push(EMPTY),
                     _ if Diamond::of_tet(&t).is_some_and(|d| split.contains(d)) => {
                         let [c0, c1] = bisect(&t);
                         nodes.push(EMPTY); // patched when its first child is placed
-                        stack.push((c0, Some(at)));
-                        stack.push((c1, None));
+                        stack.push((c0, depth + 1, Some(at)));
+                        stack.push((c1, depth + 1, None));
                     }
                     Placement::Inside => {
                         nodes.push(LEAF | next as u32);
@@ -108,6 +126,7 @@ impl BspTree {
             grid: *grid,
             nodes,
             roots,
+            subtrees,
             tets: plan.tets(),
         })
     }
@@ -130,7 +149,8 @@ impl BspTree {
         Ok(out)
     }
 
-    /// [`BspTree::order`] written into `out` (exactly one slot per tetrahedron).
+    /// [`BspTree::order`] written into `out` (exactly one slot per tetrahedron): the subtrees in
+    /// order first, then each subtree's tetrahedra into its slice, in parallel.
     pub fn order_into(&self, eye: [f64; 3], direction: Direction, out: &mut [u32]) -> Result<()> {
         if eye.iter().any(|c| !c.is_finite()) {
             return Err(Error::Parameter(format!(
@@ -147,41 +167,64 @@ impl BspTree {
         // The eye in lattice coordinates (a positive scaling per axis keeps every side of every plane).
         let eye =
             (DVec3::from(eye) - DVec3::from(self.grid.origin)) / DVec3::from(self.grid.spacing);
-        let mut k = 0;
-        let mut stack: Vec<(u32, Tet)> = Vec::with_capacity(256);
-        for &(t, node) in self.root_order(eye).iter().rev() {
-            stack.push((node, t));
-        }
-        while let Some((node, t)) = stack.pop() {
-            match self.nodes[node as usize] {
-                EMPTY => {}
-                v if v & LEAF != 0 => {
-                    out[k] = v & !LEAF;
-                    k += 1;
+        let mut tops = Vec::with_capacity(self.subtrees.len());
+        for (t, node) in self.root_order(eye) {
+            self.far_first((node, t), eye, |node, t| match self.subtrees.get(&node) {
+                Some(&count) => {
+                    tops.push((node, *t, count));
+                    false
                 }
-                first_child => {
-                    let [c0, c1] = bisect(&t);
-                    let (n0, n1) = ((first_child, c0), (node + 1, c1));
-                    // The first child holds the spine's first end: the side of the eye decides.
-                    let m = (t[0] + t[1]) / 2;
-                    let normal = wide(t[2] - m).cross(wide(t[3] - m));
-                    let first_side = normal.dot(wide(t[0] - m)).signum();
-                    let eye_side = normal.as_dvec3().dot(eye - m.as_dvec3());
-                    let eye_with_first = eye_side * first_side as f64 > 0.0;
-                    // Pushed last, visited first: the far child.
-                    if eye_with_first {
-                        stack.extend([n0, n1]);
-                    } else {
-                        stack.extend([n1, n0]);
+                None => true,
+            });
+        }
+        let counts: Vec<usize> = tops.iter().map(|top| top.2).collect();
+        tops.into_par_iter()
+            .zip(pieces(out, &counts, 1))
+            .for_each(|((node, t, _), slice)| {
+                let mut k = 0;
+                self.far_first((node, t), eye, |node, _| {
+                    let v = self.nodes[node as usize];
+                    if v != EMPTY && v & LEAF != 0 {
+                        slice[k] = v & !LEAF;
+                        k += 1;
                     }
-                }
-            }
-        }
-        debug_assert_eq!(k, self.tets);
+                    true
+                });
+            });
         if direction == Direction::FrontToBack {
             out.reverse();
         }
         Ok(())
+    }
+
+    /// Marchesin's Algorithm 2 below `start` (a node and its tetrahedron): calls `at` on every
+    /// node, the far child of every bisection before the near one, and skips the subtrees of the
+    /// nodes for which it returns `false`.
+    fn far_first(&self, start: (u32, Tet), eye: DVec3, mut at: impl FnMut(u32, &Tet) -> bool) {
+        let mut stack: Vec<(u32, Tet)> = Vec::with_capacity(128);
+        stack.push(start);
+        while let Some((node, t)) = stack.pop() {
+            if !at(node, &t) {
+                continue;
+            }
+            let first_child = self.nodes[node as usize];
+            if first_child == EMPTY || first_child & LEAF != 0 {
+                continue;
+            }
+            let [c0, c1] = bisect(&t);
+            let (n0, n1) = ((first_child, c0), (node + 1, c1));
+            // The first child holds the spine's first end: the side of the eye decides.
+            let m = (t[0] + t[1]) / 2;
+            let normal = wide(t[2] - m).cross(wide(t[3] - m));
+            let first_side = normal.dot(wide(t[0] - m)).signum();
+            let eye_side = normal.as_dvec3().dot(eye - m.as_dvec3());
+            // Pushed last, visited first: the far child.
+            if eye_side * first_side as f64 > 0.0 {
+                stack.extend([n0, n1]);
+            } else {
+                stack.extend([n1, n0]);
+            }
+        }
     }
 
     /// The six root tetrahedra back to front: the BSP of the planes `x = y`, `x = z`, `y = z`
