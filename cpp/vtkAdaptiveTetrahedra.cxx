@@ -4,8 +4,15 @@
 #include "vtkDataSetAttributes.h"
 #include "vtkDoubleArray.h"
 #include "vtkFieldData.h"
+#include "vtkCellArray.h"
+#include "vtkCellData.h"
+#include "vtkCellType.h"
+#include "vtkFloatArray.h"
 #include "vtkIdTypeArray.h"
 #include "vtkImageData.h"
+#include "vtkPointData.h"
+#include "vtkPoints.h"
+#include "vtkUnsignedCharArray.h"
 #include "vtkInformation.h"
 #include "vtkInformationVector.h"
 #include "vtkObjectFactory.h"
@@ -18,12 +25,18 @@
 #include "vtkDiamondsHierarchyCache.h"
 #include "vtkDiamondsImageGeometry.h"
 #include "vtkDiamondsOutput.h"
+#include "vtkDiamondsPieces.h"
+#include "vtkDiamondsProgress.h"
 
 #include <algorithm>
+#include <array>
+#include <chrono>
 #include <cmath>
 #include <cstddef>
 #include <optional>
 #include <string>
+
+#include <sys/resource.h>
 
 vtkStandardNewMacro(vtkAdaptiveTetrahedra);
 
@@ -41,6 +54,24 @@ class vtkAdaptiveTetrahedra::vtkInternals
 public:
   // The mesh query does not read the samples again: no need to keep them.
   vtkDiamonds::HierarchyCache Cache{ vtkDiamonds::HierarchyCache::Use::Tetrahedra };
+
+  // On more than one rank: this rank's part of the hierarchy and what it was built from.
+  struct PieceKey
+  {
+    const void* Array = nullptr;
+    vtkMTimeType ArrayMTime = 0;
+    int DataType = 0;
+    std::array<std::int64_t, 6> Whole{};
+    std::vector<std::int64_t> Extents;
+    std::array<double, 6> Geometry{};
+    bool operator==(const PieceKey& o) const
+    {
+      return Array == o.Array && ArrayMTime == o.ArrayMTime && DataType == o.DataType &&
+        Whole == o.Whole && Extents == o.Extents && Geometry == o.Geometry;
+    }
+  };
+  std::optional<rust::Box<bridge::PieceHierarchy>> Piece;
+  PieceKey PieceBuilt;
 };
 
 //------------------------------------------------------------------------------
@@ -119,6 +150,11 @@ int vtkAdaptiveTetrahedra::RequestData(
     vtkErrorMacro(<< "MaximumNumberOfTetrahedra must be >= 0 (got "
                   << this->MaximumNumberOfTetrahedra << "); 0 means no limit.");
     return 0;
+  }
+
+  if (vtkMultiProcessController* controller = vtkDiamonds::Pieces::DistributedController())
+  {
+    return this->RequestDistributed(controller, inputVector, input, output);
   }
 
   // ---- Geometry.
@@ -200,6 +236,329 @@ int vtkAdaptiveTetrahedra::RequestData(
     OneValue<vtkIdTypeArray>("NumberOfTetrahedra", output->GetNumberOfCells()));
   fieldData->AddArray(OneValue<vtkDoubleArray>("MaximumError", maxError));
 
+  this->UpdateProgress(1.0);
+  return 1;
+}
+
+//------------------------------------------------------------------------------
+int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* controller,
+  vtkInformationVector** inputVector, vtkImageData* input, vtkUnstructuredGrid* output)
+{
+  const auto started = std::chrono::steady_clock::now();
+  vtkInformation* inInfo = inputVector[0]->GetInformationObject(0);
+  const bool empty = input->GetNumberOfPoints() == 0;
+
+  // ---- The whole image and every rank's piece (all ranks take part in every step below; a
+  // failure on one rank is agreed on before the next collective step).
+  int whole[6];
+  int extent[6] = { 0, -1, 0, -1, 0, -1 };
+  inInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
+  if (!empty)
+  {
+    input->GetExtent(extent);
+  }
+  double origin[3];
+  double spacing[3];
+  input->GetOrigin(origin);
+  input->GetSpacing(spacing);
+  if (inInfo->Has(vtkDataObject::ORIGIN()) && inInfo->Has(vtkDataObject::SPACING()))
+  {
+    inInfo->Get(vtkDataObject::ORIGIN(), origin);
+    inInfo->Get(vtkDataObject::SPACING(), spacing);
+  }
+  vtkDiamonds::Pieces pieces(controller, whole, extent, origin, spacing);
+
+  // ---- This piece's samples (an empty piece has none and reads no array).
+  vtkDataArray* array = nullptr;
+  vtkSmartPointer<vtkDataArray> samples;
+  bridge::ScalarType type = bridge::ScalarType::F64;
+  bool ok = true;
+  if (!empty)
+  {
+    int association = vtkDataObject::FIELD_ASSOCIATION_POINTS;
+    vtkDataArray* selected = this->GetInputArrayToProcess(0, inputVector, association);
+    ok = vtkDiamonds::CheckAxisAligned(this, Text, input) &&
+      (array = vtkDiamonds::SelectPointArray(this, Text, input, selected, association)) &&
+      vtkDiamonds::CoreSamples(this, Text, array, samples, type);
+  }
+  const auto agree = [&](bool mine, const char* what) {
+    if (pieces.AllOk(mine))
+    {
+      return true;
+    }
+    if (mine)
+    {
+      vtkErrorMacro(<< "Adaptive Tetrahedra stopped: " << what
+                    << " failed on another rank (see its error).");
+    }
+    output->Initialize();
+    return false;
+  };
+  if (!agree(ok, "reading the input"))
+  {
+    return 0;
+  }
+  const auto bytesOf = [](vtkDataArray* a) {
+    return a ? rust::Slice<const std::uint8_t>(static_cast<const std::uint8_t*>(a->GetVoidPointer(0)),
+                 static_cast<std::size_t>(a->GetNumberOfValues()) * a->GetDataTypeSize())
+             : rust::Slice<const std::uint8_t>();
+  };
+
+  // ---- This rank's part of the hierarchy: rebuilt on every rank when any rank's input changed.
+  vtkInternals::PieceKey key;
+  key.Array = array;
+  key.ArrayMTime = array ? array->GetMTime() : 0;
+  key.DataType = static_cast<int>(type);
+  std::copy(whole, whole + 6, key.Whole.begin());
+  key.Extents.assign(pieces.Extents().begin(), pieces.Extents().end());
+  std::copy(origin, origin + 3, key.Geometry.begin());
+  std::copy(spacing, spacing + 3, key.Geometry.begin() + 3);
+  const bool stale = !this->Internals->Piece || !(this->Internals->PieceBuilt == key);
+  if (pieces.Sum(stale ? 1 : 0) > 0)
+  {
+    this->Internals->Piece.reset();
+    std::string error;
+    std::vector<vtkSmartPointer<vtkDataArray>> fetched;
+    ok = true;
+    try
+    {
+      const rust::Vec<std::uint64_t> needed =
+        bridge::piece_needed_points(pieces.Whole(), pieces.OwnExtent());
+      std::vector<vtkDataArray*> arrays;
+      if (samples)
+      {
+        arrays.push_back(samples);
+      }
+      ok = pieces.Fetch({ needed.data(), needed.size() }, arrays, input, fetched, error);
+    }
+    catch (const rust::Error& e)
+    {
+      error = e.what();
+      ok = false;
+    }
+    if (ok)
+    {
+      vtkDiamonds::ProgressForwarder progress(this, 0.0, 0.6);
+      try
+      {
+        this->Internals->Piece.emplace(bridge::build_piece_hierarchy(pieces.Whole(),
+          pieces.OwnExtent(), type, bytesOf(samples),
+          bytesOf(fetched.empty() ? nullptr : fetched[0].GetPointer()), progress));
+      }
+      catch (const rust::Error& e)
+      {
+        error = progress.Aborted ? "" : e.what();
+        ok = false;
+      }
+    }
+    if (!ok && !error.empty())
+    {
+      vtkErrorMacro(<< "Adaptive Tetrahedra cannot build this rank's hierarchy: " << error);
+    }
+    if (!agree(ok, "building the hierarchy"))
+    {
+      this->Internals->Piece.reset();
+      return 0;
+    }
+    bridge::PieceHierarchy& piece = **this->Internals->Piece;
+    std::vector<double> coarse(piece.coarse_errors().begin(), piece.coarse_errors().end());
+    pieces.MaxInPlace(coarse);
+    piece.combine_coarse_errors({ coarse.data(), coarse.size() });
+    this->Internals->PieceBuilt = key;
+    ++this->NumberOfHierarchyBuilds;
+  }
+  this->UpdateProgress(0.6);
+  const bridge::PieceHierarchy& piece = **this->Internals->Piece;
+
+  // ---- Refinement in rounds, until no rank has a split diamond to send.
+  bridge::QuerySpec query;
+  query.tolerance = this->Tolerance;
+  query.max_tetrahedra = static_cast<std::size_t>(this->MaximumNumberOfTetrahedra);
+  query.use_region_of_interest = this->UseRegionOfInterest != 0;
+  std::copy(this->RegionOfInterest, this->RegionOfInterest + 6, query.region_of_interest.begin());
+  std::optional<rust::Box<bridge::PieceRefinement>> refinement;
+  std::string error;
+  try
+  {
+    refinement.emplace(piece.start_refinement(query));
+  }
+  catch (const rust::Error& e)
+  {
+    vtkErrorMacro(<< "Adaptive Tetrahedra query failed: " << e.what());
+    ok = false;
+  }
+  if (!agree(ok && refinement.has_value(), "the query"))
+  {
+    return 0;
+  }
+  int rounds = 0;
+  for (;;)
+  {
+    std::vector<std::int32_t> outgoing;
+    try
+    {
+      const rust::Vec<std::int32_t> out = piece.outgoing(**refinement, pieces.Extents());
+      outgoing.assign(out.begin(), out.end());
+    }
+    catch (const rust::Error& e)
+    {
+      vtkErrorMacro(<< "Adaptive Tetrahedra refinement failed: " << e.what());
+      ok = false;
+    }
+    if (!agree(ok && !this->CheckAbort(), "the refinement"))
+    {
+      return this->GetAbortExecute() ? 1 : 0;
+    }
+    if (pieces.Sum(static_cast<vtkIdType>(outgoing.size())) == 0)
+    {
+      break;
+    }
+    const std::vector<std::int32_t> all = pieces.Concatenate(outgoing);
+    try
+    {
+      piece.receive(**refinement, { all.data(), all.size() });
+    }
+    catch (const rust::Error& e)
+    {
+      vtkErrorMacro(<< "Adaptive Tetrahedra refinement failed: " << e.what());
+      ok = false;
+    }
+    ++rounds;
+    this->UpdateProgress(std::min(0.8, 0.6 + 0.02 * rounds));
+  }
+
+  // ---- This rank's tetrahedra, and the point data of their points held by other ranks.
+  std::optional<rust::Box<bridge::Mesh>> mesh;
+  try
+  {
+    mesh.emplace(piece.piece_mesh(
+      **refinement, pieces.Extents(), static_cast<std::size_t>(pieces.Rank())));
+  }
+  catch (const rust::Error& e)
+  {
+    vtkErrorMacro(<< "Adaptive Tetrahedra could not extract this rank's mesh: " << e.what());
+    ok = false;
+  }
+  if (!agree(ok, "the mesh extraction"))
+  {
+    return 0;
+  }
+  refinement.reset();
+  this->UpdateProgress(0.85);
+  const rust::Slice<const std::size_t> ids = (*mesh)->point_ids();
+  const vtkIdType numPoints = static_cast<vtkIdType>(ids.size());
+  const vtkIdType nx = static_cast<vtkIdType>(pieces.Whole().dims[0]);
+  const vtkIdType ny = static_cast<vtkIdType>(pieces.Whole().dims[1]);
+  std::vector<vtkIdType> localId(ids.size(), -1);
+  std::vector<std::uint64_t> remote;
+  std::vector<vtkIdType> remoteSlot(ids.size(), -1);
+  for (std::size_t k = 0; k < ids.size(); ++k)
+  {
+    const auto g = static_cast<vtkIdType>(ids[k]);
+    int ijk[3] = { static_cast<int>(g % nx + whole[0]), static_cast<int>(g / nx % ny + whole[2]),
+      static_cast<int>(g / (nx * ny) + whole[4]) };
+    const bool here = ijk[0] >= extent[0] && ijk[0] <= extent[1] && ijk[1] >= extent[2] &&
+      ijk[1] <= extent[3] && ijk[2] >= extent[4] && ijk[2] <= extent[5];
+    if (here)
+    {
+      localId[k] = input->ComputePointId(ijk);
+    }
+    else
+    {
+      remoteSlot[k] = static_cast<vtkIdType>(remote.size());
+      remote.push_back(ids[k]);
+    }
+  }
+  vtkPointData* inPD = input->GetPointData();
+  std::vector<vtkDataArray*> pointArrays;
+  for (int i = 0; !empty && i < inPD->GetNumberOfArrays(); ++i)
+  {
+    if (vtkDataArray* a = inPD->GetArray(i))
+    {
+      pointArrays.push_back(a);
+    }
+  }
+  std::vector<vtkSmartPointer<vtkDataArray>> fetched;
+  ok = pieces.Fetch({ remote.data(), remote.size() }, pointArrays, input, fetched, error);
+  if (!ok)
+  {
+    vtkErrorMacro(<< "Adaptive Tetrahedra could not fetch point data from other ranks: " << error);
+  }
+  if (!agree(ok, "fetching point data"))
+  {
+    return 0;
+  }
+
+  // ---- Output.
+  output->SetPoints(vtkDiamonds::PointsFrom((*mesh)->points()));
+  output->SetCells(VTK_TETRA, vtkDiamonds::FixedSizeCells(4, (*mesh)->tets(), numPoints));
+  vtkPointData* outPD = output->GetPointData();
+  for (std::size_t a = 0; a < pointArrays.size(); ++a)
+  {
+    vtkSmartPointer<vtkDataArray> out =
+      vtkSmartPointer<vtkDataArray>::Take(pointArrays[a]->NewInstance());
+    out->SetName(pointArrays[a]->GetName());
+    out->SetNumberOfComponents(pointArrays[a]->GetNumberOfComponents());
+    out->SetNumberOfTuples(numPoints);
+    for (vtkIdType k = 0; k < numPoints; ++k)
+    {
+      if (localId[k] >= 0)
+      {
+        out->SetTuple(k, localId[k], pointArrays[a]);
+      }
+      else
+      {
+        out->SetTuple(k, remoteSlot[k], fetched[a]);
+      }
+    }
+    const int attribute = inPD->IsArrayAnAttribute(static_cast<int>(a));
+    outPD->AddArray(out);
+    if (attribute >= 0 && attribute != vtkDataSetAttributes::GLOBALIDS)
+    {
+      outPD->SetActiveAttribute(out->GetName(), attribute);
+    }
+  }
+  vtkNew<vtkIdTypeArray> globalIds;
+  globalIds->SetName("GlobalPointIds");
+  globalIds->SetNumberOfValues(numPoints);
+  std::copy(ids.begin(), ids.end(), globalIds->GetPointer(0));
+  outPD->SetGlobalIds(globalIds);
+  const vtkIdType numTets = output->GetNumberOfCells();
+  output->GetCellData()->AddArray(vtkDiamonds::NamedArray<vtkUnsignedCharArray>(
+    "BisectionDepth", numTets, (*mesh)->depths().data()));
+  output->GetCellData()->AddArray(vtkDiamonds::NamedArray<vtkFloatArray>(
+    "ApproximationError", numTets, (*mesh)->errors().data()));
+
+  std::vector<double> maxError{ (*mesh)->max_error() };
+  pieces.MaxInPlace(maxError);
+  const vtkIdType total = pieces.Sum(numTets);
+  const double seconds =
+    std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  const std::vector<double> tetsPerRank = pieces.PerRank(static_cast<double>(numTets));
+  const std::vector<double> secondsPerRank = pieces.PerRank(seconds);
+  const std::vector<double> bytesPerRank = pieces.PerRank(pieces.BytesSent());
+  const std::vector<double> exchangePerRank = pieces.PerRank(pieces.ExchangeSeconds());
+  struct rusage usage;
+  getrusage(RUSAGE_SELF, &usage);
+  const std::vector<double> peakPerRank = pieces.PerRank(usage.ru_maxrss * 1024.0);
+  vtkFieldData* fieldData = output->GetFieldData();
+  if (!empty)
+  {
+    fieldData->PassData(input->GetFieldData());
+  }
+  fieldData->AddArray(OneValue<vtkDoubleArray>("Tolerance", this->Tolerance));
+  fieldData->AddArray(OneValue<vtkIdTypeArray>("NumberOfTetrahedra", total));
+  fieldData->AddArray(OneValue<vtkDoubleArray>("MaximumError", maxError[0]));
+  fieldData->AddArray(OneValue<vtkIdTypeArray>("RefinementRounds", rounds));
+  for (const auto& [name, values] : { std::make_pair("TetrahedraPerRank", &tetsPerRank),
+         std::make_pair("SecondsPerRank", &secondsPerRank),
+         std::make_pair("BytesSentPerRank", &bytesPerRank),
+         std::make_pair("ExchangeSecondsPerRank", &exchangePerRank),
+         std::make_pair("PeakMemoryPerRank", &peakPerRank) })
+  {
+    fieldData->AddArray(vtkDiamonds::NamedArray<vtkDoubleArray>(
+      name, static_cast<vtkIdType>(values->size()), values->data()));
+  }
   this->UpdateProgress(1.0);
   return 1;
 }

@@ -57,17 +57,25 @@
  * data "Tolerance", "NumberOfTetrahedra" and "MaximumError" (the largest ApproximationError),
  * next to the input's field data.
  *
- * Distributed data (MPI): the filter runs independently on each process's piece of the image.
- * Each piece gets its own hierarchy and mesh over the piece's extent (the pieces share their
- * boundary plane of points), and every piece's mesh is a valid, conforming tetrahedral mesh of
- * that piece. The meshes of two pieces are NOT conforming to each other along the shared plane:
- * each side refines that plane as its own data demands, so hanging vertices can appear between
- * pieces. The approximation error bound still holds everywhere. The region of interest is given in
- * world coordinates for the whole data set; a piece it does not touch gets its coarsest mesh.
- * The filter asks its input for no ghost levels, whatever is requested downstream (a ghost layer
- * would be meshed as ordinary samples, duplicating the neighbour's tetrahedra), so its output has
- * no ghost cells. An empty input (e.g. an empty piece when there are more processes than slabs)
- * gives an empty output without an error.
+ * Distributed data (MPI: pvbatch, pvserver): when the global vtkMultiProcessController has more
+ * than one process, the ranks compute the serial mesh together and each outputs its share: the
+ * union of their outputs is exactly the output of one process on the whole image (same
+ * tetrahedra, depths and errors), each tetrahedron on exactly one rank (the one whose piece holds
+ * its centroid, cells half-open), with no hanging faces between pieces. The lattice is that of the
+ * whole extent; each rank computes the errors of the diamonds meeting its piece from its samples,
+ * a halo of 8 or more layers and a sublattice of the whole image fetched from the other ranks; the
+ * errors of large diamonds spanning several pieces are combined by a maximum over the ranks; the
+ * refinement with closure runs in rounds in which each rank sends the diamonds it split to the
+ * ranks whose pieces their children meet, until no rank has anything to send (see
+ * diamonds::hierarchy::piece in the Rust core). Point data of points held by other ranks is
+ * fetched from them. The output carries the point array "GlobalPointIds" (the point's index in
+ * the whole extent, set as the global ids) and field data "TetrahedraPerRank", "SecondsPerRank",
+ * "BytesSentPerRank", "ExchangeSecondsPerRank" and "PeakMemoryPerRank" (bytes of resident memory;
+ * one value per rank each, for load balance) and "RefinementRounds"; "NumberOfTetrahedra" and
+ * "MaximumError" are totals over the ranks. MaximumNumberOfTetrahedra is refused on more than one
+ * rank (a budget orders splits across all pieces). The filter asks its input for no ghost levels
+ * (it fetches what it needs), and an empty piece takes part and outputs nothing. An error on one
+ * rank stops every rank with an error (no rank waits forever).
  *
  * Limitations and errors (reported with vtkErrorMacro, empty output, no crash): fewer than 2
  * points along an axis (2-D images); no point scalars (cell data only: apply Cell Data to Point
@@ -98,6 +106,9 @@
 
 #include "vtkDiamondsModule.h" // For export macro
 #include "vtkUnstructuredGridAlgorithm.h"
+
+class vtkImageData;
+class vtkMultiProcessController;
 
 class VTKDIAMONDS_EXPORT vtkAdaptiveTetrahedra : public vtkUnstructuredGridAlgorithm
 {
@@ -179,6 +190,10 @@ protected:
   vtkIdType NumberOfHierarchyBuilds;
 
 private:
+  // RequestData on more than one rank: the serial mesh, partitioned (see the class comment).
+  int RequestDistributed(vtkMultiProcessController* controller, vtkInformationVector** inputVector,
+    vtkImageData* input, vtkUnstructuredGrid* output);
+
   vtkAdaptiveTetrahedra(const vtkAdaptiveTetrahedra&) = delete;
   void operator=(const vtkAdaptiveTetrahedra&) = delete;
 

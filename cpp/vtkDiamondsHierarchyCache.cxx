@@ -72,6 +72,55 @@ bool Is64BitInteger(vtkDataArray* array)
 } // namespace
 
 //------------------------------------------------------------------------------
+bool CoreSamples(vtkAlgorithm* filter, const FilterText& text, vtkDataArray* array,
+  vtkSmartPointer<vtkDataArray>& samples, bridge::ScalarType& type)
+{
+  samples = array;
+  std::optional<bridge::ScalarType> inPlace = InPlaceType(array);
+  const std::string name = array->GetName() ? array->GetName() : "";
+  if (!inPlace && Is64BitInteger(array))
+  {
+    double range[2];
+    array->GetRange(range, 0);
+    const double exact = 9007199254740992.0; // 2^53
+    if (std::abs(range[0]) > exact || std::abs(range[1]) > exact)
+    {
+      vtkErrorWithObjectMacro(filter,
+        << "Array \"" << name << "\" holds 64-bit integers up to " << range[1]
+        << ", beyond 2^53 where a conversion to double is inexact. "
+           "Rescale it (e.g. with Calculator) first.");
+      return false;
+    }
+    vtkWarningWithObjectMacro(filter,
+      << "Array \"" << name << "\" holds 64-bit integers (" << array->GetDataTypeAsString()
+      << "); they are converted to double for " << text.Name
+      << " (exact, all values are below 2^53). The input array keeps its type.");
+    samples = vtkSmartPointer<vtkDoubleArray>::New();
+    samples->DeepCopy(array);
+    inPlace = bridge::ScalarType::F64;
+  }
+  if (!inPlace)
+  {
+    vtkErrorWithObjectMacro(filter,
+      << "Array \"" << name << "\" has type " << array->GetDataTypeAsString() << ", which "
+      << text.Name
+      << " does not read. Supported: 8-, 16-, 32- and 64-bit integers, float, double.");
+    return false;
+  }
+  if (!samples->HasStandardMemoryLayout())
+  {
+    // e.g. a structure-of-arrays or implicit array: the core reads one contiguous buffer.
+    vtkSmartPointer<vtkDataArray> contiguous =
+      vtkSmartPointer<vtkDataArray>::Take(vtkDataArray::CreateDataArray(samples->GetDataType()));
+    contiguous->DeepCopy(samples);
+    samples = contiguous;
+  }
+
+  type = *inPlace;
+  return true;
+}
+
+//------------------------------------------------------------------------------
 HierarchyCache::HierarchyCache(Use use)
   : Purpose(use)
 {
@@ -134,44 +183,11 @@ HierarchyCache::Status HierarchyCache::Update(vtkAlgorithm* filter, const Filter
   }
   this->Release();
 
-  vtkSmartPointer<vtkDataArray> samples = array;
-  std::optional<bridge::ScalarType> type = InPlaceType(array);
-  if (!type && Is64BitInteger(array))
+  vtkSmartPointer<vtkDataArray> samples;
+  bridge::ScalarType type{};
+  if (!CoreSamples(filter, text, array, samples, type))
   {
-    double range[2];
-    array->GetRange(range, 0);
-    const double exact = 9007199254740992.0; // 2^53
-    if (std::abs(range[0]) > exact || std::abs(range[1]) > exact)
-    {
-      vtkErrorWithObjectMacro(filter,
-        << "Array \"" << name << "\" holds 64-bit integers up to " << range[1]
-        << ", beyond 2^53 where a conversion to double is inexact. "
-           "Rescale it (e.g. with Calculator) first.");
-      return Status::Failed;
-    }
-    vtkWarningWithObjectMacro(filter,
-      << "Array \"" << name << "\" holds 64-bit integers (" << array->GetDataTypeAsString()
-      << "); they are converted to double for " << text.Name
-      << " (exact, all values are below 2^53). The input array keeps its type.");
-    samples = vtkSmartPointer<vtkDoubleArray>::New();
-    samples->DeepCopy(array);
-    type = bridge::ScalarType::F64;
-  }
-  if (!type)
-  {
-    vtkErrorWithObjectMacro(filter,
-      << "Array \"" << name << "\" has type " << array->GetDataTypeAsString() << ", which "
-      << text.Name
-      << " does not read. Supported: 8-, 16-, 32- and 64-bit integers, float, double.");
     return Status::Failed;
-  }
-  if (!samples->HasStandardMemoryLayout())
-  {
-    // e.g. a structure-of-arrays or implicit array: the core reads one contiguous buffer.
-    vtkSmartPointer<vtkDataArray> contiguous =
-      vtkSmartPointer<vtkDataArray>::Take(vtkDataArray::CreateDataArray(samples->GetDataType()));
-    contiguous->DeepCopy(samples);
-    samples = contiguous;
   }
 
   bridge::GridSpec grid;
@@ -191,8 +207,8 @@ HierarchyCache::Status HierarchyCache::Update(vtkAlgorithm* filter, const Filter
   {
     const rust::Slice<const std::uint8_t> slice(bytes, byteCount);
     rust::Box<bridge::Hierarchy> hierarchy = this->Purpose == Use::Isosurfaces
-      ? bridge::build_isosurface_hierarchy(grid, *type, slice)
-      : bridge::build_hierarchy(grid, *type, slice, progress);
+      ? bridge::build_isosurface_hierarchy(grid, type, slice)
+      : bridge::build_hierarchy(grid, type, slice, progress);
     this->Hierarchy.emplace(std::move(hierarchy));
   }
   catch (const rust::Error& e)
@@ -208,7 +224,7 @@ HierarchyCache::Status HierarchyCache::Update(vtkAlgorithm* filter, const Filter
   }
   this->IsoState.emplace(bridge::new_iso_state());
   this->Built = key;
-  this->SampleType = *type;
+  this->SampleType = type;
   if (this->Purpose == Use::Isosurfaces)
   {
     this->Samples = samples;

@@ -28,6 +28,12 @@ namespace vtkDiamonds
 {
 struct FilterText;
 
+// The samples of `array` as the core reads them, in `samples` with their `type`: the array itself
+// when the core reads its type in place, else a converted (64-bit integers, exact below 2^53) or
+// contiguous copy. Reports an error on `filter` and returns false for types the core cannot read.
+bool CoreSamples(vtkAlgorithm* filter, const FilterText& text, vtkDataArray* array,
+  vtkSmartPointer<vtkDataArray>& samples, bridge::ScalarType& type);
+
 class HierarchyCache
 {
 public:

@@ -10,7 +10,8 @@
 #    checks of the meshes, isosurfaces and material interfaces, properties, bad inputs
 #    (test_material.py writes its impact case with target/release/diamonds, brought up to date
 #    with cargo).
-# 3. tests/pvpython/mpi_pieces.py, mpi_isosurface.py and mpi_material.py under `mpiexec -n 2 pvbatch`.
+# 3. tests/pvpython/mpi_pieces.py, mpi_isosurface.py and mpi_material.py under `mpiexec -n 2 pvbatch`,
+#    and mpi_pieces.py again under `mpiexec -n 3 pvbatch` and as a pvpython client of `mpiexec -n 2 pvserver`.
 # 4. scripts/demo.py under `xvfb-run -a pvbatch` (the only step that renders), into build/test-demo.
 # Ends with the line "N passed, M failed"; exits non-zero if any step failed.
 set -uo pipefail
@@ -82,6 +83,10 @@ done
 for t in tests/pvpython/mpi_pieces.py tests/pvpython/mpi_isosurface.py tests/pvpython/mpi_material.py; do
   step "mpiexec -n 2 pvbatch $t" mpiexec --allow-run-as-root --oversubscribe -n 2 pvbatch "$t"
 done
+step "mpiexec -n 3 pvbatch tests/pvpython/mpi_pieces.py" env DIAMONDS_EXPECTED_RANKS=3 \
+  mpiexec --allow-run-as-root --oversubscribe -n 3 pvbatch tests/pvpython/mpi_pieces.py
+step "pvpython tests/pvpython/mpi_pieces.py --client-server (mpiexec -n 2 pvserver)" \
+  timeout 1200 pvpython tests/pvpython/mpi_pieces.py --client-server
 step "xvfb-run -a pvbatch scripts/demo.py" demo_render
 
 echo

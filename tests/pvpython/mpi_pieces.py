@@ -1,82 +1,200 @@
-"""Adaptive Tetrahedra on a distributed image: run with
+"""Adaptive Tetrahedra on a distributed image equals the serial result, partitioned. Run with
 
   PV_PLUGIN_PATH=$PWD/build/lib/paraview-5.11/plugins/Diamonds \
     mpiexec --allow-run-as-root -n 2 pvbatch tests/pvpython/mpi_pieces.py
+  (and -n 3 with DIAMONDS_EXPECTED_RANKS=3), or in client-server mode, as the GUI connects:
+  PV_PLUGIN_PATH=... pvpython tests/pvpython/mpi_pieces.py --client-server
+  (starts `mpiexec -n 2 pvserver` on a free port and Connects to it).
 
-Each rank meshes its own piece of the Wavelet. The script (on rank 0) fetches every rank's piece
-separately and checks it independently against the same image computed locally: each piece must
-be a valid, conforming tetrahedral mesh of its piece meeting the tolerance. Meshes of different
-pieces are not required to conform to each other (documented behaviour).
+For images of odd sizes (generated, and a shared CT volume when ../shared is there) and several
+queries, the script (rank 0) fetches every rank's piece and checks, independently of the filter:
+- the tetrahedra of all ranks together are those of the serial mesh (the CLI's, on the same image),
+  as sets of whole-grid point triples, with the same BisectionDepth and ApproximationError;
+- no tetrahedron is output by two ranks, and every rank with cells owns some;
+- the union is conforming: every face is shared by two tetrahedra or lies on the image's boundary
+  (no hanging faces along the seams);
+- GlobalPointIds are the whole-grid indices of the points, and point data equals the image's;
+- field data: TetrahedraPerRank (one value per rank, summing to NumberOfTetrahedra), SecondsPerRank,
+  BytesSentPerRank; changing the tolerance re-queries without rebuilding.
 """
 
 import os
+import subprocess
 import sys
+import tempfile
 
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import diamonds_checks as dc  # noqa: E402
 from paraview import servermanager  # noqa: E402
-from vtkmodules.vtkImagingCore import vtkExtractVOI, vtkRTAnalyticSource  # noqa: E402
+from vtkmodules.util.numpy_support import vtk_to_numpy  # noqa: E402
+from vtkmodules.vtkImagingCore import vtkRTAnalyticSource  # noqa: E402
+from vtkmodules.vtkIOXML import vtkXMLImageDataReader, vtkXMLImageDataWriter, vtkXMLUnstructuredGridReader  # noqa: E402
 
 simple = dc.require_plugin()
-ranks = servermanager.vtkProcessModule.GetProcessModule().GetNumberOfLocalPartitions()
-expected = int(os.environ.get("DIAMONDS_EXPECTED_RANKS", "2"))
-dc.check(ranks == expected, f"running on {ranks} MPI ranks (expected {expected})")
+CLIENT_SERVER = "--client-server" in sys.argv
+server = None
+if CLIENT_SERVER:
+    import socket
+    import time
 
-whole = [-16, 16, -16, 16, -16, 16]
+    with socket.socket() as s:
+        s.bind(("localhost", 0))
+        port = s.getsockname()[1]
+    server = subprocess.Popen(["mpiexec", "--allow-run-as-root", "--oversubscribe", "-n", "2", "pvserver",
+                               f"--server-port={port}"], stdout=subprocess.PIPE, text=True,
+                              # not a child of this process's own (singleton) MPI job
+                              env={k: v for k, v in os.environ.items() if not k.startswith(("OMPI_", "PMIX_", "OPAL_"))})
+    for line in server.stdout:  # the server says when it listens
+        if "Accepting connection" in line:
+            break
+    dc.check(simple.Connect("localhost", port, timeout=60) is not None, f"connected to pvserver on port {port}")
+    ranks = servermanager.ActiveConnection.GetNumberOfDataPartitions()
+else:
+    ranks = servermanager.vtkProcessModule.GetProcessModule().GetNumberOfLocalPartitions()
+expected = int(os.environ.get("DIAMONDS_EXPECTED_RANKS", "2"))
+dc.check(ranks == expected, f"running on {ranks} MPI ranks (expected {expected})"
+         + (" of a pvserver this client connected to" if CLIENT_SERVER else ""))
+workdir = tempfile.mkdtemp(prefix="diamonds-mpi-")
+
+
+def tets_by_grid_index(ug, image):
+    """(sorted whole-grid point indices per tetrahedron, depths, errors) from coordinates."""
+    points, tets, types = dc.mesh_arrays(ug)
+    origin, spacing = np.array(image.GetOrigin()), np.array(image.GetSpacing())
+    ext = np.array(image.GetExtent())
+    dims = ext[1::2] - ext[0::2] + 1
+    ijk = np.rint((points - origin) / spacing).astype(np.int64) - ext[0::2]
+    index = ijk[:, 0] + dims[0] * (ijk[:, 1] + dims[1] * ijk[:, 2])
+    keys = np.sort(index[tets], axis=1) if len(tets) else np.zeros((0, 4), np.int64)
+    cd = ug.GetCellData()
+    depth = vtk_to_numpy(cd.GetArray("BisectionDepth")).astype(np.int64)
+    error = vtk_to_numpy(cd.GetArray("ApproximationError")).astype(np.float64)
+    return keys, depth, error, index
+
+
+def as_rows(keys, depth, error):
+    rows = np.column_stack([keys, depth, (error * 1e6).round().astype(np.int64)])
+    return rows[np.lexsort(rows.T[::-1])]
+
+
+def serial_reference(image, tolerance, roi, label):
+    """The serial mesh of `image`, written by the CLI."""
+    vti = os.path.join(workdir, f"{label}.vti")
+    vtu = os.path.join(workdir, f"{label}.vtu")
+    w = vtkXMLImageDataWriter()
+    w.SetFileName(vti)
+    w.SetInputData(image)
+    w.Write()
+    cmd = [dc.diamonds_binary(), "tetra", vti, vtu, "--tolerance", str(tolerance)]
+    if roi is not None:
+        cmd += ["--roi"] + [str(v) for v in roi]
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+    r = vtkXMLUnstructuredGridReader()
+    r.SetFileName(vtu)
+    r.Update()
+    return r.GetOutput()
+
+
+def check_distributed(source, image, scalars, tolerance, label, roi=None):
+    """Adaptive Tetrahedra on `source` (a pipeline proxy producing `image`) on every rank."""
+    filt = simple.AdaptiveTetrahedra(Input=source, Tolerance=tolerance)
+    filt.Scalars = ["POINTS", scalars]
+    if roi is not None:
+        filt.UseRegionOfInterest = 1
+        filt.RegionOfInterest = roi
+    filt.UpdatePipeline()
+    reference = serial_reference(image, tolerance, roi, label)
+    ref_keys, ref_depth, ref_error, _ = tets_by_grid_index(reference, image)
+    values = vtk_to_numpy(image.GetPointData().GetArray(scalars))
+    parts, per_rank = [], []
+    for r in range(ranks):
+        piece = servermanager.Fetch(filt, r)
+        n = piece.GetNumberOfCells()
+        per_rank.append(n)
+        if n == 0:
+            continue
+        keys, depth, error, index = tets_by_grid_index(piece, image)
+        gids = vtk_to_numpy(piece.GetPointData().GetGlobalIds()).astype(np.int64)
+        dc.check(np.array_equal(gids, index), f"{label}: rank {r}: GlobalPointIds are the whole-grid indices")
+        got = vtk_to_numpy(piece.GetPointData().GetArray(scalars))
+        dc.check(np.array_equal(got, values[index]), f"{label}: rank {r}: point data passed through")
+        per = vtk_to_numpy(piece.GetFieldData().GetArray("TetrahedraPerRank"))
+        dc.check(len(per) == ranks and per[r] == n, f"{label}: rank {r}: TetrahedraPerRank {list(per)}")
+        dc.check(dc.field_value(piece, "NumberOfTetrahedra") == len(ref_keys), f"{label}: NumberOfTetrahedra is the total")
+        secs = piece.GetFieldData().GetArray("SecondsPerRank")
+        sent = piece.GetFieldData().GetArray("BytesSentPerRank")
+        dc.check(secs is not None and sent is not None and secs.GetNumberOfTuples() == ranks, f"{label}: rank {r}: SecondsPerRank and BytesSentPerRank")
+        parts.append((keys, depth, error))
+    keys = np.concatenate([p[0] for p in parts])
+    depth = np.concatenate([p[1] for p in parts])
+    error = np.concatenate([p[2] for p in parts])
+    print(f"{label}: {len(ref_keys)} serial tetrahedra; per rank {per_rank}")
+    dc.check(sum(per_rank) == len(ref_keys), f"{label}: as many tetrahedra as serial ({sum(per_rank)} vs {len(ref_keys)})")
+    dc.check(len(np.unique(keys, axis=0)) == len(keys), f"{label}: no tetrahedron on two ranks")
+    dc.check(
+        np.array_equal(as_rows(keys, depth, error), as_rows(ref_keys, ref_depth, ref_error)),
+        f"{label}: the ranks' tetrahedra, depths and errors are the serial ones",
+    )
+    if ranks > 1 and len(ref_keys) > 1000:
+        dc.check(sum(1 for n in per_rank if n > 0) > 1, f"{label}: the work is shared ({per_rank})")
+    # Conformity of the union: every face in two tetrahedra, or on the image boundary.
+    faces = np.concatenate([keys[:, [0, 1, 2]], keys[:, [0, 1, 3]], keys[:, [0, 2, 3]], keys[:, [1, 2, 3]]])
+    uniq, counts = np.unique(faces, axis=0, return_counts=True)
+    ext = np.array(image.GetExtent())
+    dims = ext[1::2] - ext[0::2] + 1
+    ijk = np.stack([uniq % dims[0], uniq // dims[0] % dims[1], uniq // (dims[0] * dims[1])], axis=-1)
+    on_boundary = np.zeros(len(uniq), bool)
+    for a in range(3):
+        for v in (0, dims[a] - 1):
+            on_boundary |= (ijk[:, :, a] == v).all(axis=1)
+    hanging = int(((counts == 1) & ~on_boundary).sum())
+    dc.check(hanging == 0 and counts.max() <= 2, f"{label}: no hanging faces across the seams ({hanging}, max {counts.max()})")
+    return filt
+
+
+# A generated image of odd sizes: ParaView's Wavelet over 65 x 41 x 53 points.
+whole = [0, 64, 0, 40, 0, 52]
 wavelet = simple.Wavelet()
 wavelet.WholeExtent = whole
-filt = simple.AdaptiveTetrahedra(Input=wavelet, Tolerance=4.0)
+rt = vtkRTAnalyticSource()
+rt.SetWholeExtent(*whole)
+rt.Update()
+image = rt.GetOutput()
+filt = check_distributed(wavelet, image, "RTData", 8.0, "wavelet tol 8")
+builds = dc.hierarchy_builds(filt)
+filt.Tolerance = 2.0
 filt.UpdatePipeline()
+dc.check(dc.hierarchy_builds(filt) == builds, "changing the tolerance keeps every rank's hierarchy")
+check_distributed(wavelet, image, "RTData", 2.0, "wavelet tol 2")
+check_distributed(wavelet, image, "RTData", 0.0, "wavelet tol 0")
+check_distributed(wavelet, image, "RTData", 4.0, "wavelet ROI", roi=[10.0, 30.0, 5.0, 20.0, 0.0, 52.0])
 
-# The same image, computed here without the pipeline, to cut each piece's samples from.
-reference = vtkRTAnalyticSource()
-reference.SetWholeExtent(*whole)
-reference.Update()
+# An image smaller than the number of ranks: some ranks have empty pieces.
+tiny = simple.Wavelet()
+tiny.WholeExtent = [0, 1, 0, 1, 0, 1]
+rt_tiny = vtkRTAnalyticSource()
+rt_tiny.SetWholeExtent(0, 1, 0, 1, 0, 1)
+rt_tiny.Update()
+check_distributed(tiny, rt_tiny.GetOutput(), "RTData", 0.0, "one cell")
 
+# A real CT volume of odd depth (64 x 64 x 93, int16) read in pieces.
+path = dc.shared_path("data/volumes/headsq_64x64x93_int16.vti")
+if path:
+    reader = simple.XMLImageDataReader(FileName=[path])
+    local = vtkXMLImageDataReader()
+    local.SetFileName(path)
+    local.Update()
+    ct = local.GetOutput()
+    name = ct.GetPointData().GetScalars().GetName()
+    check_distributed(reader, ct, name, 40.0, "headsq tol 40")
 
-def piece_image(mesh):
-    """The reference samples over the extent covered by `mesh`."""
-    b = np.array(mesh.GetBounds())
-    extent = [int(round(v)) for v in b]  # spacing 1, origin 0: bounds are indices
-    voi = vtkExtractVOI()
-    voi.SetInputData(reference.GetOutput())
-    voi.SetVOI(*extent)
-    voi.Update()
-    return voi.GetOutput(), extent
-
-
-def check_pieces(label, tolerance, region=None):
-    counts = []
-    extents = []
-    for r in range(ranks):
-        mesh = servermanager.Fetch(filt, r)
-        image, extent = piece_image(mesh)
-        print(f"{label}: rank {r} piece extent {extent}: {mesh.GetNumberOfCells()} tetrahedra")
-        counts.append(dc.check_mesh(image, mesh, "RTData", tolerance, f"{label}, rank {r}", tolerance_region=region))
-        extents.append(extent)
-    lo = np.min(np.array(extents)[:, 0::2], axis=0)
-    hi = np.max(np.array(extents)[:, 1::2], axis=0)
-    dc.check(list(lo) == whole[0::2] and list(hi) == whole[1::2], f"{label}: the pieces cover the whole extent")
-    if ranks > 1:
-        dc.check(len({tuple(e) for e in extents}) == ranks, f"{label}: every rank has its own piece")
-    return counts
-
-
-counts = check_pieces("tol 4", 4.0)
-print(f"tetrahedra per rank: {counts}, total {sum(counts)}")
-
-# A region of interest inside rank 0's piece only: the other pieces get their coarsest mesh.
-first = servermanager.Fetch(filt, 0).GetBounds()
-roi = [first[0], first[0] + 4.0, first[2], first[2] + 4.0, first[4], first[4] + 4.0]
-filt.UseRegionOfInterest = 1
-filt.RegionOfInterest = roi
-filt.UpdatePipeline()
-roi_counts = check_pieces("ROI", 4.0, region=roi)
-print(f"with a region of interest in rank 0's corner: tetrahedra per rank {roi_counts}")
-dc.check(all(c > 0 for c in roi_counts), "every piece is meshed with a region of interest")
-if ranks > 1:
-    dc.check(max(roi_counts[1:]) < counts[1], "pieces outside the region of interest are coarser")
-
+if CLIENT_SERVER:
+    simple.Disconnect()
+    try:
+        server.wait(timeout=60)  # pvserver exits when its client disconnects
+    except subprocess.TimeoutExpired:
+        server.terminate()
+    dc.finish(f"mpi_pieces (client of a {ranks}-rank pvserver)")
 dc.finish(f"mpi_pieces ({ranks} ranks)", mpi=True)

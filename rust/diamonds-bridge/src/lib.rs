@@ -231,6 +231,63 @@ mod ffi {
         /// between. It belongs to the hierarchy that planned it.
         type MeshPlan;
 
+        /// The part of the diamond hierarchy one piece of a distributed image needs (see
+        /// `diamonds::hierarchy::piece`): the piece's diamond errors, the coarse ones combined
+        /// across pieces by the filter.
+        type PieceHierarchy;
+        /// One query's split set on one piece, grown in rounds with the other pieces.
+        type PieceRefinement;
+
+        /// Whole-grid point indices (x fastest), ascending, of the samples the piece of extent
+        /// `owned` (six values, VTK order, relative to the whole extent) needs from other pieces.
+        fn piece_needed_points(whole: &GridSpec, owned: &[i64]) -> Result<Vec<u64>>;
+        /// For each whole-grid point index of `ids`, the first piece of `pieces` (six extent
+        /// values each) that holds it, or the number of pieces when none does.
+        fn piece_point_owners(whole: &GridSpec, pieces: &[i64], ids: &[u64]) -> Result<Vec<u32>>;
+        /// Builds the piece's part of the hierarchy from its own samples (`local`, its extent, x
+        /// fastest) and `fetched`, the samples at `piece_needed_points` in that order (same type).
+        fn build_piece_hierarchy(
+            whole: &GridSpec,
+            owned: &[i64],
+            scalar_type: ScalarType,
+            local: &[u8],
+            fetched: &[u8],
+            progress: Pin<&mut ProgressObserver>,
+        ) -> Result<Box<PieceHierarchy>>;
+        /// This piece's part of the coarse diamonds' errors: the element-wise maximum over all
+        /// pieces goes to `combine_coarse_errors`.
+        fn coarse_errors(self: &PieceHierarchy) -> &[f64];
+        /// Takes the coarse errors combined over all pieces (before any refinement).
+        fn combine_coarse_errors(self: &mut PieceHierarchy, combined: &[f64]) -> Result<()>;
+        /// Starts refining for `query` (no budget) with what this piece can judge alone.
+        fn start_refinement(
+            self: &PieceHierarchy,
+            query: &QuerySpec,
+        ) -> Result<Box<PieceRefinement>>;
+        /// The diamonds split here since the last call that other pieces must know (three
+        /// coordinates each); `pieces` is every piece's extent.
+        fn outgoing(
+            self: &PieceHierarchy,
+            refinement: &mut PieceRefinement,
+            pieces: &[i64],
+        ) -> Result<Vec<i32>>;
+        /// Inserts the diamonds every piece sent (all `outgoing` lists, concatenated) and refines
+        /// on; returns how many were new here.
+        fn receive(
+            self: &PieceHierarchy,
+            refinement: &mut PieceRefinement,
+            centers: &[i32],
+        ) -> Result<usize>;
+        /// The tetrahedra this piece owns once no piece has anything to send (`pieces`: every
+        /// piece's extent, this one's at `rank`; a tetrahedron belongs to the first piece whose
+        /// cells hold its centroid): point ids are whole-grid indices.
+        fn piece_mesh(
+            self: &PieceHierarchy,
+            refinement: &PieceRefinement,
+            pieces: &[i64],
+            rank: usize,
+        ) -> Result<Box<Mesh>>;
+
         /// Refines for `query` and counts the mesh; cheap compared with the build.
         fn plan_mesh(self: &Hierarchy, query: &QuerySpec) -> Result<Box<MeshPlan>>;
         /// Number of tetrahedra of the planned mesh.
@@ -289,6 +346,8 @@ mod ffi {
 
         /// Input point id (relative to the grid given to the build) of each output point.
         fn point_ids(self: &Mesh) -> &[usize];
+        /// World coordinates of its points, three per point (in the order of `point_ids`).
+        fn points(self: &Mesh) -> &[f64];
         /// Four point indices per tetrahedron, positively oriented (VTK_TETRA order).
         fn tets(self: &Mesh) -> &[u32];
         /// Bisection depth of each tetrahedron.
@@ -446,9 +505,13 @@ pub use ffi::{
 };
 
 pub mod material;
+pub mod piece;
 pub use material::{
     grid_from_coordinates, new_material_builder, select_material_arrays, MaterialBuilder,
     MaterialMesh, MaterialModel, OutputArrays, PolygonMesh,
+};
+pub use piece::{
+    build_piece_hierarchy, piece_needed_points, piece_point_owners, PieceHierarchy, PieceRefinement,
 };
 
 /// Opaque handle on a [`diamonds::Hierarchy`] for C++, with an identity that tells the
@@ -519,6 +582,9 @@ fn panic_message(payload: &(dyn Any + Send)) -> &str {
 /// multiple of the value size; VTK's arrays are malloc-aligned, so neither happens in practice.
 pub fn typed_slice(scalar_type: ScalarType, bytes: &[u8]) -> Result<ScalarSlice<'_>, String> {
     fn cast<T: bytemuck::Pod>(bytes: &[u8]) -> Result<&[T], String> {
+        if bytes.is_empty() {
+            return Ok(&[]); // C++ may hand over an empty slice at any address
+        }
         bytemuck::try_cast_slice(bytes).map_err(|e| {
             format!(
                 "the sample buffer ({} bytes at {:p}) cannot be read as {}: {e:?}",
@@ -569,6 +635,17 @@ pub fn build_isosurfaces_with(
         core_grid(grid),
         scalars,
     ))
+}
+
+/// The core's query for `query`.
+fn core_query(query: &QuerySpec) -> Query {
+    Query {
+        tolerance: query.tolerance,
+        max_tetrahedra: query.max_tetrahedra,
+        region_of_interest: query
+            .use_region_of_interest
+            .then_some(query.region_of_interest),
+    }
 }
 
 fn core_grid(grid: &GridSpec) -> Grid {
@@ -627,14 +704,10 @@ impl Hierarchy {
     /// Refines for `query` and counts the mesh ([`diamonds::Hierarchy::plan`]).
     pub fn plan_mesh(&self, query: &QuerySpec) -> Result<Box<MeshPlan>, String> {
         guard("refining the adaptive mesh", || {
-            let query = Query {
-                tolerance: query.tolerance,
-                max_tetrahedra: query.max_tetrahedra,
-                region_of_interest: query
-                    .use_region_of_interest
-                    .then_some(query.region_of_interest),
-            };
-            let plan = self.hierarchy.plan(&query).map_err(|e| e.to_string())?;
+            let plan = self
+                .hierarchy
+                .plan(&core_query(query))
+                .map_err(|e| e.to_string())?;
             Ok(Box::new(MeshPlan {
                 plan,
                 hierarchy: self.id,
@@ -805,6 +878,10 @@ impl MeshPlan {
 }
 
 impl Mesh {
+    fn points(&self) -> &[f64] {
+        self.0.points.as_flattened()
+    }
+
     fn point_ids(&self) -> &[usize] {
         &self.0.point_ids
     }

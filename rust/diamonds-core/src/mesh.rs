@@ -70,6 +70,25 @@ fn walk(lattice: &Lattice, split: &SplitSet, t: Tet, visit: impl FnMut(&Tet)) {
     walk_pruned(lattice, split, t, |_| false, visit);
 }
 
+/// A leaf as the mesh writes it: positively oriented, with its bisection depth and the `error` of
+/// its diamond (0 for a unit-cube tetrahedron, one bisection below the finest diamonds, which
+/// reproduces its samples).
+#[inline]
+pub(crate) fn output_tet(
+    lattice: &Lattice,
+    leaf: &Tet,
+    error: &impl Fn(Diamond) -> f64,
+) -> (Tet, u8, f32) {
+    let mut leaf = *leaf;
+    if signed_volume6(&leaf) < 0 {
+        leaf.swap(2, 3);
+    }
+    match Diamond::of_tet(&leaf) {
+        Some(dm) => (leaf, dm.depth(lattice) as u8, error(dm) as f32),
+        None => (leaf, (3 * lattice.levels) as u8, 0.0),
+    }
+}
+
 /// Subtrees of the split set, in order, enough for parallel work: the tetrahedra of its first levels
 /// (breadth-first) until there are about a thousand; a leaf met on the way is its own subtree.
 fn subtrees(lattice: &Lattice, split: &SplitSet) -> Vec<Tet> {
@@ -179,11 +198,60 @@ pub struct MeshPlan {
     /// Number of inside leaves below each root.
     counts: Vec<usize>,
     tets: usize,
-    /// Used points, one bit per grid point (x fastest).
+    points: PointSet,
+}
+
+/// The points of a mesh as a bitset over the grid's points (x fastest) with the number of points
+/// before each word: a point's id is its rank among the used points.
+#[derive(Clone, Debug)]
+pub(crate) struct PointSet {
     used: Vec<u64>,
     /// Used points before each word of `used`.
     rank: Vec<u32>,
-    points: usize,
+    len: usize,
+}
+
+impl PointSet {
+    /// The points of the bitset `used`.
+    pub(crate) fn new(used: Vec<u64>) -> Result<Self> {
+        let mut rank = memory::with_capacity(used.len(), "the mesh's point ids")?;
+        let mut len = 0usize;
+        for w in &used {
+            rank.push(len as u32);
+            len += w.count_ones() as usize;
+        }
+        Ok(Self { used, rank, len })
+    }
+
+    /// Number of points.
+    pub(crate) fn len(&self) -> usize {
+        self.len
+    }
+
+    /// The id of used point `i` (grid index).
+    #[inline]
+    pub(crate) fn id(&self, i: usize) -> usize {
+        let (w, b) = (i / 64, i % 64);
+        self.rank[w] as usize + (self.used[w] & ((1u64 << b) - 1)).count_ones() as usize
+    }
+
+    /// The grid indices of the used points, ascending.
+    pub(crate) fn indices(&self) -> Vec<usize> {
+        self.used
+            .par_iter()
+            .enumerate()
+            .flat_map_iter(|(w, &word)| {
+                let mut bits = word;
+                std::iter::from_fn(move || {
+                    (bits != 0).then(|| {
+                        let b = bits.trailing_zeros() as usize;
+                        bits &= bits - 1;
+                        w * 64 + b
+                    })
+                })
+            })
+            .collect()
+    }
 }
 
 /// Words of the point bitset per parallel task.
@@ -209,21 +277,13 @@ impl MeshPlan {
                 used[i / 64] |= 1 << (i % 64);
             }
         }
-        let mut rank = memory::with_capacity(used.len(), "the mesh's point ids")?;
-        let mut points = 0usize;
-        for w in &used {
-            rank.push(points as u32);
-            points += w.count_ones() as usize;
-        }
         Ok(Self {
             lattice: *lattice,
             tets: counts.iter().sum(),
             split,
             roots,
             counts,
-            used,
-            rank,
-            points,
+            points: PointSet::new(used)?,
         })
     }
 
@@ -234,7 +294,7 @@ impl MeshPlan {
 
     /// Number of points.
     pub fn points(&self) -> usize {
-        self.points
+        self.points.len()
     }
 
     /// The lattice the mesh lives on.
@@ -264,13 +324,6 @@ impl MeshPlan {
     pub fn grid_dims(&self) -> [usize; 3] {
         let d = self.lattice.hi + glam::IVec3::ONE;
         [d.x as usize, d.y as usize, d.z as usize]
-    }
-
-    /// The id of used point `i` (grid index): its rank among the used points.
-    #[inline]
-    fn id(&self, i: usize) -> usize {
-        let (w, b) = (i / 64, i % 64);
-        self.rank[w] as usize + (self.used[w] & ((1u64 << b) - 1)).count_ones() as usize
     }
 
     /// Checks that `len` elements are `per` per `count` items of `what`.
@@ -323,20 +376,11 @@ impl MeshPlan {
                 let mut k = 0;
                 let mut max = 0.0f32;
                 walk(lattice, &self.split, root, |leaf| {
-                    let mut leaf = *leaf;
-                    if signed_volume6(&leaf) < 0 {
-                        leaf.swap(2, 3);
-                    }
-                    // A unit-cube tetrahedron is one bisection below the finest diamonds and
-                    // reproduces its samples.
-                    let (depth, err) = match Diamond::of_tet(&leaf) {
-                        Some(dm) => (dm.depth(lattice), error(dm) as f32),
-                        None => (3 * lattice.levels, 0.0),
-                    };
+                    let (leaf, depth, err) = output_tet(lattice, leaf, &error);
                     for (slot, p) in c[4 * k..4 * k + 4].iter_mut().zip(leaf) {
-                        *slot = I::from_usize(self.id(lattice.index(p)));
+                        *slot = I::from_usize(self.points.id(lattice.index(p)));
                     }
-                    d[k] = depth as u8;
+                    d[k] = depth;
                     e[k] = err;
                     max = max.max(err);
                     k += 1;
@@ -356,6 +400,7 @@ impl MeshPlan {
         write: impl Fn(&mut dyn Iterator<Item = usize>, &mut [T]) + Sync,
     ) {
         let words: Vec<usize> = self
+            .points
             .used
             .chunks(WORDS_PER_TASK)
             .map(|ws| ws.iter().map(|w| w.count_ones() as usize).sum())
@@ -365,9 +410,9 @@ impl MeshPlan {
             .enumerate()
             .for_each(|(task, chunk)| {
                 let first = task * WORDS_PER_TASK;
-                let end = (first + WORDS_PER_TASK).min(self.used.len());
+                let end = (first + WORDS_PER_TASK).min(self.points.used.len());
                 let mut ids = (first..end).flat_map(|w| {
-                    let mut bits = self.used[w];
+                    let mut bits = self.points.used[w];
                     std::iter::from_fn(move || {
                         (bits != 0).then(|| {
                             let b = bits.trailing_zeros() as usize;
@@ -382,7 +427,7 @@ impl MeshPlan {
 
     /// Writes the grid index (x fastest) of each point, ascending.
     pub fn write_point_ids<I: Index>(&self, ids: &mut [I]) -> Result<()> {
-        Self::check_len(ids.len(), self.points, 1, "point ids")?;
+        Self::check_len(ids.len(), self.points.len(), 1, "point ids")?;
         self.for_points(ids, 1, |grid_ids, chunk| {
             for (slot, i) in chunk.iter_mut().zip(grid_ids) {
                 *slot = I::from_usize(i);
@@ -397,7 +442,7 @@ impl MeshPlan {
         position: impl Fn(usize) -> [f64; 3] + Sync,
         xyz: &mut [f64],
     ) -> Result<()> {
-        Self::check_len(xyz.len(), self.points, 3, "point coordinates")?;
+        Self::check_len(xyz.len(), self.points.len(), 3, "point coordinates")?;
         self.for_points(xyz, 3, |grid_ids, chunk| {
             for (slot, i) in chunk.chunks_exact_mut(3).zip(grid_ids) {
                 slot.copy_from_slice(&position(i));
@@ -418,7 +463,7 @@ impl MeshPlan {
         )?;
         Self::check_len(
             target.len(),
-            self.points,
+            self.points.len(),
             tuple_bytes,
             "a point array's target",
         )?;
@@ -435,9 +480,9 @@ impl MeshPlan {
 
     /// The mesh as a [`TetMesh`] on `grid`, each tetrahedron with the `error` of its diamond.
     pub fn to_mesh(&self, grid: &Grid, error: impl Fn(Diamond) -> f64 + Sync) -> Result<TetMesh> {
-        let mut point_ids = memory::filled(self.points, 0usize, "the mesh's point ids")?;
+        let mut point_ids = memory::filled(self.points.len(), 0usize, "the mesh's point ids")?;
         self.write_point_ids(&mut point_ids)?;
-        let mut points = memory::filled(self.points, [0.0; 3], "the mesh's points")?;
+        let mut points = memory::filled(self.points.len(), [0.0; 3], "the mesh's points")?;
         self.write_points(|i| grid.point(grid.ijk(i)), points.as_flattened_mut())?;
         let mut tets = memory::filled(self.tets, [0u32; 4], "the mesh's tetrahedra")?;
         let mut depths = memory::filled(self.tets, 0u8, "the mesh's depths")?;

@@ -118,6 +118,27 @@ impl SplitSet {
         &self.lattice
     }
 
+    /// The diamonds centred in the domain that are split here and not in `before` (a subset of
+    /// this set on the same lattice), in index order.
+    pub(crate) fn added_since(&self, before: &SplitSet) -> Vec<Diamond> {
+        self.bits
+            .par_iter()
+            .zip(&before.bits)
+            .enumerate()
+            .flat_map_iter(|(w, (&now, &was))| {
+                let mut added = now & !was;
+                std::iter::from_fn(move || {
+                    (added != 0).then(|| {
+                        let b = added.trailing_zeros() as usize;
+                        added &= added - 1;
+                        w * 64 + b
+                    })
+                })
+            })
+            .map(|i| Diamond::new(self.lattice.point(i)))
+            .collect()
+    }
+
     /// The bitset over the domain's points (bit `i` of word `i / 64` for the diamond centred on the
     /// point of [`Lattice::index`] `i`).
     pub(crate) fn domain_bits(&self) -> &[u64] {
@@ -302,7 +323,6 @@ impl<'h> Refiner<'h> {
         }
         let r = Self::start(grid, base, query, criterion)?;
         let (lattice, tolerance, roi) = (r.lattice, r.tolerance, r.roi);
-        let mut split = r.split;
         let error = |d: Diamond| {
             if roi.is_some_and(|roi| outside_roi(roi, &lattice, d)) {
                 0.0
@@ -310,55 +330,13 @@ impl<'h> Refiner<'h> {
                 criterion(d)
             }
         };
-        let bits: Vec<AtomicU64> = split.bits.iter().map(|&w| AtomicU64::new(w)).collect();
-        let outside = &split.outside;
-        let is_split = |d: Diamond| {
-            if lattice.in_domain(d.center) {
-                let i = lattice.index(d.center);
-                bits[i / 64].load(AtomicOrdering::Relaxed) >> (i % 64) & 1 == 1
-            } else {
-                outside.contains(&d.center)
-            }
-        };
-        let mut round: Vec<Diamond> = base
+        let first: Vec<Diamond> = base
             .candidates
             .par_iter()
             .copied()
-            .filter(|&d| !is_split(d) && error(d) > tolerance)
+            .filter(|&d| !r.split.contains(d) && error(d) > tolerance)
             .collect();
-        while !round.is_empty() {
-            let next: Result<Vec<Diamond>> = round
-                .par_iter()
-                .try_fold(Vec::new, |mut next, &d| {
-                    if !lattice.in_domain(d.center) {
-                        return Err(Error::Parameter(format!(
-                            "internal error: diamond {:?} outside the domain is not in the base mesh",
-                            d.center
-                        )));
-                    }
-                    let i = lattice.index(d.center);
-                    let bit = 1u64 << (i % 64);
-                    if bits[i / 64].fetch_or(bit, AtomicOrdering::Relaxed) & bit != 0 {
-                        return Ok(next); // split by another diamond of this round
-                    }
-                    next.extend(d.parents(&lattice).into_iter().filter(|&p| {
-                        !is_split(p) && p.placement(&lattice) != Placement::Outside
-                    }));
-                    next.extend(
-                        d.children(&lattice)
-                            .into_iter()
-                            .filter(|&c| !is_split(c) && error(c) > tolerance),
-                    );
-                    Ok(next)
-                })
-                .try_reduce(Vec::new, |mut a, mut b| {
-                    a.append(&mut b);
-                    Ok(a)
-                });
-            round = next?;
-        }
-        split.bits = bits.into_iter().map(AtomicU64::into_inner).collect();
-        Ok(split)
+        grow_concurrent(r.split, first, tolerance, &error)
     }
 
     /// A refiner of `grid` at `base`, set up for `query` (queue, tolerance, region).
@@ -368,12 +346,7 @@ impl<'h> Refiner<'h> {
         query: &Query,
         criterion: &'h dyn Fn(Diamond) -> f64,
     ) -> Result<Self> {
-        if !query.tolerance.is_finite() || query.tolerance < 0.0 {
-            return Err(Error::Parameter(format!(
-                "tolerance must be a finite number ≥ 0 (got {})",
-                query.tolerance
-            )));
-        }
+        let roi = query_region(grid, query)?;
         let mut r = Self::new(
             *base.split.lattice(),
             base.split.clone(),
@@ -384,9 +357,7 @@ impl<'h> Refiner<'h> {
         if query.max_tetrahedra > 0 {
             r.queue = SplitQueue::Ordered(BinaryHeap::new());
         }
-        if let Some(roi) = query.region_of_interest {
-            r.roi = Some(lattice_box(grid, roi)?);
-        }
+        r.roi = roi;
         Ok(r)
     }
 
@@ -656,9 +627,90 @@ impl<'h> Refiner<'h> {
     }
 }
 
+/// The growth of [`Refiner::run_concurrent`], from any closed split set `split`: splits the
+/// diamonds of `first` (split whatever their error), their unsplit parents not outside the domain,
+/// and every child of a diamond split here whose `error` exceeds `tolerance`, in parallel rounds.
+/// The result is the least such closed superset of `split`, whatever the order of the splits.
+pub(crate) fn grow_concurrent(
+    mut split: SplitSet,
+    first: Vec<Diamond>,
+    tolerance: f64,
+    error: &(dyn Fn(Diamond) -> f64 + Sync),
+) -> Result<SplitSet> {
+    let lattice = split.lattice;
+    let bits: Vec<AtomicU64> = split.bits.iter().map(|&w| AtomicU64::new(w)).collect();
+    let outside = &split.outside;
+    let is_split = |d: Diamond| {
+        if lattice.in_domain(d.center) {
+            let i = lattice.index(d.center);
+            bits[i / 64].load(AtomicOrdering::Relaxed) >> (i % 64) & 1 == 1
+        } else {
+            outside.contains(&d.center)
+        }
+    };
+    let mut round = first;
+    while !round.is_empty() {
+        let next: Result<Vec<Diamond>> = round
+            .par_iter()
+            .try_fold(Vec::new, |mut next, &d| {
+                if !lattice.in_domain(d.center) {
+                    return Err(Error::Parameter(format!(
+                        "internal error: diamond {:?} outside the domain is not in the base mesh",
+                        d.center
+                    )));
+                }
+                let i = lattice.index(d.center);
+                let bit = 1u64 << (i % 64);
+                if bits[i / 64].fetch_or(bit, AtomicOrdering::Relaxed) & bit != 0 {
+                    return Ok(next); // split by another diamond of this round
+                }
+                next.extend(
+                    d.parents(&lattice)
+                        .into_iter()
+                        .filter(|&p| !is_split(p) && p.placement(&lattice) != Placement::Outside),
+                );
+                next.extend(
+                    d.children(&lattice)
+                        .into_iter()
+                        .filter(|&c| !is_split(c) && error(c) > tolerance),
+                );
+                Ok(next)
+            })
+            .try_reduce(Vec::new, |mut a, mut b| {
+                a.append(&mut b);
+                Ok(a)
+            });
+        round = next?;
+    }
+    split.bits = bits.into_iter().map(AtomicU64::into_inner).collect();
+    Ok(split)
+}
+
+/// Checks the tolerance of `query` and returns its region of interest in lattice coordinates of
+/// `grid` (closed box), if any.
+pub(crate) fn query_region(
+    grid: &Grid,
+    query: &Query,
+) -> Result<Option<(glam::DVec3, glam::DVec3)>> {
+    if !query.tolerance.is_finite() || query.tolerance < 0.0 {
+        return Err(Error::Parameter(format!(
+            "tolerance must be a finite number ≥ 0 (got {})",
+            query.tolerance
+        )));
+    }
+    query
+        .region_of_interest
+        .map(|roi| lattice_box(grid, roi))
+        .transpose()
+}
+
 /// Whether `d` lies outside the region of interest `(lo, hi)` (lattice coordinates), so that its
 /// error does not count — unless it straddles a far face, which the criterion may require to split.
-fn outside_roi((lo, hi): (glam::DVec3, glam::DVec3), lattice: &Lattice, d: Diamond) -> bool {
+pub(crate) fn outside_roi(
+    (lo, hi): (glam::DVec3, glam::DVec3),
+    lattice: &Lattice,
+    d: Diamond,
+) -> bool {
     let (dlo, dhi) = d.bounds();
     (dlo.as_dvec3().cmpgt(hi).any() || dhi.as_dvec3().cmplt(lo).any())
         && d.placement(lattice) != Placement::Straddling

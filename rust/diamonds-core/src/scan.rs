@@ -99,25 +99,61 @@ pub fn scan_tet<T: Sample>(volume: &Volume<'_, T>, t: &Tet) -> TetStats {
     if spread < 4 {
         return scan_finest(volume, t);
     }
-    let planes = Planes::new(t);
     let values = t.map(|p| volume.at(p.x as usize, p.y as usize, p.z as usize));
-    let det = planes.det as f64;
-    // Slope of Σ B_i f_i along x.
-    let slope: f64 = (0..4).map(|i| planes.normals[i].x as f64 * values[i]).sum();
     let lo = t[0].min(t[1]).min(t[2].min(t[3]));
     let hi = t[0].max(t[1]).max(t[2].max(t[3]));
+    scan_rows(volume, IVec3::ZERO, t, values, (lo, hi))
+}
+
+/// The part of a tetrahedron's scan that one piece of a distributed volume sees: the samples of
+/// the closed tetrahedron `t` (lattice coordinates of the whole grid) inside the closed box `clip`,
+/// read from `volume`, whose first sample is the lattice point `origin` (`clip` must lie inside
+/// it); `values` are the samples at `t`'s vertices, which may lie outside `volume`. The merge of
+/// the parts of boxes covering `t` is [`scan_tet`]'s result, bit for bit: every row is scanned
+/// with the same floating-point operations as by [`scan_tet`] on the whole grid (for tetrahedra
+/// wider than a unit cube, which is what it is used for).
+pub fn scan_tet_part<T: Sample>(
+    volume: &Volume<'_, T>,
+    origin: IVec3,
+    t: &Tet,
+    values: [f64; 4],
+    clip: (IVec3, IVec3),
+) -> TetStats {
+    let lo = t[0].min(t[1]).min(t[2].min(t[3])).max(clip.0);
+    let hi = t[0].max(t[1]).max(t[2].max(t[3])).min(clip.1);
+    if lo.cmpgt(hi).any() {
+        return TetStats::EMPTY;
+    }
+    scan_rows(volume, origin, t, values, (lo, hi))
+}
+
+/// The row scan of Marchesin §4.1 over the rows of `t` in the box `(lo, hi)` (whole-grid lattice
+/// coordinates; `volume` starts at `origin`). Each row's interpolant runs from the row's first
+/// point inside `t`, also when the box cuts the row later, so that a row's arithmetic does not
+/// depend on the box.
+#[inline]
+fn scan_rows<T: Sample>(
+    volume: &Volume<'_, T>,
+    origin: IVec3,
+    t: &Tet,
+    values: [f64; 4],
+    (lo, hi): (IVec3, IVec3),
+) -> TetStats {
+    let planes = Planes::new(t);
+    let det = planes.det as f64;
+    let slope: f64 = (0..4).map(|i| planes.normals[i].x as f64 * values[i]).sum();
     let dims = volume.grid.dims;
-    // |n_x| is a power of two: x-bounds by arithmetic shifts (which floor).
     let shifts = planes.normals.map(|n| n.x.unsigned_abs().trailing_zeros());
+    let t_lo_x = t[0].x.min(t[1].x).min(t[2].x.min(t[3].x)) as i64;
+    let t_hi_x = t[0].x.max(t[1].x).max(t[2].x.max(t[3].x)) as i64;
     let (mut worst, mut min, mut max) = (0.0f64, f64::INFINITY, f64::NEG_INFINITY);
     for z in lo.z as i64..=hi.z as i64 {
         for y in lo.y as i64..=hi.y as i64 {
-            let (mut x0, mut x1) = (lo.x as i64, hi.x as i64);
+            let (mut x0, mut x1) = (t_lo_x, t_hi_x);
             let mut base = 0.0;
             for i in 0..4 {
                 let n = planes.normals[i];
                 let r = n.y * y + n.z * z + planes.offsets[i];
-                // B_i = n_x x + r ≥ 0.
                 if n.x > 0 {
                     x0 = x0.max(-(r >> shifts[i]));
                 } else if n.x < 0 {
@@ -127,13 +163,25 @@ pub fn scan_tet<T: Sample>(volume: &Volume<'_, T>, t: &Tet) -> TetStats {
                 }
                 base += r as f64 * values[i];
             }
+            let mut numerator = base + slope * x0 as f64;
+            // Clipped rows advance the interpolant the way the whole row does.
+            for _ in x0..lo.x as i64 {
+                numerator += slope;
+            }
+            let (x0, x1) = (x0.max(lo.x as i64), x1.min(hi.x as i64));
             if x0 > x1 {
                 continue;
             }
-            let row = dims[0] * (y as usize + dims[1] * z as usize);
-            let samples = &volume.samples[row + x0 as usize..=row + x1 as usize];
-            let mut numerator = base + slope * x0 as f64;
-            // Plain comparisons: samples are finite (checked by `Volume::new`).
+            let (ry, rz) = (
+                (y - origin.y as i64) as usize,
+                (z - origin.z as i64) as usize,
+            );
+            let row = dims[0] * (ry + dims[1] * rz);
+            let (a, b) = (
+                (x0 - origin.x as i64) as usize,
+                (x1 - origin.x as i64) as usize,
+            );
+            let samples = &volume.samples[row + a..=row + b];
             for s in samples {
                 let f = s.to_f64();
                 let e = (det * f - numerator).abs();
@@ -157,9 +205,6 @@ pub fn scan_tet<T: Sample>(volume: &Volume<'_, T>, t: &Tet) -> TetStats {
     }
 }
 
-/// [`scan_tet`] for the tetrahedra of the finest diamonds (edge vectors in `{0, ±2}^3` up to the spine
-/// class): their only samples are the four vertices and the lattice midpoints of their edges, where the
-/// interpolant is the mean of the edge's endpoints.
 fn scan_finest<T: Sample>(volume: &Volume<'_, T>, t: &Tet) -> TetStats {
     let at = |p: IVec3| volume.at(p.x as usize, p.y as usize, p.z as usize);
     let f = t.map(at);

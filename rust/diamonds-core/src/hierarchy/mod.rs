@@ -14,6 +14,7 @@
 //! Diamonds with a tetrahedron straddling a far face of the domain are split unconditionally (see
 //! [`crate::lattice`]); their closure is the *base mesh*, computed once here.
 
+pub mod piece;
 pub mod record;
 
 use crate::diamond::Diamond;
@@ -167,7 +168,13 @@ impl Hierarchy {
                 );
                 for (x, rec) in row.iter_mut().enumerate() {
                     let d = Diamond::new(glam::IVec3::new(x as i32, y as i32, z as i32));
-                    *rec = diamond_record(volume, &lattice, &stencils, d, &quantise);
+                    *rec = diamond_record(
+                        volume,
+                        &lattice,
+                        &stencils,
+                        (d, glam::IVec3::ZERO),
+                        &quantise,
+                    );
                 }
             });
         }
@@ -288,27 +295,33 @@ pub(crate) fn base_mesh(lattice: Lattice) -> BaseMesh {
     }
 }
 
-/// Scans the inside tetrahedra of `d` and packs the result.
+/// True when `p` is a corner of the root cube (no diamond is centred there).
+fn is_root_corner(lattice: &Lattice, p: glam::IVec3) -> bool {
+    (p.cmpeq(glam::IVec3::ZERO) | p.cmpeq(glam::IVec3::splat(lattice.size()))).all()
+}
+
+/// Scans the inside tetrahedra of `d` and packs the result. `volume` starts at the lattice point
+/// `shift` (zero for a whole grid; for a piece a multiple of `4 × d.scale()`, so that the shifted
+/// central vertex keeps the class and orientation bits [`scan_finest_diamond`] reads).
 fn diamond_record<T: Sample>(
     volume: &Volume<'_, T>,
     lattice: &Lattice,
     stencils: &Stencils,
-    d: Diamond,
+    (d, shift): (Diamond, glam::IVec3),
     quantise: &Quantiser,
 ) -> Record {
-    let corner =
-        d.center.cmpeq(glam::IVec3::ZERO) | d.center.cmpeq(glam::IVec3::splat(lattice.size()));
-    if corner.all() {
+    if is_root_corner(lattice, d.center) {
         return Record::default(); // a root-cube corner is no diamond
     }
     let (lo, hi) = d.bounds();
     if d.scale() == 1 && lattice.in_domain(lo) && lattice.in_domain(hi) {
-        return quantise.record(scan_finest_diamond(volume, d));
+        return quantise.record(scan_finest_diamond(volume, Diamond::new(d.center - shift)));
     }
     let mut stats = TetStats::EMPTY;
     for t in d.tets(lattice) {
         match lattice.place(&t) {
             Placement::Inside => {
+                let t = t.map(|p| p - shift);
                 let scan = stencils.scan(volume, &t);
                 stats = stats.merge(scan.unwrap_or_else(|| scan_tet(volume, &t)));
             }

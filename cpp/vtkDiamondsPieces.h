@@ -1,0 +1,83 @@
+// Internal to the Diamonds VTK module (not installed, not wrapped): the ranks of a distributed
+// pipeline (ParaView's MPI engine, pvbatch or pvserver) and what the filters move between them.
+//
+// The core decides what is needed (diamonds::hierarchy::piece); this class only moves it, over the
+// global vtkMultiProcessController: the extents of all pieces, agreement on success, point tuples
+// fetched from the ranks that hold them, element-wise maxima and concatenations. Point-to-point
+// messages go pair by pair in one global order (every rank handles its pairs (a, b), a < b, sorted),
+// so that blocking sends never deadlock.
+#ifndef vtkDiamondsPieces_h
+#define vtkDiamondsPieces_h
+
+#include "vtkDiamondsBridge.h"
+
+#include "vtkSmartPointer.h"
+#include "vtkType.h"
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+class vtkDataArray;
+class vtkImageData;
+class vtkInformationVector;
+class vtkMultiProcessController;
+
+namespace vtkDiamonds
+{
+class Pieces
+{
+public:
+  // The controller of a run on more than one rank, else nullptr (a serial run).
+  static vtkMultiProcessController* DistributedController();
+
+  // Collective: gathers every rank's extent. `wholeExtent`, `origin` and `spacing` describe the
+  // whole image (the same on every rank); `extent` is this rank's piece (empty: any max < min).
+  Pieces(vtkMultiProcessController* controller, const int wholeExtent[6], const int extent[6],
+    const double origin[3], const double spacing[3]);
+
+  int Rank() const { return this->Me; }
+  int Size() const { return this->Ranks; }
+  // The whole grid (origin at its first point).
+  const bridge::GridSpec& Whole() const { return this->WholeGrid; }
+  // Every rank's extent, six values each (VTK order), relative to the whole extent's first point.
+  rust::Slice<const std::int64_t> Extents() const { return { this->All.data(), this->All.size() }; }
+  rust::Slice<const std::int64_t> OwnExtent() const { return { this->All.data() + 6 * this->Me, 6 }; }
+
+  // Collective: true on every rank when `ok` is true on every rank.
+  bool AllOk(bool ok);
+  // Collective: element-wise maximum over the ranks, in place.
+  void MaxInPlace(std::vector<double>& values);
+  // Collective: sum over the ranks.
+  vtkIdType Sum(vtkIdType value);
+  // Collective: every rank's `values`, concatenated in rank order.
+  std::vector<std::int32_t> Concatenate(const std::vector<std::int32_t>& values);
+  // Collective: one value per rank.
+  std::vector<double> PerRank(double value);
+
+  // Collective: the tuples of `arrays` (point arrays over this rank's extent of `input`) at the
+  // whole-grid point indices `ids` (none of them in this rank's extent), fetched from the first
+  // rank holding each. `fetched` receives one array per input array (same type, components and
+  // name) with a tuple per id. Returns false with `error` set when a point is held by no rank.
+  bool Fetch(rust::Slice<const std::uint64_t> ids, const std::vector<vtkDataArray*>& arrays,
+    vtkImageData* input, std::vector<vtkSmartPointer<vtkDataArray>>& fetched, std::string& error);
+
+  // Bytes this rank sent so far (point-to-point and collective contributions), and seconds spent
+  // in the steps above (exchanging and waiting for the other ranks).
+  double BytesSent() const { return this->Sent; }
+  double ExchangeSeconds() const { return this->Seconds; }
+
+private:
+  vtkMultiProcessController* Controller;
+  int Me = 0;
+  int Ranks = 1;
+  int WholeLo[3] = { 0, 0, 0 };
+  bridge::GridSpec WholeGrid{};
+  std::vector<std::int64_t> All;
+  double Sent = 0.0;
+  double Seconds = 0.0;
+};
+
+} // namespace vtkDiamonds
+
+#endif

@@ -1,0 +1,168 @@
+//! The distributed-image half of the bridge: the Rust side of Adaptive Tetrahedra on a piece of an
+//! image split across MPI ranks ([`diamonds::hierarchy::piece`] explains the scheme).
+//!
+//! What crosses, and nothing else: the whole grid ([`GridSpec`]), extents as six integers per piece
+//! in VTK's order `[x0, x1, y0, y1, z0, z1]`, relative to the whole extent's first point; the
+//! piece's samples and the samples received from other pieces as raw bytes with a type tag; the
+//! coarse errors (one `f64` per coarse point) and the split diamonds (three `i32` each) the
+//! filter exchanges; out an opaque [`PieceHierarchy`], an opaque [`PieceRefinement`] and the
+//! piece's [`Mesh`] with whole-grid point ids. The filter does all communication; every function
+//! runs inside [`guard`].
+
+use std::pin::Pin;
+
+use diamonds::hierarchy::piece::{self, PieceLayout, PointBox};
+use diamonds::validate::check_mesh_arrays;
+use glam::IVec3;
+
+use crate::ffi::{self, GridSpec, QuerySpec, ScalarType};
+use crate::{check_core, core_grid, core_query, guard, typed_slice, Mesh};
+
+/// Opaque handle on a [`piece::PieceHierarchy`] for C++.
+pub struct PieceHierarchy(piece::PieceHierarchy);
+
+/// Opaque handle on a [`piece::PieceRefinement`] for C++: one query's split set on one piece.
+pub struct PieceRefinement(piece::PieceRefinement);
+
+/// The point boxes of `extents` (six values per piece, VTK order).
+fn boxes(extents: &[i64]) -> Result<Vec<PointBox>, String> {
+    if !extents.len().is_multiple_of(6) {
+        return Err(format!(
+            "{} extent values: not six per piece",
+            extents.len()
+        ));
+    }
+    extents
+        .chunks_exact(6)
+        .map(|e| {
+            let v: Vec<i32> = e
+                .iter()
+                .map(|&x| i32::try_from(x).map_err(|_| format!("extent value {x} out of range")))
+                .collect::<Result<_, _>>()?;
+            Ok(PointBox {
+                lo: IVec3::new(v[0], v[2], v[4]),
+                hi: IVec3::new(v[1], v[3], v[5]),
+            })
+        })
+        .collect()
+}
+
+fn layout(whole: &GridSpec, owned: &[i64]) -> Result<PieceLayout, String> {
+    let owned = match boxes(owned)?.as_slice() {
+        [b] => *b,
+        other => return Err(format!("{} extents given for one piece", other.len())),
+    };
+    PieceLayout::new(core_grid(whole), owned).map_err(|e| e.to_string())
+}
+
+/// Whole-grid indices of the samples the piece `owned` needs from the other pieces, ascending.
+pub fn piece_needed_points(whole: &GridSpec, owned: &[i64]) -> Result<Vec<u64>, String> {
+    guard("listing the samples a piece needs", || {
+        Ok(layout(whole, owned)?.needed_points())
+    })
+}
+
+/// For each whole-grid index of `ids`, the first of `pieces` holding it (`pieces.len()` if none).
+pub fn piece_point_owners(
+    whole: &GridSpec,
+    pieces: &[i64],
+    ids: &[u64],
+) -> Result<Vec<u32>, String> {
+    guard("finding the pieces that hold points", || {
+        let n = whole.dims.iter().map(|&d| d as u64).product::<u64>();
+        if let Some(bad) = ids.iter().find(|&&i| i >= n) {
+            return Err(format!("point {bad} lies outside the grid of {n} points"));
+        }
+        Ok(piece::point_owners(whole.dims, &boxes(pieces)?, ids))
+    })
+}
+
+/// Builds the piece's part of the hierarchy ([`piece::PieceHierarchy::build`]).
+pub fn build_piece_hierarchy(
+    whole: &GridSpec,
+    owned: &[i64],
+    scalar_type: ScalarType,
+    local: &[u8],
+    fetched: &[u8],
+    mut progress: Pin<&mut ffi::ProgressObserver>,
+) -> Result<Box<PieceHierarchy>, String> {
+    guard("building a piece of the diamond hierarchy", || {
+        let layout = layout(whole, owned)?;
+        let local = typed_slice(scalar_type, local)?;
+        let fetched = typed_slice(scalar_type, fetched)?;
+        let mut report = |fraction: f64| progress.as_mut().report(fraction);
+        piece::PieceHierarchy::build(layout, local, fetched, &mut report)
+            .map(|h| Box::new(PieceHierarchy(h)))
+            .map_err(|e| e.to_string())
+    })
+}
+
+impl PieceHierarchy {
+    /// This piece's part of the coarse diamonds' errors, to be combined by an element-wise maximum.
+    pub fn coarse_errors(&self) -> &[f64] {
+        self.0.coarse_errors()
+    }
+
+    /// Takes the coarse errors combined over all pieces.
+    pub fn combine_coarse_errors(&mut self, combined: &[f64]) -> Result<(), String> {
+        guard("combining the coarse errors", || {
+            self.0
+                .combine_coarse_errors(combined)
+                .map_err(|e| e.to_string())
+        })
+    }
+
+    /// Starts refining for `query` on this piece.
+    pub fn start_refinement(&self, query: &QuerySpec) -> Result<Box<PieceRefinement>, String> {
+        guard("refining a piece", || {
+            self.0
+                .start(&core_query(query))
+                .map(|r| Box::new(PieceRefinement(r)))
+                .map_err(|e| e.to_string())
+        })
+    }
+
+    /// The diamonds split here since the last call that other pieces (`pieces`: every piece's
+    /// extent) must know.
+    pub fn outgoing(
+        &self,
+        refinement: &mut PieceRefinement,
+        pieces: &[i64],
+    ) -> Result<Vec<i32>, String> {
+        guard("listing the split diamonds to send", || {
+            Ok(self.0.outgoing(&mut refinement.0, &boxes(pieces)?))
+        })
+    }
+
+    /// Inserts the diamonds split elsewhere and refines on; returns how many were new here.
+    pub fn receive(
+        &self,
+        refinement: &mut PieceRefinement,
+        centers: &[i32],
+    ) -> Result<usize, String> {
+        guard("inserting the split diamonds received", || {
+            self.0
+                .receive(&mut refinement.0, centers)
+                .map_err(|e| e.to_string())
+        })
+    }
+
+    /// The tetrahedra this piece owns (`pieces`: every piece's extent, this one's at `rank`), with
+    /// whole-grid point ids.
+    pub fn piece_mesh(
+        &self,
+        refinement: &PieceRefinement,
+        pieces: &[i64],
+        rank: usize,
+    ) -> Result<Box<Mesh>, String> {
+        guard("extracting a piece's mesh", || {
+            let mesh = self
+                .0
+                .mesh(&refinement.0, &boxes(pieces)?, rank)
+                .map_err(|e| e.to_string())?;
+            let grid_points = self.0.layout().grid().len();
+            check_core(check_mesh_arrays(&mesh, grid_points))?;
+            Ok(Box::new(Mesh(mesh)))
+        })
+    }
+}

@@ -1,0 +1,1064 @@
+//! The diamond hierarchy of a distributed image: each rank holds one *piece* (a box of the whole
+//! grid's points) and together the ranks compute the serial mesh, partitioned.
+//!
+//! The core stays free of communication: the caller (the VTK filter, over ParaView's
+//! `vtkMultiProcessController`) moves what this module asks for, in four steps.
+//!
+//! 1. **Samples** ([`PieceLayout::needed_points`]). The lattice is that of the *whole* grid. A diamond
+//!    of scale `s` has its vertices on the stride-`s` sublattice and lies within `s` of its central
+//!    vertex (Gregorski §3.1), so two kinds of samples suffice for the diamonds meeting a piece: a
+//!    halo of `C` layers around it ([`PieceLayout::stride`], the *coarse stride*, 8 or more) for the
+//!    *fine* diamonds (`s < C`), and the stride-`C` sublattice of the whole grid (1/512 of the
+//!    samples or fewer) for the vertices of the *coarse* ones (`s ≥ C`).
+//! 2. **Errors** ([`PieceHierarchy::build`], [`PieceHierarchy::combine_coarse_errors`]). A fine
+//!    diamond meeting the piece lies inside the halo: its exact error (Marchesin §4.1) is computed
+//!    here, bit for bit as [`crate::Hierarchy::build`] computes it. A coarse diamond may span many
+//!    pieces: each piece scans the part of it that it holds ([`crate::scan::scan_tet_part`]), and
+//!    the maximum over the pieces (an all-reduce of one `f64` per point of the coarse sublattice) is
+//!    its exact error.
+//! 3. **Refinement with closure** ([`PieceRefinement`]). Without a budget the serial split set is the
+//!    least set that holds the base mesh, is closed under parents and holds every child of a split
+//!    diamond whose error exceeds the tolerance (see `Refiner::run_concurrent`). Each piece grows it
+//!    from the diamonds it can judge (those meeting it), and sends every diamond it splits to the
+//!    pieces its *reach* meets — its bounding box grown by its scale, which holds all its children —
+//!    since those pieces judge its children; they insert what they receive and continue. Rounds end
+//!    when no piece has anything to send. Every split is one the serial refinement makes, and
+//!    every diamond that refinement splits is split by the piece that meets it once it knows its
+//!    parent is split: the union is the serial split set, and every piece knows the part of it
+//!    that meets the piece.
+//! 4. **Output** ([`PieceRefinement::mesh`]). The leaves of the split set are cut between the pieces
+//!    by their centroids: a piece owns the leaves whose centroid lies in its half-open cell box
+//!    `[lo, hi)`, so each tetrahedron of the serial mesh is written by exactly one piece, with the
+//!    whole grid's point indices as point ids (global ids).
+
+use super::{base_mesh, diamond_record, is_root_corner, record, record::Quantiser};
+use crate::diamond::Diamond;
+use crate::lattice::{Lattice, Placement, Tet};
+use crate::mesh::{self, PointSet, TetMesh};
+use crate::refine::{grow_concurrent, outside_roi, query_region, BaseMesh, Query, SplitSet};
+use crate::scan::{scan_tet_part, Stencils, TetStats};
+use crate::volume::{Grid, Sample, ScalarSlice, Volume};
+use crate::{memory, Error, Result};
+use glam::{DVec3, IVec3};
+use rayon::prelude::*;
+use rustc_hash::FxHashSet;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// A closed box of lattice points, empty when `hi < lo` on some axis.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PointBox {
+    pub lo: IVec3,
+    pub hi: IVec3,
+}
+
+impl PointBox {
+    /// The box of no points.
+    pub const EMPTY: Self = Self {
+        lo: IVec3::ZERO,
+        hi: IVec3::NEG_ONE,
+    };
+
+    /// True when the box holds no point.
+    pub fn is_empty(&self) -> bool {
+        self.hi.cmplt(self.lo).any()
+    }
+
+    /// Points per axis.
+    pub fn dims(&self) -> [usize; 3] {
+        if self.is_empty() {
+            return [0; 3];
+        }
+        let d = self.hi - self.lo + IVec3::ONE;
+        [d.x as usize, d.y as usize, d.z as usize]
+    }
+
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        self.dims().iter().product()
+    }
+
+    /// True when `p` lies in the box.
+    #[inline]
+    pub fn contains(&self, p: IVec3) -> bool {
+        p.cmpge(self.lo).all() && p.cmple(self.hi).all()
+    }
+
+    /// True when the closed box `[lo, hi]` shares a point with this one.
+    #[inline]
+    pub fn meets(&self, lo: IVec3, hi: IVec3) -> bool {
+        !self.is_empty() && lo.cmple(self.hi).all() && hi.cmpge(self.lo).all()
+    }
+
+    /// Index (x fastest) of `p`, a point of the box.
+    #[inline]
+    fn index(&self, p: IVec3) -> usize {
+        let [nx, ny, _] = self.dims();
+        let o = (p - self.lo).as_uvec3();
+        o.x as usize + nx * (o.y as usize + ny * o.z as usize)
+    }
+}
+
+/// Where one piece lies in the whole grid, and which samples of other pieces it needs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PieceLayout {
+    /// The whole grid.
+    grid: Grid,
+    lattice: Lattice,
+    /// The points this piece holds.
+    owned: PointBox,
+    /// The owned box with a halo of [`PieceLayout::stride`] layers (clipped to the grid), its low
+    /// corner rounded down to a multiple of twice the stride (see `diamond_record`).
+    padded: PointBox,
+    stride: i32,
+}
+
+impl PieceLayout {
+    /// The piece of the points `owned` (inclusive point indices of the whole grid `grid`; empty
+    /// when some `hi < lo`).
+    pub fn new(grid: Grid, owned: PointBox) -> Result<Self> {
+        grid.validate()?;
+        let lattice = Lattice::new(grid.dims)?;
+        let owned = if owned.is_empty() {
+            PointBox::EMPTY
+        } else {
+            owned
+        };
+        if !owned.is_empty() && (owned.lo.min_element() < 0 || owned.hi.cmpgt(lattice.hi).any()) {
+            return Err(Error::Parameter(format!(
+                "piece {:?}..{:?} lies outside the whole grid of {:?} points",
+                owned.lo, owned.hi, grid.dims
+            )));
+        }
+        let stride = coarse_stride(&lattice);
+        let padded = if owned.is_empty() {
+            PointBox::EMPTY
+        } else {
+            let align = 2 * stride;
+            PointBox {
+                lo: ((owned.lo - IVec3::splat(stride)).max(IVec3::ZERO) / align) * align,
+                hi: (owned.hi + IVec3::splat(stride)).min(lattice.hi),
+            }
+        };
+        Ok(Self {
+            grid,
+            lattice,
+            owned,
+            padded,
+            stride,
+        })
+    }
+
+    /// The whole grid.
+    pub fn grid(&self) -> &Grid {
+        &self.grid
+    }
+
+    /// The points this piece holds.
+    pub fn owned(&self) -> PointBox {
+        self.owned
+    }
+
+    /// The coarse stride `C`: diamonds of scale `C` or more are *coarse* (errors combined across
+    /// pieces), the others *fine* (errors from a halo of `C` layers). The smallest power of two ≥ 8
+    /// that keeps the coarse sublattice within 129 points per axis; it depends on the whole grid
+    /// only, so that every piece agrees on it.
+    pub fn stride(&self) -> i32 {
+        self.stride
+    }
+
+    /// Points per axis of the coarse sublattice (the whole grid's points at multiples of the stride).
+    fn coarse_dims(&self) -> IVec3 {
+        self.lattice.hi / self.stride + IVec3::ONE
+    }
+
+    fn coarse_len(&self) -> usize {
+        let d = self.coarse_dims().as_uvec3();
+        d.x as usize * d.y as usize * d.z as usize
+    }
+
+    /// The coarse sublattice's points, in index order (x fastest).
+    fn coarse_points(&self) -> impl Iterator<Item = IVec3> + '_ {
+        let d = self.coarse_dims();
+        let c = self.stride;
+        (0..d.z).flat_map(move |z| {
+            (0..d.y).flat_map(move |y| (0..d.x).map(move |x| IVec3::new(x, y, z) * c))
+        })
+    }
+
+    /// Index of the coarse diamond centred on `p` (a multiple of the stride) in the coarse sublattice.
+    #[inline]
+    fn coarse_index(&self, p: IVec3) -> usize {
+        let d = self.coarse_dims().as_uvec3();
+        let q = (p / self.stride).as_uvec3();
+        q.x as usize + d.x as usize * (q.y as usize + d.y as usize * q.z as usize)
+    }
+
+    /// Whole-grid indices (x fastest), ascending, of the samples this piece needs from the others:
+    /// its halo, and the points of the coarse sublattice outside it. None for an empty piece.
+    pub fn needed_points(&self) -> Vec<u64> {
+        let mut out = Vec::new();
+        if self.owned.is_empty() {
+            return out;
+        }
+        let (p, o) = (self.padded, self.owned);
+        for z in p.lo.z..=p.hi.z {
+            for y in p.lo.y..=p.hi.y {
+                let row = |x| self.lattice.index(IVec3::new(x, y, z)) as u64;
+                if (o.lo.y..=o.hi.y).contains(&y) && (o.lo.z..=o.hi.z).contains(&z) {
+                    out.extend((p.lo.x..o.lo.x).map(row));
+                    out.extend((o.hi.x + 1..=p.hi.x).map(row));
+                } else {
+                    out.extend((p.lo.x..=p.hi.x).map(row));
+                }
+            }
+        }
+        out.extend(
+            self.coarse_points()
+                .filter(|&q| !p.contains(q))
+                .map(|q| self.lattice.index(q) as u64),
+        );
+        out.sort_unstable();
+        out
+    }
+
+    /// The reach of `d`: its bounding box grown by its scale, which holds the tetrahedra of all its
+    /// children (the pieces that judge them must know that `d` is split).
+    #[inline]
+    fn reach(d: Diamond) -> (IVec3, IVec3) {
+        let (lo, hi) = d.bounds();
+        let s = IVec3::splat(d.scale());
+        (lo - s, hi + s)
+    }
+
+    /// True when `d` has a point in this piece (then this piece knows its error).
+    #[inline]
+    fn meets(&self, d: Diamond) -> bool {
+        let (lo, hi) = d.bounds();
+        self.owned.meets(lo, hi)
+    }
+}
+
+/// The smallest power of two ≥ 8 with at most 128 strides along the longest axis.
+fn coarse_stride(lattice: &Lattice) -> i32 {
+    let mut c = 8;
+    while lattice.hi.max_element() / c > 128 {
+        c *= 2;
+    }
+    c
+}
+
+/// Which piece owns each point: the first of `pieces` (closed point boxes) that holds it, or
+/// `pieces.len()` when none does. `ids` are whole-grid indices of a grid of `dims` points.
+pub fn point_owners(dims: [usize; 3], pieces: &[PointBox], ids: &[u64]) -> Vec<u32> {
+    let (nx, ny) = (dims[0] as u64, dims[1] as u64);
+    ids.par_iter()
+        .map(|&i| {
+            let p = IVec3::new(
+                (i % nx) as i32,
+                (i / nx % ny) as i32,
+                (i / (nx * ny)) as i32,
+            );
+            pieces
+                .iter()
+                .position(|b| b.contains(p))
+                .unwrap_or(pieces.len()) as u32
+        })
+        .collect()
+}
+
+/// The part of the diamond hierarchy one piece needs: errors of the diamonds that meet it.
+#[derive(Debug)]
+pub struct PieceHierarchy {
+    layout: PieceLayout,
+    /// Error codes ([`record::encode_error`]) of the fine diamonds meeting the piece, over the
+    /// padded box.
+    fine: Vec<u16>,
+    /// Errors of the coarse diamonds over the coarse sublattice: this piece's part until
+    /// [`PieceHierarchy::combine_coarse_errors`], then the whole errors.
+    coarse: Vec<f64>,
+    /// Error codes of the coarse diamonds, once combined.
+    coarse_codes: Vec<u16>,
+    base: BaseMesh,
+}
+
+/// Calls `$body` with `$a`, `$b` bound to the slices of two [`ScalarSlice`]s of the same type.
+macro_rules! with_same_type {
+    ($x:expr, $y:expr, |$a:ident, $b:ident| $body:expr) => {
+        match ($x, $y) {
+            (ScalarSlice::U8($a), ScalarSlice::U8($b)) => $body,
+            (ScalarSlice::I8($a), ScalarSlice::I8($b)) => $body,
+            (ScalarSlice::U16($a), ScalarSlice::U16($b)) => $body,
+            (ScalarSlice::I16($a), ScalarSlice::I16($b)) => $body,
+            (ScalarSlice::U32($a), ScalarSlice::U32($b)) => $body,
+            (ScalarSlice::I32($a), ScalarSlice::I32($b)) => $body,
+            (ScalarSlice::F32($a), ScalarSlice::F32($b)) => $body,
+            (ScalarSlice::F64($a), ScalarSlice::F64($b)) => $body,
+            (a, b) => Err(Error::Parameter(format!(
+                "the piece's samples are {:?} but the samples received are {:?}",
+                a.scalar_type(),
+                b.scalar_type()
+            ))),
+        }
+    };
+}
+
+impl PieceHierarchy {
+    /// Computes the errors of the diamonds that meet the piece of `layout` from its own samples
+    /// `local` (its owned box, x fastest) and `fetched`, the samples at
+    /// [`PieceLayout::needed_points`] in that order (same type). Coarse errors are this piece's
+    /// part until [`PieceHierarchy::combine_coarse_errors`].
+    pub fn build(
+        layout: PieceLayout,
+        local: ScalarSlice<'_>,
+        fetched: ScalarSlice<'_>,
+        progress: super::Progress<'_>,
+    ) -> Result<Self> {
+        with_same_type!(local, fetched, |a, b| Self::build_typed(
+            layout, a, b, progress
+        ))
+    }
+
+    fn build_typed<T: Sample>(
+        layout: PieceLayout,
+        local: &[T],
+        fetched: &[T],
+        progress: super::Progress<'_>,
+    ) -> Result<Self> {
+        let needed = layout.needed_points();
+        if local.len() != layout.owned.len() || fetched.len() != needed.len() {
+            return Err(Error::Parameter(format!(
+                "a piece of {} points with {} samples from other pieces needs {} and {} values \
+                 (got {} and {})",
+                layout.owned.len(),
+                needed.len(),
+                layout.owned.len(),
+                needed.len(),
+                local.len(),
+                fetched.len()
+            )));
+        }
+        let base = base_mesh(layout.lattice);
+        let mut coarse = vec![0.0; layout.coarse_len()];
+        if layout.owned.is_empty() {
+            return Ok(Self {
+                layout,
+                fine: Vec::new(),
+                coarse,
+                coarse_codes: Vec::new(),
+                base,
+            });
+        }
+        let (owned, padded) = (layout.owned, layout.padded);
+        let fetched_at = |i: usize| -> Result<T> {
+            needed
+                .binary_search(&(i as u64))
+                .map(|k| fetched[k])
+                .map_err(|_| Error::Parameter(format!("sample {i} was not received")))
+        };
+        // The padded box's samples: own ones, then the halo received.
+        let mut samples = memory::with_capacity(padded.len(), "the piece's samples")?;
+        for z in padded.lo.z..=padded.hi.z {
+            for y in padded.lo.y..=padded.hi.y {
+                for x in padded.lo.x..=padded.hi.x {
+                    let p = IVec3::new(x, y, z);
+                    samples.push(if owned.contains(p) {
+                        local[owned.index(p)]
+                    } else {
+                        fetched_at(layout.lattice.index(p))?
+                    });
+                }
+            }
+        }
+        let grid = Grid {
+            dims: padded.dims(),
+            origin: [0.0; 3],
+            spacing: [1.0; 3],
+        };
+        let volume = Volume::new(grid, &samples)?;
+        if !progress(0.1) {
+            return Err(Error::Aborted);
+        }
+        // Fine diamonds meeting the piece: exact errors from the padded box.
+        let lattice = layout.lattice;
+        let stencils = Stencils::new(&grid);
+        let quantise = Quantiser::new(volume.range());
+        let mut fine = memory::filled(padded.len(), 0u16, "the piece's diamond errors")?;
+        let [nx, ny, _] = padded.dims();
+        fine.par_chunks_mut(nx).enumerate().for_each(|(r, row)| {
+            let (y, z) = ((r % ny) as i32, (r / ny) as i32);
+            for (x, code) in row.iter_mut().enumerate() {
+                let p = padded.lo + IVec3::new(x as i32, y, z);
+                if p == IVec3::ZERO {
+                    continue; // no diamond
+                }
+                let d = Diamond::new(p);
+                if d.scale() < layout.stride && layout.meets(d) {
+                    let rec =
+                        diamond_record(&volume, &lattice, &stencils, (d, padded.lo), &quantise);
+                    *code = rec.error;
+                }
+            }
+        });
+        if !progress(0.7) {
+            return Err(Error::Aborted);
+        }
+        // Coarse diamonds meeting the piece: this piece's part of their errors.
+        let vertex = |p: IVec3| -> Result<f64> {
+            if padded.contains(p) {
+                Ok(samples[padded.index(p)].to_f64())
+            } else {
+                Ok(fetched_at(lattice.index(p))?.to_f64())
+            }
+        };
+        let parts: Vec<(usize, f64)> = layout
+            .coarse_points()
+            .collect::<Vec<_>>()
+            .into_par_iter()
+            .filter(|&p| !is_root_corner(&lattice, p))
+            .filter(|&p| layout.meets(Diamond::new(p)))
+            .map(|p| -> Result<(usize, f64)> {
+                let d = Diamond::new(p);
+                let mut stats = TetStats::EMPTY;
+                for t in d.tets(&lattice) {
+                    match lattice.place(&t) {
+                        Placement::Inside => {
+                            let values =
+                                [vertex(t[0])?, vertex(t[1])?, vertex(t[2])?, vertex(t[3])?];
+                            let part =
+                                scan_tet_part(&volume, padded.lo, &t, values, (owned.lo, owned.hi));
+                            stats = stats.merge(part);
+                        }
+                        Placement::Outside => {}
+                        // Split in the base mesh, as in the serial hierarchy.
+                        Placement::Straddling => return Ok((layout.coarse_index(p), 0.0)),
+                    }
+                }
+                Ok((
+                    layout.coarse_index(p),
+                    if stats.min > stats.max {
+                        0.0
+                    } else {
+                        stats.error
+                    },
+                ))
+            })
+            .collect::<Result<_>>()?;
+        for (i, e) in parts {
+            coarse[i] = e;
+        }
+        progress(1.0);
+        Ok(Self {
+            layout,
+            fine,
+            coarse,
+            coarse_codes: Vec::new(),
+            base,
+        })
+    }
+
+    /// The piece's layout.
+    pub fn layout(&self) -> &PieceLayout {
+        &self.layout
+    }
+
+    /// This piece's part of the coarse diamonds' errors (one per point of the coarse sublattice;
+    /// 0 where the piece holds none of a diamond's samples): the maximum over all pieces, element by
+    /// element, is what [`PieceHierarchy::combine_coarse_errors`] takes.
+    pub fn coarse_errors(&self) -> &[f64] {
+        &self.coarse
+    }
+
+    /// Takes the coarse diamonds' errors, combined over all pieces (element-wise maximum of every
+    /// piece's [`PieceHierarchy::coarse_errors`]).
+    pub fn combine_coarse_errors(&mut self, combined: &[f64]) -> Result<()> {
+        if combined.len() != self.coarse.len() {
+            return Err(Error::Parameter(format!(
+                "{} combined coarse errors for a coarse sublattice of {} points",
+                combined.len(),
+                self.coarse.len()
+            )));
+        }
+        if let Some(bad) = combined
+            .iter()
+            .zip(&self.coarse)
+            .find(|(c, own)| !c.is_finite() || *c < *own)
+        {
+            return Err(Error::Parameter(format!(
+                "combined coarse error {} is not a finite maximum of this piece's {}",
+                bad.0, bad.1
+            )));
+        }
+        self.coarse.copy_from_slice(combined);
+        self.coarse_codes = combined.iter().map(|&e| record::encode_error(e)).collect();
+        Ok(())
+    }
+
+    /// Error of `d`, a diamond meeting the piece (as [`crate::Hierarchy::error`]).
+    #[inline]
+    fn error(&self, d: Diamond) -> f64 {
+        let l = &self.layout;
+        if !l.lattice.in_domain(d.center) {
+            0.0
+        } else if d.scale() >= l.stride {
+            record::decode_error(self.coarse_codes[l.coarse_index(d.center)])
+        } else if l.padded.contains(d.center) {
+            record::decode_error(self.fine[l.padded.index(d.center)])
+        } else {
+            0.0
+        }
+    }
+
+    /// Starts refining for `query` (tolerance and region of interest; no budget): splits, with
+    /// closure, what the piece's own diamonds require.
+    pub fn start(&self, query: &Query) -> Result<PieceRefinement> {
+        if query.max_tetrahedra > 0 {
+            return Err(Error::Parameter(
+                "a tetrahedron budget is not supported on a distributed image (it orders splits \
+                 across all pieces); use a tolerance"
+                    .into(),
+            ));
+        }
+        if !self.layout.owned.is_empty() && self.coarse_codes.len() != self.coarse.len() {
+            return Err(Error::Parameter(
+                "the coarse errors were not combined across the pieces".into(),
+            ));
+        }
+        let roi = query_region(&self.layout.grid, query)?;
+        let mut r = PieceRefinement {
+            split: self.base.split.clone(),
+            tolerance: query.tolerance,
+            roi,
+            outbox: Vec::new(),
+        };
+        if !self.layout.owned.is_empty() {
+            let first = self
+                .base
+                .candidates
+                .par_iter()
+                .copied()
+                .filter(|&d| !r.split.contains(d) && self.judged_error(&r, d) > r.tolerance)
+                .collect();
+            self.grow(&mut r, first, &[])?;
+        }
+        Ok(r)
+    }
+
+    /// The error of `d` as this piece judges it: its error when it meets the piece and lies in the
+    /// region of interest, else 0 (other pieces judge it).
+    fn judged_error(&self, r: &PieceRefinement, d: Diamond) -> f64 {
+        let outside = r
+            .roi
+            .is_some_and(|roi| outside_roi(roi, &self.layout.lattice, d));
+        if outside || !self.layout.meets(d) {
+            0.0
+        } else {
+            self.error(d)
+        }
+    }
+
+    /// Splits the diamonds of `first` with closure, and every child they expose that this piece
+    /// judges above the tolerance ([`crate::refine::grow_concurrent`], in parallel); what it split
+    /// goes to the outbox, except the diamonds of `received` (split by other pieces, known there).
+    fn grow(
+        &self,
+        r: &mut PieceRefinement,
+        first: Vec<Diamond>,
+        received: &[Diamond],
+    ) -> Result<()> {
+        let judge = |d: Diamond| self.judged_error(r, d);
+        let grown = grow_concurrent(r.split.clone(), first, r.tolerance, &judge)?;
+        let mut added = grown.added_since(&r.split);
+        if !received.is_empty() {
+            let received: FxHashSet<Diamond> = received.iter().copied().collect();
+            added.retain(|d| !received.contains(d));
+        }
+        r.outbox.extend(added);
+        r.split = grown;
+        Ok(())
+    }
+
+    /// The diamonds split here since the last call whose reach meets another of `pieces` (every
+    /// piece's owned box, this one's included), as central vertices (three coordinates each).
+    pub fn outgoing(&self, r: &mut PieceRefinement, pieces: &[PointBox]) -> Vec<i32> {
+        let own = self.layout.owned;
+        let mut out = Vec::new();
+        for d in r.outbox.drain(..) {
+            let (lo, hi) = PieceLayout::reach(d);
+            if pieces.iter().any(|b| *b != own && b.meets(lo, hi)) {
+                out.extend(d.center.to_array());
+            }
+        }
+        out
+    }
+
+    /// Inserts the diamonds other pieces split (central vertices, three coordinates each, as
+    /// gathered from every piece's [`PieceHierarchy::outgoing`]) whose reach meets this piece, and
+    /// refines on from them. Returns how many were new here.
+    pub fn receive(&self, r: &mut PieceRefinement, centers: &[i32]) -> Result<usize> {
+        if !centers.len().is_multiple_of(3) {
+            return Err(Error::Parameter(format!(
+                "{} coordinates received: not three per diamond",
+                centers.len()
+            )));
+        }
+        let lattice = &self.layout.lattice;
+        let mut work = Vec::new();
+        for c in centers.chunks_exact(3) {
+            let p = IVec3::new(c[0], c[1], c[2]);
+            if !lattice.in_root(p) || p == IVec3::ZERO {
+                return Err(Error::Parameter(format!(
+                    "received diamond {p:?} lies outside the lattice"
+                )));
+            }
+            let d = Diamond::new(p);
+            let (lo, hi) = PieceLayout::reach(d);
+            if self.layout.owned.meets(lo, hi) && !r.split.contains(d) {
+                work.push(d);
+            }
+        }
+        let new = work.len();
+        self.grow(r, work.clone(), &work)?;
+        Ok(new)
+    }
+
+    /// The tetrahedra of the refined mesh this piece owns, points numbered by whole-grid index
+    /// ([`TetMesh::point_ids`], ascending) at their world positions, with depths and errors as
+    /// [`crate::Hierarchy::query`] gives them. `pieces` are all pieces' owned boxes, this one's at
+    /// `me`: a tetrahedron belongs to the first piece whose half-open cell box `[lo, hi)` holds its
+    /// centroid (pieces that overlap, e.g. all holding the whole image, output it once).
+    pub fn mesh(&self, r: &PieceRefinement, pieces: &[PointBox], me: usize) -> Result<TetMesh> {
+        let owned = self.layout.owned;
+        if pieces
+            .get(me)
+            .is_none_or(|b| *b != owned && !(b.is_empty() && owned.is_empty()))
+        {
+            return Err(Error::Parameter(format!(
+                "piece {me} of {} is not this piece {owned:?}",
+                pieces.len()
+            )));
+        }
+        if owned.is_empty() {
+            return Ok(TetMesh::default());
+        }
+        let lattice = &self.layout.lattice;
+        let cells4 = |b: &PointBox| (b.lo * 4, b.hi * 4);
+        let earlier: Vec<(IVec3, IVec3)> = pieces[..me]
+            .iter()
+            .filter(|b| !b.is_empty())
+            .map(cells4)
+            .collect();
+        let (lo4, hi4) = cells4(&owned);
+        let holds =
+            |(lo4, hi4): (IVec3, IVec3), c4: IVec3| c4.cmpge(lo4).all() && c4.cmplt(hi4).all();
+        let error = |d: Diamond| self.error(d);
+        let leaves = mesh::leaves_where(
+            lattice,
+            &r.split,
+            |t: &Tet| {
+                let lo = t[0].min(t[1]).min(t[2].min(t[3]));
+                let hi = t[0].max(t[1]).max(t[2].max(t[3]));
+                !owned.meets(lo, hi)
+            },
+            |t: &Tet| {
+                let c4 = t[0] + t[1] + t[2] + t[3];
+                (holds((lo4, hi4), c4) && !earlier.iter().any(|&b| holds(b, c4)))
+                    .then(|| mesh::output_tet(lattice, t, &error))
+            },
+        );
+        // The points: a bitset over the whole grid, a point's id its rank there.
+        let used: Vec<AtomicU64> = (0..self.layout.grid.len().div_ceil(64))
+            .map(|_| AtomicU64::new(0))
+            .collect();
+        leaves.par_iter().for_each(|(t, _, _)| {
+            for p in t {
+                let i = lattice.index(*p);
+                used[i / 64].fetch_or(1 << (i % 64), Ordering::Relaxed);
+            }
+        });
+        let points = PointSet::new(used.into_iter().map(AtomicU64::into_inner).collect())?;
+        let point_ids = points.indices();
+        let grid = &self.layout.grid;
+        let mut out = TetMesh {
+            points: point_ids
+                .par_iter()
+                .map(|&i| grid.point(grid.ijk(i)))
+                .collect(),
+            tets: leaves
+                .par_iter()
+                .map(|(t, _, _)| t.map(|p| points.id(lattice.index(p)) as u32))
+                .collect(),
+            depths: leaves.iter().map(|l| l.1).collect(),
+            errors: leaves.iter().map(|l| l.2).collect(),
+            max_error: 0.0,
+            point_ids,
+        };
+        out.max_error = out.errors.iter().fold(0.0f32, |m, &e| m.max(e)) as f64;
+        Ok(out)
+    }
+}
+
+/// The split set of one query on one piece, grown in rounds with the other pieces
+/// ([`PieceHierarchy::start`], [`PieceHierarchy::outgoing`], [`PieceHierarchy::receive`]).
+#[derive(Debug)]
+pub struct PieceRefinement {
+    split: SplitSet,
+    tolerance: f64,
+    roi: Option<(DVec3, DVec3)>,
+    /// Diamonds split here and not sent yet.
+    outbox: Vec<Diamond>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Hierarchy;
+
+    /// The pieces of a `k`-way split of the points along each axis (shared boundary planes, as
+    /// VTK's extent translator cuts images).
+    fn pieces(dims: [usize; 3], cuts: [usize; 3]) -> Vec<PointBox> {
+        let bounds = |n: usize, k: usize| -> Vec<(i32, i32)> {
+            (0..k)
+                .map(|i| (((n - 1) * i / k) as i32, ((n - 1) * (i + 1) / k) as i32))
+                .collect()
+        };
+        let mut out = Vec::new();
+        for (z0, z1) in bounds(dims[2], cuts[2]) {
+            for (y0, y1) in bounds(dims[1], cuts[1]) {
+                for (x0, x1) in bounds(dims[0], cuts[0]) {
+                    out.push(PointBox {
+                        lo: IVec3::new(x0, y0, z0),
+                        hi: IVec3::new(x1, y1, z1),
+                    });
+                }
+            }
+        }
+        out
+    }
+
+    /// The pieces' meshes for `query`, each computed as the filter does, with every
+    /// communication done here.
+    fn distributed(
+        grid: Grid,
+        samples: &[f32],
+        boxes: &[PointBox],
+        query: &Query,
+    ) -> (Vec<TetMesh>, usize) {
+        let hierarchies: Vec<PieceHierarchy> = boxes
+            .iter()
+            .map(|&b| {
+                let layout = PieceLayout::new(grid, b).unwrap();
+                let local: Vec<f32> = if b.is_empty() {
+                    Vec::new()
+                } else {
+                    let mut v = Vec::new();
+                    for z in b.lo.z..=b.hi.z {
+                        for y in b.lo.y..=b.hi.y {
+                            for x in b.lo.x..=b.hi.x {
+                                v.push(samples[grid.index(x as usize, y as usize, z as usize)]);
+                            }
+                        }
+                    }
+                    v
+                };
+                let fetched: Vec<f32> = layout
+                    .needed_points()
+                    .iter()
+                    .map(|&i| samples[i as usize])
+                    .collect();
+                PieceHierarchy::build(
+                    layout,
+                    ScalarSlice::F32(&local),
+                    ScalarSlice::F32(&fetched),
+                    &mut |_| true,
+                )
+                .unwrap()
+            })
+            .collect();
+        let mut combined = hierarchies[0].coarse_errors().to_vec();
+        for h in &hierarchies[1..] {
+            for (c, e) in combined.iter_mut().zip(h.coarse_errors()) {
+                *c = c.max(*e);
+            }
+        }
+        let mut hierarchies = hierarchies;
+        for h in &mut hierarchies {
+            h.combine_coarse_errors(&combined).unwrap();
+        }
+        let mut states: Vec<_> = hierarchies
+            .iter()
+            .map(|h| h.start(query).unwrap())
+            .collect();
+        let mut rounds = 0;
+        loop {
+            let sent: Vec<i32> = hierarchies
+                .iter()
+                .zip(&mut states)
+                .flat_map(|(h, r)| h.outgoing(r, boxes))
+                .collect();
+            if sent.is_empty() {
+                break;
+            }
+            rounds += 1;
+            for (h, r) in hierarchies.iter().zip(&mut states) {
+                h.receive(r, &sent).unwrap();
+            }
+        }
+        let meshes = hierarchies
+            .iter()
+            .zip(&states)
+            .enumerate()
+            .map(|(me, (h, r))| h.mesh(r, boxes, me).unwrap())
+            .collect();
+        (meshes, rounds)
+    }
+
+    /// Tetrahedra as sorted whole-grid point ids, with depth and error, sorted.
+    fn cells(meshes: &[&TetMesh]) -> Vec<([usize; 4], u8, u32)> {
+        let mut out: Vec<_> = meshes
+            .iter()
+            .flat_map(|m| {
+                m.tets
+                    .iter()
+                    .zip(&m.depths)
+                    .zip(&m.errors)
+                    .map(|((t, &d), &e)| {
+                        let mut ids = t.map(|i| m.point_ids[i as usize]);
+                        ids.sort_unstable();
+                        (ids, d, e.to_bits())
+                    })
+            })
+            .collect();
+        out.sort_unstable();
+        out
+    }
+
+    fn field(grid: Grid) -> Vec<f32> {
+        (0..grid.len())
+            .map(|i| {
+                let [x, y, z] = grid.ijk(i).map(|v| v as f32);
+                (0.31 * x).sin() * 40.0 + (0.17 * y * z).cos() * 25.0 + 0.05 * x * y
+            })
+            .collect()
+    }
+
+    #[test]
+    fn pieces_together_give_the_serial_mesh() {
+        for (dims, cuts) in [
+            ([33, 33, 33], [2, 1, 1]),
+            ([41, 29, 37], [1, 2, 2]),
+            ([65, 20, 19], [3, 1, 1]),
+            ([30, 31, 47], [2, 2, 2]),
+        ] {
+            let grid = Grid::new(dims);
+            let samples = field(grid);
+            let serial = Hierarchy::build(grid, ScalarSlice::F32(&samples), &mut |_| true).unwrap();
+            let boxes = pieces(dims, cuts);
+            for query in [
+                Query::tolerance(0.0),
+                Query::tolerance(2.0),
+                Query::tolerance(9.0),
+                Query {
+                    region_of_interest: Some([3.0, 12.0, 0.0, 9.0, 4.0, 20.0]),
+                    ..Query::tolerance(1.0)
+                },
+            ] {
+                let whole = serial.query(&query).unwrap();
+                let (meshes, rounds) = distributed(grid, &samples, &boxes, &query);
+                let parts: Vec<&TetMesh> = meshes.iter().collect();
+                assert!(
+                    meshes.iter().all(|m| !m.tets.is_empty()),
+                    "{dims:?} {query:?}"
+                );
+                assert_eq!(
+                    cells(&parts),
+                    cells(&[&whole]),
+                    "{dims:?} in {cuts:?} pieces, {query:?} ({rounds} rounds)"
+                );
+                for m in &meshes {
+                    for (p, &i) in m.points.iter().zip(&m.point_ids) {
+                        assert_eq!(*p, grid.point(grid.ijk(i)));
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn every_piece_knows_the_serial_error_of_every_diamond_meeting_it() {
+        // Integer and floating-point samples; pieces with halos cut by the grid and not.
+        let dims = [45, 38, 41];
+        let grid = Grid::new(dims);
+        let samples = field(grid);
+        let serial = Hierarchy::build(grid, ScalarSlice::F32(&samples), &mut |_| true).unwrap();
+        let boxes = pieces(dims, [3, 2, 1]);
+        let mut hierarchies: Vec<PieceHierarchy> = boxes
+            .iter()
+            .map(|&b| {
+                let layout = PieceLayout::new(grid, b).unwrap();
+                let mut local = Vec::new();
+                for z in b.lo.z..=b.hi.z {
+                    for y in b.lo.y..=b.hi.y {
+                        for x in b.lo.x..=b.hi.x {
+                            local.push(samples[grid.index(x as usize, y as usize, z as usize)]);
+                        }
+                    }
+                }
+                let fetched: Vec<f32> = layout
+                    .needed_points()
+                    .iter()
+                    .map(|&i| samples[i as usize])
+                    .collect();
+                PieceHierarchy::build(
+                    layout,
+                    ScalarSlice::F32(&local),
+                    ScalarSlice::F32(&fetched),
+                    &mut |_| true,
+                )
+                .unwrap()
+            })
+            .collect();
+        let mut combined = vec![0.0f64; hierarchies[0].coarse_errors().len()];
+        for h in &hierarchies {
+            for (c, e) in combined.iter_mut().zip(h.coarse_errors()) {
+                *c = c.max(*e);
+            }
+        }
+        let lattice = Lattice::new(dims).unwrap();
+        let (mut fine, mut coarse) = (0, 0);
+        for h in &mut hierarchies {
+            h.combine_coarse_errors(&combined).unwrap();
+            for i in 1..grid.len() {
+                let d = Diamond::new(lattice.point(i));
+                if h.layout.meets(d) && d.placement(&lattice) == Placement::Inside {
+                    assert_eq!(
+                        h.error(d),
+                        serial.error(d),
+                        "{:?} in {:?}",
+                        d,
+                        h.layout.owned
+                    );
+                    if d.scale() >= h.layout.stride {
+                        coarse += 1;
+                    } else {
+                        fine += 1;
+                    }
+                }
+            }
+        }
+        assert!(coarse > 50 && fine > 10_000, "{coarse} coarse, {fine} fine");
+    }
+
+    #[test]
+    fn overlapping_pieces_output_each_tetrahedron_once() {
+        // Every rank holding the whole image, and pieces overlapping by more than a plane.
+        let dims = [21, 18, 25];
+        let grid = Grid::new(dims);
+        let samples = field(grid);
+        let whole = PointBox {
+            lo: IVec3::ZERO,
+            hi: IVec3::new(20, 17, 24),
+        };
+        let overlapping = vec![
+            PointBox {
+                lo: IVec3::ZERO,
+                hi: IVec3::new(14, 17, 24),
+            },
+            PointBox {
+                lo: IVec3::new(6, 0, 0),
+                hi: IVec3::new(20, 17, 24),
+            },
+        ];
+        let query = Query::tolerance(2.0);
+        let serial = Hierarchy::build(grid, ScalarSlice::F32(&samples), &mut |_| true).unwrap();
+        let want = cells(&[&serial.query(&query).unwrap()]);
+        for boxes in [vec![whole; 3], overlapping] {
+            let (meshes, _) = distributed(grid, &samples, &boxes, &query);
+            let parts: Vec<&TetMesh> = meshes.iter().collect();
+            assert_eq!(cells(&parts), want, "{boxes:?}");
+        }
+    }
+
+    #[test]
+    fn an_empty_piece_takes_part_and_owns_nothing() {
+        let dims = [17, 17, 17];
+        let grid = Grid::new(dims);
+        let samples = field(grid);
+        let mut boxes = pieces(dims, [2, 1, 1]);
+        boxes.push(PointBox::EMPTY);
+        let query = Query::tolerance(3.0);
+        let (meshes, _) = distributed(grid, &samples, &boxes, &query);
+        assert!(meshes[2].tets.is_empty() && meshes[2].points.is_empty());
+        let serial = Hierarchy::build(grid, ScalarSlice::F32(&samples), &mut |_| true).unwrap();
+        let parts: Vec<&TetMesh> = meshes.iter().collect();
+        assert_eq!(cells(&parts), cells(&[&serial.query(&query).unwrap()]));
+    }
+
+    #[test]
+    fn owners_are_the_first_piece_holding_a_point() {
+        let dims = [9, 5, 5];
+        let boxes = pieces(dims, [2, 1, 1]);
+        let grid = Grid::new(dims);
+        let ids = [0u64, 4, 5, grid.index(8, 4, 4) as u64];
+        assert_eq!(point_owners(dims, &boxes, &ids), vec![0, 0, 1, 1]);
+        assert_eq!(point_owners(dims, &boxes[1..], &[0]), vec![1]);
+    }
+
+    #[test]
+    fn bad_pieces_and_messages_are_refused() {
+        let grid = Grid::new([9, 9, 9]);
+        let outside = PointBox {
+            lo: IVec3::ZERO,
+            hi: IVec3::splat(9),
+        };
+        assert!(PieceLayout::new(grid, outside).is_err());
+        let layout = PieceLayout::new(
+            grid,
+            PointBox {
+                lo: IVec3::ZERO,
+                hi: IVec3::splat(4),
+            },
+        )
+        .unwrap();
+        let local = vec![0u8; 125];
+        let wrong = vec![0u16; layout.needed_points().len()];
+        let err = PieceHierarchy::build(
+            layout.clone(),
+            ScalarSlice::U8(&local),
+            ScalarSlice::U16(&wrong),
+            &mut |_| true,
+        )
+        .unwrap_err();
+        assert!(err.to_string().contains("U16"), "{err}");
+        let short = vec![0u8; 3];
+        assert!(PieceHierarchy::build(
+            layout.clone(),
+            ScalarSlice::U8(&local),
+            ScalarSlice::U8(&short),
+            &mut |_| true
+        )
+        .is_err());
+        let fetched = vec![0u8; layout.needed_points().len()];
+        let mut h = PieceHierarchy::build(
+            layout,
+            ScalarSlice::U8(&local),
+            ScalarSlice::U8(&fetched),
+            &mut |_| true,
+        )
+        .unwrap();
+        assert!(
+            h.start(&Query::tolerance(1.0)).is_err(),
+            "coarse errors not combined"
+        );
+        assert!(h.combine_coarse_errors(&[1.0]).is_err());
+        let combined = h.coarse_errors().to_vec();
+        h.combine_coarse_errors(&combined).unwrap();
+        let budget = Query {
+            max_tetrahedra: 100,
+            ..Query::tolerance(1.0)
+        };
+        assert!(h.start(&budget).is_err());
+        let mut r = h.start(&Query::tolerance(1.0)).unwrap();
+        assert!(h.receive(&mut r, &[1, 2]).is_err());
+        assert!(h.receive(&mut r, &[100, 0, 0]).is_err());
+    }
+}
