@@ -181,6 +181,18 @@ mod ffi {
         ghost_values: bool,
     }
 
+    /// How a progressive mesh is simplified (see `diamonds::progressive::Params`): the weights of
+    /// Labsik et al.'s cost (§3.3) and the boundary handling.
+    struct ProgressiveSpec {
+        geometry_weight: f64,
+        field_weight: f64,
+        shape_weight: f64,
+        /// Keep corners and feature edges, and removed boundary vertices within the tolerance.
+        preserve_boundary: bool,
+        /// Boundary tolerance as a fraction of the bounding-box diagonal.
+        boundary_tolerance: f64,
+    }
+
     /// A plane: a point on it and its normal (any length > 0).
     struct PlaneSpec {
         origin: [f64; 3],
@@ -496,13 +508,58 @@ mod ffi {
         /// The values of array `i`, as the bytes of its `value_type` values (tuples × components
         /// of them), in place (an error past the last).
         fn bytes(self: &OutputArrays, i: usize) -> Result<&[u8]>;
+
+        /// A progressive tetrahedral mesh (base mesh + vertex splits, Labsik et al.) and its current
+        /// level, kept by `vtkProgressiveTetrahedralMesh` between executions.
+        type Progressive;
+        /// Simplifies the tetrahedra (`tets`: 4 point indices each, positively oriented) of `points`
+        /// (3 coordinates each) as far as it goes, the field error measured on `scalars` (one per
+        /// point), with progress and abort; the current level is the original.
+        fn build_progressive(
+            points: &[f64],
+            tets: &[i64],
+            scalars: &[f64],
+            spec: &ProgressiveSpec,
+            progress: Pin<&mut ProgressObserver>,
+        ) -> Result<Box<Progressive>>;
+        /// The number of vertex splits: levels go from 0 (the base mesh) to it (the original).
+        fn number_of_levels(self: &Progressive) -> usize;
+        /// The coarsest level with at most `(1 - target_reduction)` of the original's tetrahedra
+        /// whose maximum field error, and every finer level's, is at most `max_field_error` (0 = no
+        /// limit).
+        fn level_for(
+            self: &Progressive,
+            target_reduction: f64,
+            max_field_error: f64,
+        ) -> Result<usize>;
+        /// Moves to `level` by replaying vertex splits or collapses (no recomputation) and extracts
+        /// it; returns how many were replayed.
+        fn set_level(self: &mut Progressive, level: usize) -> Result<usize>;
+        /// The current level.
+        fn current_level(self: &Progressive) -> usize;
+        /// The original point index of each point of the current level.
+        fn level_point_ids(self: &Progressive) -> &[u32];
+        /// Four indices into `level_point_ids` per tetrahedron of the current level.
+        fn level_tets(self: &Progressive) -> &[u32];
+        /// The field error of each tetrahedron of the current level.
+        fn level_field_errors(self: &Progressive) -> &[f64];
+        /// The current level's maximum and RMS field error over the removed original vertices.
+        fn level_max_field_error(self: &Progressive) -> f64;
+        fn level_rms_field_error(self: &Progressive) -> f64;
+        /// How many coincident input points were merged, and how many tetrahedra that flattened.
+        fn merged_points(self: &Progressive) -> usize;
+        fn dropped_tets(self: &Progressive) -> usize;
     }
 }
 
 pub use ffi::{
     ArrayAssociation, ArraySelection, ArrayType, GridSpec, InputArrayInfo, IsoSpec,
-    MaterialQuerySpec, OutputArrayInfo, PlaneSpec, PointFrame, QuerySpec, ScalarType,
+    MaterialQuerySpec, OutputArrayInfo, PlaneSpec, PointFrame, ProgressiveSpec, QuerySpec,
+    ScalarType,
 };
+
+pub mod progressive;
+pub use progressive::{build_progressive, Progressive};
 
 pub mod material;
 pub mod piece;

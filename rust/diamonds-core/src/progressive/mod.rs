@@ -13,12 +13,14 @@
 //!   exact field error at every removed original vertex;
 //! - [`record`]: the [`ProgressiveMesh`] (base mesh + vertex splits), per-level errors and the
 //!   [`Replay`] cursor that moves between levels;
+//! - [`errors`]: the field error of each tetrahedron of a level (point location in an R-tree);
 //! - [`stream`]: progressive transmission, the base mesh then the splits, valid at any prefix.
 //!
 //! Every kept vertex is an original one (half-edge collapses never move a vertex), so all point
 //! arrays pass through exactly.
 
 mod cost;
+mod errors;
 mod input;
 mod record;
 mod simplify;

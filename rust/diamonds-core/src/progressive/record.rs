@@ -46,8 +46,10 @@ pub struct ProgressiveMesh {
     /// Indexed by level (`n + 1` entries, the last is the original: no error unless points were
     /// merged).
     pub(super) errors: Vec<LevelError>,
+    /// The field the errors are measured on, one value per point.
+    pub(super) scalars: Vec<f64>,
     /// Coincident input points merged into one (they count as removed vertices at every level).
-    pub(super) merged_points: usize,
+    pub(super) merged_points: Vec<u32>,
     /// Input tetrahedra dropped because merging made them flat.
     pub(super) dropped_tets: usize,
 }
@@ -88,7 +90,19 @@ impl ProgressiveMesh {
 
     /// How many coincident input points were merged, and how many tetrahedra that dropped.
     pub fn cleaning(&self) -> (usize, usize) {
-        (self.merged_points, self.dropped_tets)
+        (self.merged_points.len(), self.dropped_tets)
+    }
+
+    /// The points whose error a level reports when it does not have them: those of the original
+    /// tetrahedra and the merged ones, ascending.
+    pub fn removable(&self) -> Vec<u32> {
+        let mut used = vec![false; self.points.len()];
+        for &v in self.tets.iter().flatten().chain(&self.merged_points) {
+            used[v as usize] = true;
+        }
+        (0..self.points.len() as u32)
+            .filter(|&v| used[v as usize])
+            .collect()
     }
 
     /// The finest level with at most `tets` tetrahedra (level 0, the base mesh, if even it has more;

@@ -226,7 +226,8 @@ pub fn simplify(
         tets: cleaned.tets,
         collapses,
         errors,
-        merged_points: cleaned.merged.len(),
+        scalars: input.scalars.to_vec(),
+        merged_points: cleaned.merged.iter().map(|&(v, _)| v).collect(),
         dropped_tets: cleaned.dropped,
     })
 }

@@ -159,6 +159,15 @@ fn check_level(g: &Generated, pm: &ProgressiveMesh, l: usize) {
         (rms - reported.rms_field_error).abs() < 1e-6,
         "level {l}: rms {rms} vs {reported:?}"
     );
+    let mut r = Replay::new(pm);
+    r.set_level(pm, l);
+    let per_tet = r.field_errors(pm);
+    assert_eq!(per_tet.len(), tets.len());
+    let largest = per_tet.iter().copied().fold(0.0, f64::max);
+    assert!(
+        (largest - max).abs() < 1e-9,
+        "level {l}: per-tetrahedron errors up to {largest}, measured {max}"
+    );
 }
 
 #[test]

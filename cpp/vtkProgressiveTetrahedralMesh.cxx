@@ -1,0 +1,321 @@
+#include "vtkProgressiveTetrahedralMesh.h"
+
+#include "vtkAbstractArray.h"
+#include "vtkCellArray.h"
+#include "vtkCellData.h"
+#include "vtkDataSetTriangleFilter.h"
+#include "vtkDoubleArray.h"
+#include "vtkFieldData.h"
+#include "vtkIdTypeArray.h"
+#include "vtkInformation.h"
+#include "vtkInformationVector.h"
+#include "vtkNew.h"
+#include "vtkObjectFactory.h"
+#include "vtkPointData.h"
+#include "vtkPoints.h"
+#include "vtkSmartPointer.h"
+#include "vtkUnstructuredGrid.h"
+
+// The module's internal helpers and the cxx bridge. Kept out of the public header: the VTK
+// wrappers parse that one.
+#include "vtkDiamondsOutput.h"
+#include "vtkDiamondsProgress.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+vtkStandardNewMacro(vtkProgressiveTetrahedralMesh);
+
+namespace
+{
+namespace bridge = diamonds::bridge;
+using vtkDiamonds::OneValue;
+
+// What the kept sequence was computed from: a change of any of these recomputes it.
+struct Key
+{
+  vtkUnstructuredGrid* Input = nullptr;
+  vtkMTimeType InputTime = 0;
+  vtkDataArray* Array = nullptr;
+  vtkMTimeType ArrayTime = 0;
+  double Weights[3] = { 0, 0, 0 };
+  bool Preserve = false;
+  double Tolerance = 0;
+
+  bool operator==(const Key& o) const
+  {
+    return Input == o.Input && InputTime == o.InputTime && Array == o.Array &&
+      ArrayTime == o.ArrayTime && Weights[0] == o.Weights[0] && Weights[1] == o.Weights[1] &&
+      Weights[2] == o.Weights[2] && Preserve == o.Preserve && Tolerance == o.Tolerance;
+  }
+};
+} // namespace
+
+class vtkProgressiveTetrahedralMesh::vtkInternals
+{
+public:
+  std::optional<rust::Box<bridge::Progressive>> Progressive;
+  Key Built;
+  // The tetrahedralised input when the input had other cells (kept: the key points at it).
+  vtkSmartPointer<vtkUnstructuredGrid> Tetrahedra;
+  vtkUnstructuredGrid* TetrahedralisedFrom = nullptr;
+  vtkMTimeType TetrahedralisedTime = 0;
+};
+
+//------------------------------------------------------------------------------
+vtkProgressiveTetrahedralMesh::vtkProgressiveTetrahedralMesh()
+  : TargetReduction(0.9)
+  , MaximumFieldError(0.0)
+  , GeometryWeight(1.0)
+  , FieldWeight(1.0)
+  , ShapeWeight(0.001)
+  , PreserveBoundary(1)
+  , BoundaryTolerance(0.001)
+  , NumberOfSimplifications(0)
+  , Internals(new vtkInternals)
+{
+  this->SetInputArrayToProcess(
+    0, 0, 0, vtkDataObject::FIELD_ASSOCIATION_POINTS, vtkDataSetAttributes::SCALARS);
+}
+
+//------------------------------------------------------------------------------
+vtkProgressiveTetrahedralMesh::~vtkProgressiveTetrahedralMesh()
+{
+  delete this->Internals;
+}
+
+//------------------------------------------------------------------------------
+int vtkProgressiveTetrahedralMesh::FillInputPortInformation(int, vtkInformation* info)
+{
+  info->Set(vtkAlgorithm::INPUT_REQUIRED_DATA_TYPE(), "vtkUnstructuredGrid");
+  return 1;
+}
+
+//------------------------------------------------------------------------------
+int vtkProgressiveTetrahedralMesh::RequestData(
+  vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
+{
+  vtkUnstructuredGrid* input = vtkUnstructuredGrid::GetData(inputVector[0]);
+  vtkUnstructuredGrid* output = vtkUnstructuredGrid::GetData(outputVector);
+  if (!input || !output)
+  {
+    vtkErrorMacro(<< "Progressive Tetrahedral Mesh needs a vtkUnstructuredGrid input.");
+    return 0;
+  }
+  output->Initialize();
+  if (input->GetNumberOfCells() == 0)
+  {
+    vtkErrorMacro(<< "Progressive Tetrahedral Mesh: the input has no cells.");
+    return 0;
+  }
+  vtkInternals& in = *this->Internals;
+  // The times of the input's points, cells and point arrays (the data object's and its point
+  // data's own MTimes move on every pipeline pass).
+  vtkMTimeType inputTime =
+    std::max({ input->GetPoints() ? input->GetPoints()->GetMTime() : 0, input->GetCells()->GetMTime(),
+      input->GetCellTypesArray()->GetMTime() });
+  for (int a = 0; a < input->GetPointData()->GetNumberOfArrays(); ++a)
+  {
+    if (vtkAbstractArray* pointArray = input->GetPointData()->GetAbstractArray(a))
+    {
+      inputTime = std::max(inputTime, pointArray->GetMTime());
+    }
+  }
+
+  // ---- Tetrahedra only: other cells are tetrahedralised first.
+  vtkUnstructuredGrid* tets = input;
+  bool onlyTets = true;
+  for (vtkIdType c = 0; c < input->GetNumberOfCells() && onlyTets; ++c)
+  {
+    onlyTets = input->GetCellType(c) == VTK_TETRA;
+  }
+  if (!onlyTets)
+  {
+    if (!in.Tetrahedra || in.TetrahedralisedFrom != input || in.TetrahedralisedTime != inputTime)
+    {
+      vtkNew<vtkDataSetTriangleFilter> tetrahedralize;
+      tetrahedralize->TetrahedraOnlyOn();
+      tetrahedralize->SetInputData(input);
+      tetrahedralize->Update();
+      in.Tetrahedra = tetrahedralize->GetOutput();
+      in.TetrahedralisedFrom = input;
+      in.TetrahedralisedTime = inputTime;
+    }
+    tets = in.Tetrahedra;
+    vtkWarningMacro(<< "Progressive Tetrahedral Mesh: the input has cells other than tetrahedra; "
+                       "it was tetrahedralised first ("
+                    << tets->GetNumberOfCells() << " tetrahedra).");
+    if (tets->GetNumberOfCells() == 0)
+    {
+      vtkErrorMacro(<< "Progressive Tetrahedral Mesh: the input has no 3-D cells to tetrahedralise.");
+      return 0;
+    }
+  }
+
+  // ---- The field of the error: one point array, one component.
+  int association = vtkDataObject::FIELD_ASSOCIATION_POINTS;
+  vtkDataArray* array = this->GetInputArrayToProcess(0, tets, association);
+  if (!array || association != vtkDataObject::FIELD_ASSOCIATION_POINTS)
+  {
+    vtkErrorMacro(<< "Progressive Tetrahedral Mesh needs a point-data array (Scalars) to measure "
+                     "the field error on; the input has none selected.");
+    return 0;
+  }
+  if (array->GetNumberOfComponents() != 1)
+  {
+    vtkErrorMacro(<< "Progressive Tetrahedral Mesh: Scalars '" << array->GetName() << "' has "
+                  << array->GetNumberOfComponents() << " components; choose a single-component array.");
+    return 0;
+  }
+
+  // ---- The sequence: computed once per input and settings.
+  Key key;
+  key.Input = input;
+  key.InputTime = inputTime;
+  key.Array = array;
+  key.ArrayTime = array->GetMTime();
+  key.Weights[0] = this->GeometryWeight;
+  key.Weights[1] = this->FieldWeight;
+  key.Weights[2] = this->ShapeWeight;
+  key.Preserve = this->PreserveBoundary != 0;
+  key.Tolerance = this->BoundaryTolerance;
+  if (!in.Progressive || !(in.Built == key))
+  {
+    in.Progressive.reset();
+    const vtkIdType n = tets->GetNumberOfPoints();
+    const vtkIdType m = tets->GetNumberOfCells();
+    std::vector<double> points(3 * static_cast<std::size_t>(n));
+    std::vector<double> scalars(static_cast<std::size_t>(n));
+    for (vtkIdType p = 0; p < n; ++p)
+    {
+      tets->GetPoint(p, &points[3 * p]);
+      scalars[p] = array->GetComponent(p, 0);
+    }
+    std::vector<std::int64_t> corners(4 * static_cast<std::size_t>(m));
+    for (vtkIdType c = 0; c < m; ++c)
+    {
+      vtkIdType npts = 0;
+      const vtkIdType* ids = nullptr;
+      tets->GetCellPoints(c, npts, ids);
+      for (int k = 0; k < 4; ++k)
+      {
+        corners[4 * c + k] = ids[k];
+      }
+    }
+    bridge::ProgressiveSpec spec;
+    spec.geometry_weight = this->GeometryWeight;
+    spec.field_weight = this->FieldWeight;
+    spec.shape_weight = this->ShapeWeight;
+    spec.preserve_boundary = this->PreserveBoundary != 0;
+    spec.boundary_tolerance = this->BoundaryTolerance;
+    vtkDiamonds::ProgressForwarder progress(this, 0.0, 0.9);
+    try
+    {
+      in.Progressive.emplace(bridge::build_progressive(
+        rust::Slice<const double>(points.data(), points.size()),
+        rust::Slice<const std::int64_t>(corners.data(), corners.size()),
+        rust::Slice<const double>(scalars.data(), scalars.size()), spec, progress));
+    }
+    catch (const rust::Error& e)
+    {
+      if (progress.Aborted)
+      {
+        return 1;
+      }
+      vtkErrorMacro(<< "Progressive Tetrahedral Mesh failed on '" << array->GetName()
+                    << "': " << e.what());
+      return 0;
+    }
+    in.Built = key;
+    ++this->NumberOfSimplifications;
+  }
+  bridge::Progressive& pm = **in.Progressive;
+
+  // ---- The level: replayed from the current one.
+  try
+  {
+    pm.set_level(pm.level_for(this->TargetReduction, this->MaximumFieldError));
+  }
+  catch (const rust::Error& e)
+  {
+    vtkErrorMacro(<< "Progressive Tetrahedral Mesh: " << e.what());
+    return 0;
+  }
+  this->UpdateProgress(0.95);
+
+  // ---- Output: the level's points with all point data, its tetrahedra, FieldError.
+  rust::Slice<const std::uint32_t> pointIds = pm.level_point_ids();
+  rust::Slice<const std::uint32_t> corners = pm.level_tets();
+  rust::Slice<const double> errors = pm.level_field_errors();
+  const vtkIdType np = static_cast<vtkIdType>(pointIds.size());
+  const vtkIdType nt = static_cast<vtkIdType>(errors.size());
+  vtkNew<vtkPoints> points;
+  points->SetDataTypeToDouble();
+  points->SetNumberOfPoints(np);
+  vtkPointData* inPD = tets->GetPointData();
+  vtkPointData* outPD = output->GetPointData();
+  outPD->CopyAllocate(inPD, np);
+  for (vtkIdType k = 0; k < np; ++k)
+  {
+    points->SetPoint(k, tets->GetPoint(pointIds[k]));
+    outPD->CopyData(inPD, pointIds[k], k);
+  }
+  output->SetPoints(points);
+  vtkNew<vtkIdTypeArray> connectivity;
+  connectivity->SetNumberOfValues(4 * nt);
+  vtkNew<vtkIdTypeArray> offsets;
+  offsets->SetNumberOfValues(nt + 1);
+  for (vtkIdType t = 0; t <= nt; ++t)
+  {
+    offsets->SetValue(t, 4 * t);
+  }
+  for (vtkIdType k = 0; k < 4 * nt; ++k)
+  {
+    connectivity->SetValue(k, corners[k]);
+  }
+  vtkNew<vtkCellArray> cells;
+  cells->SetData(offsets, connectivity);
+  output->SetCells(VTK_TETRA, cells);
+  vtkNew<vtkDoubleArray> fieldError;
+  fieldError->SetName("FieldError");
+  fieldError->SetNumberOfValues(nt);
+  for (vtkIdType t = 0; t < nt; ++t)
+  {
+    fieldError->SetValue(t, errors[t]);
+  }
+  output->GetCellData()->AddArray(fieldError);
+
+  vtkFieldData* fieldData = output->GetFieldData();
+  fieldData->PassData(input->GetFieldData());
+  fieldData->AddArray(OneValue<vtkIdTypeArray>("Level", static_cast<vtkIdType>(pm.current_level())));
+  fieldData->AddArray(
+    OneValue<vtkIdTypeArray>("NumberOfLevels", static_cast<vtkIdType>(pm.number_of_levels())));
+  fieldData->AddArray(OneValue<vtkIdTypeArray>("NumberOfTetrahedra", nt));
+  fieldData->AddArray(OneValue<vtkDoubleArray>("MaximumFieldError", pm.level_max_field_error()));
+  fieldData->AddArray(OneValue<vtkDoubleArray>("RMSFieldError", pm.level_rms_field_error()));
+  if (pm.merged_points() > 0)
+  {
+    vtkWarningMacro(<< "Progressive Tetrahedral Mesh: " << pm.merged_points()
+                    << " coincident points merged, " << pm.dropped_tets()
+                    << " tetrahedra they flattened dropped.");
+  }
+  this->UpdateProgress(1.0);
+  return 1;
+}
+
+//------------------------------------------------------------------------------
+void vtkProgressiveTetrahedralMesh::PrintSelf(ostream& os, vtkIndent indent)
+{
+  this->Superclass::PrintSelf(os, indent);
+  os << indent << "TargetReduction: " << this->TargetReduction << "\n";
+  os << indent << "MaximumFieldError: " << this->MaximumFieldError << "\n";
+  os << indent << "GeometryWeight: " << this->GeometryWeight << "\n";
+  os << indent << "FieldWeight: " << this->FieldWeight << "\n";
+  os << indent << "ShapeWeight: " << this->ShapeWeight << "\n";
+  os << indent << "PreserveBoundary: " << (this->PreserveBoundary ? "On" : "Off") << "\n";
+  os << indent << "BoundaryTolerance: " << this->BoundaryTolerance << "\n";
+  os << indent << "NumberOfSimplifications: " << this->NumberOfSimplifications << "\n";
+}

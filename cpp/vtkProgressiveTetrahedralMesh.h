@@ -1,0 +1,114 @@
+/**
+ * @class   vtkProgressiveTetrahedralMesh
+ * @brief   progressive tetrahedral mesh of an unstructured grid (base mesh + vertex splits)
+ *
+ * vtkProgressiveTetrahedralMesh simplifies a tetrahedral vtkUnstructuredGrid by half-edge
+ * collapses (Labsik et al., "Progressive Isosurface Extraction from Tetrahedral Meshes", §3) into
+ * a coarse base mesh and a sequence of vertex splits, and outputs the level that meets
+ * TargetReduction and MaximumFieldError. Every kept vertex is an original one, so every point array
+ * passes through unchanged. The collapses are ordered by the weighted cost of §3.3 (GeometryWeight:
+ * error quadrics of the boundary faces; FieldWeight: field error; ShapeWeight: condition-number
+ * shape measure) and must pass the validity tests of §3.2 (no flipped or degenerate tetrahedra,
+ * link condition, boundary rule; with PreserveBoundary corners and feature edges stay and removed
+ * boundary vertices stay within BoundaryTolerance of the boundary). The field error reported is
+ * exact: the largest |f(v) - L(v)| over the removed original vertices v.
+ *
+ * The sequence is computed once per input (array, values, weights, boundary settings) down to the
+ * coarsest mesh; changing TargetReduction or MaximumFieldError only replays vertex splits or
+ * collapses from the current level (GetNumberOfSimplifications() counts the computations).
+ *
+ * Input: tetrahedra (other cells are tetrahedralised first, with a warning); coincident points are
+ * merged and the tetrahedra they flatten dropped. Output: VTK_TETRA cells at the chosen level, all
+ * point data, cell data "FieldError" (the largest error of the removed vertices inside each
+ * tetrahedron), field data "Level", "NumberOfLevels", "NumberOfTetrahedra", "MaximumFieldError"
+ * and "RMSFieldError".
+ */
+
+#ifndef vtkProgressiveTetrahedralMesh_h
+#define vtkProgressiveTetrahedralMesh_h
+
+#include "vtkDiamondsModule.h" // For export macro
+#include "vtkUnstructuredGridAlgorithm.h"
+
+class VTKDIAMONDS_EXPORT vtkProgressiveTetrahedralMesh : public vtkUnstructuredGridAlgorithm
+{
+public:
+  static vtkProgressiveTetrahedralMesh* New();
+  vtkTypeMacro(vtkProgressiveTetrahedralMesh, vtkUnstructuredGridAlgorithm);
+  void PrintSelf(ostream& os, vtkIndent indent) override;
+
+  ///@{
+  /**
+   * Fraction of the tetrahedra to remove, 0-1 (like Decimate's). Default 0.9.
+   */
+  vtkSetMacro(TargetReduction, double);
+  vtkGetMacro(TargetReduction, double);
+  ///@}
+
+  ///@{
+  /**
+   * Largest field error at a removed vertex, data units; 0 (default) = no limit. The output is the
+   * coarsest level whose error, and every finer level's, is within it (it may remove fewer
+   * tetrahedra than TargetReduction asks).
+   */
+  vtkSetMacro(MaximumFieldError, double);
+  vtkGetMacro(MaximumFieldError, double);
+  ///@}
+
+  ///@{
+  /**
+   * Weights of the geometric, field and shape errors in the collapse cost (§3.3, Eq. 2); the
+   * geometric error is over the squared bounding-box diagonal, the field error over the squared
+   * value range. Defaults 1, 1, 0.001.
+   */
+  vtkSetMacro(GeometryWeight, double);
+  vtkGetMacro(GeometryWeight, double);
+  vtkSetMacro(FieldWeight, double);
+  vtkGetMacro(FieldWeight, double);
+  vtkSetMacro(ShapeWeight, double);
+  vtkGetMacro(ShapeWeight, double);
+  ///@}
+
+  ///@{
+  /**
+   * Keep the boundary: corners and feature edges stay, removed boundary vertices stay within
+   * BoundaryTolerance (a fraction of the bounding-box diagonal, default 0.001). Default on.
+   */
+  vtkSetMacro(PreserveBoundary, vtkTypeBool);
+  vtkGetMacro(PreserveBoundary, vtkTypeBool);
+  vtkBooleanMacro(PreserveBoundary, vtkTypeBool);
+  vtkSetMacro(BoundaryTolerance, double);
+  vtkGetMacro(BoundaryTolerance, double);
+  ///@}
+
+  /**
+   * Number of times the filter has computed the collapse sequence (not when only TargetReduction
+   * or MaximumFieldError changed).
+   */
+  vtkGetMacro(NumberOfSimplifications, vtkIdType);
+
+protected:
+  vtkProgressiveTetrahedralMesh();
+  ~vtkProgressiveTetrahedralMesh() override;
+
+  int FillInputPortInformation(int port, vtkInformation* info) override;
+  int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
+
+  double TargetReduction;
+  double MaximumFieldError;
+  double GeometryWeight;
+  double FieldWeight;
+  double ShapeWeight;
+  vtkTypeBool PreserveBoundary;
+  double BoundaryTolerance;
+  vtkIdType NumberOfSimplifications;
+
+private:
+  vtkProgressiveTetrahedralMesh(const vtkProgressiveTetrahedralMesh&) = delete;
+  void operator=(const vtkProgressiveTetrahedralMesh&) = delete;
+
+  class vtkInternals;
+  vtkInternals* Internals;
+};
+
+#endif

@@ -1,0 +1,301 @@
+//! The progressive-mesh half of the bridge (Labsik et al.): the Rust side of
+//! `vtkProgressiveTetrahedralMesh`. In: points, tetrahedra and the scalars as slices and the
+//! [`ProgressiveSpec`]; out: an opaque [`Progressive`] the filter keeps between executions, moved
+//! from level to level by replaying vertex splits or collapses, whose current level C++ reads as
+//! slices (point ids, tetrahedra, per-tetrahedron field errors). Every fallible function runs inside
+//! [`guard`]; the getters return what `set_level` checked.
+
+use std::pin::Pin;
+
+use diamonds::progressive::{self, Params, ProgressiveMesh, Replay, TetInput};
+use diamonds::validate::check_manifold_tets;
+
+use crate::ffi::{self, ProgressiveSpec};
+use crate::{check_core, guard};
+
+/// A progressive mesh, its cursor and the current level's arrays.
+pub struct Progressive {
+    pm: ProgressiveMesh,
+    replay: Replay,
+    point_ids: Vec<u32>,
+    tets: Vec<u32>,
+    errors: Vec<f64>,
+}
+
+/// Simplifies the input as far as it goes (see [`ffi::build_progressive`]).
+pub fn build_progressive(
+    points: &[f64],
+    tets: &[i64],
+    scalars: &[f64],
+    spec: &ProgressiveSpec,
+    mut progress: Pin<&mut ffi::ProgressObserver>,
+) -> Result<Box<Progressive>, String> {
+    guard("building the progressive mesh", || {
+        let mut report = |fraction: f64| progress.as_mut().report(fraction);
+        build_with(points, tets, scalars, spec, &mut report).map(Box::new)
+    })
+}
+
+/// [`build_progressive`] with a Rust progress callback.
+pub fn build_with(
+    points: &[f64],
+    tets: &[i64],
+    scalars: &[f64],
+    spec: &ProgressiveSpec,
+    progress: diamonds::Progress<'_>,
+) -> Result<Progressive, String> {
+    if !points.chunks_exact(3).remainder().is_empty()
+        || !tets.chunks_exact(4).remainder().is_empty()
+    {
+        return Err(format!(
+            "{} coordinates and {} tetrahedron corners: not whole points and tetrahedra",
+            points.len(),
+            tets.len()
+        ));
+    }
+    let n = points.len() / 3;
+    let xyz: Vec<[f64; 3]> = points.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect();
+    let corners: Vec<[u32; 4]> = tets
+        .chunks_exact(4)
+        .map(|t| {
+            let mut c = [0u32; 4];
+            for (k, &v) in t.iter().enumerate() {
+                c[k] = u32::try_from(v)
+                    .ok()
+                    .filter(|&v| (v as usize) < n)
+                    .ok_or_else(|| format!("a tetrahedron refers to point {v} of {n}"))?;
+            }
+            Ok(c)
+        })
+        .collect::<Result<_, String>>()?;
+    let diagonal = {
+        let (lo, hi) = xyz.iter().fold(
+            ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]),
+            |(mut lo, mut hi), p| {
+                for a in 0..3 {
+                    lo[a] = lo[a].min(p[a]);
+                    hi[a] = hi[a].max(p[a]);
+                }
+                (lo, hi)
+            },
+        );
+        diamonds::volume::bounds_diagonal(&[lo[0], hi[0], lo[1], hi[1], lo[2], hi[2]])
+    };
+    let params = Params {
+        target_tets: 0,
+        max_field_error: 0.0,
+        geometry_weight: spec.geometry_weight,
+        field_weight: spec.field_weight,
+        shape_weight: spec.shape_weight,
+        preserve_boundary: spec.preserve_boundary,
+        boundary_tolerance: spec.boundary_tolerance * diagonal,
+    };
+    let pm = progressive::simplify(
+        TetInput {
+            points: &xyz,
+            tets: &corners,
+            scalars,
+        },
+        &params,
+        progress,
+    )
+    .map_err(|e| e.to_string())?;
+    let replay = Replay::new(&pm);
+    let mut p = Progressive {
+        pm,
+        replay,
+        point_ids: Vec::new(),
+        tets: Vec::new(),
+        errors: Vec::new(),
+    };
+    p.extract()?;
+    Ok(p)
+}
+
+impl Progressive {
+    /// Reads the current level into the arrays C++ takes, checked.
+    fn extract(&mut self) -> Result<(), String> {
+        let mesh = self.replay.mesh(self.pm.points().len());
+        self.errors = self.replay.field_errors(&self.pm);
+        let points: Vec<[f64; 3]> = mesh
+            .point_ids
+            .iter()
+            .map(|&v| self.pm.points()[v as usize])
+            .collect();
+        check_core(check_manifold_tets(&points, &mesh.tets).map(|_| ()))?;
+        self.tets = mesh.tets.iter().flatten().copied().collect();
+        self.point_ids = mesh.point_ids;
+        Ok(())
+    }
+
+    pub fn number_of_levels(&self) -> usize {
+        self.pm.levels()
+    }
+
+    pub fn level_for(&self, target_reduction: f64, max_field_error: f64) -> Result<usize, String> {
+        guard("choosing the level", || {
+            if !(0.0..=1.0).contains(&target_reduction) {
+                return Err(format!(
+                    "the target reduction is {target_reduction}; it must be between 0 and 1"
+                ));
+            }
+            if !max_field_error.is_finite() || max_field_error < 0.0 {
+                return Err(format!(
+                    "the maximum field error is {max_field_error}; it must be finite and >= 0 (0 = no limit)"
+                ));
+            }
+            let original = self.pm.original_tets().len() as f64;
+            let by_count = self
+                .pm
+                .level_for_tets(((1.0 - target_reduction) * original).round() as usize);
+            Ok(if max_field_error > 0.0 {
+                by_count.max(self.pm.level_for_error(max_field_error))
+            } else {
+                by_count
+            })
+        })
+    }
+
+    pub fn set_level(&mut self, level: usize) -> Result<usize, String> {
+        guard("replaying the progressive mesh", || {
+            let steps = self.replay.set_level(&self.pm, level);
+            self.extract()?;
+            Ok(steps)
+        })
+    }
+
+    pub fn current_level(&self) -> usize {
+        self.replay.level()
+    }
+
+    pub fn level_point_ids(&self) -> &[u32] {
+        &self.point_ids
+    }
+
+    pub fn level_tets(&self) -> &[u32] {
+        &self.tets
+    }
+
+    pub fn level_field_errors(&self) -> &[f64] {
+        &self.errors
+    }
+
+    pub fn level_max_field_error(&self) -> f64 {
+        self.pm.error(self.replay.level()).max_field_error
+    }
+
+    pub fn level_rms_field_error(&self) -> f64 {
+        self.pm.error(self.replay.level()).rms_field_error
+    }
+
+    pub fn merged_points(&self) -> usize {
+        self.pm.cleaning().0
+    }
+
+    pub fn dropped_tets(&self) -> usize {
+        self.pm.cleaning().1
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two unit cubes side by side, each cut into the six tetrahedra around its main diagonal,
+    /// with a quadratic field.
+    fn cubes() -> (Vec<f64>, Vec<i64>, Vec<f64>) {
+        let id = |i: i64, j: i64, k: i64| i + 3 * (j + 2 * k);
+        let mut points = Vec::new();
+        let mut scalars = Vec::new();
+        for k in 0..2 {
+            for j in 0..2 {
+                for i in 0..3 {
+                    points.extend([i as f64, j as f64, k as f64]);
+                    scalars.push((i * i + j + 2 * k) as f64);
+                }
+            }
+        }
+        let mut tets = Vec::new();
+        for i in 0..2 {
+            for perm in [
+                [0, 1, 2],
+                [0, 2, 1],
+                [1, 0, 2],
+                [1, 2, 0],
+                [2, 0, 1],
+                [2, 1, 0],
+            ] {
+                let mut d = [0i64; 3];
+                let mut t = [id(i, 0, 0); 4];
+                for (s, &axis) in perm.iter().enumerate() {
+                    d[axis] = 1;
+                    t[s + 1] = id(i + d[0], d[1], d[2]);
+                }
+                let x = |v: i64| {
+                    [
+                        points[3 * v as usize],
+                        points[3 * v as usize + 1],
+                        points[3 * v as usize + 2],
+                    ]
+                };
+                let (a, b, c, e) = (x(t[0]), x(t[1]), x(t[2]), x(t[3]));
+                let sub = |p: [f64; 3], q: [f64; 3]| [p[0] - q[0], p[1] - q[1], p[2] - q[2]];
+                let (u, v, w) = (sub(b, a), sub(c, a), sub(e, a));
+                let det = u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0])
+                    + u[2] * (v[0] * w[1] - v[1] * w[0]);
+                if det < 0.0 {
+                    t.swap(2, 3);
+                }
+                tets.extend(t);
+            }
+        }
+        (points, tets, scalars)
+    }
+
+    fn spec() -> ProgressiveSpec {
+        ProgressiveSpec {
+            geometry_weight: 1.0,
+            field_weight: 1.0,
+            shape_weight: 1e-3,
+            preserve_boundary: true,
+            boundary_tolerance: 1e-9,
+        }
+    }
+
+    #[test]
+    fn levels_are_replayed_and_read_as_slices() {
+        let (points, tets, scalars) = cubes();
+        let mut p = build_with(&points, &tets, &scalars, &spec(), &mut |_| true).unwrap();
+        let n = p.number_of_levels();
+        assert_eq!(p.current_level(), n);
+        assert_eq!(p.level_tets().len(), tets.len());
+        assert!(n > 0);
+        let base = p.level_for(1.0, 0.0).unwrap();
+        assert_eq!(base, 0);
+        assert_eq!(p.set_level(base).unwrap(), n);
+        assert_eq!(p.level_tets().len() / 4, p.level_field_errors().len());
+        assert!(p.level_tets().len() < tets.len());
+        assert!(p
+            .level_tets()
+            .iter()
+            .all(|&v| (v as usize) < p.level_point_ids().len()));
+        let largest = p.level_field_errors().iter().copied().fold(0.0, f64::max);
+        assert!((largest - p.level_max_field_error()).abs() < 1e-9);
+        assert_eq!(p.level_for(0.0, 0.0).unwrap(), n);
+    }
+
+    #[test]
+    fn bad_input_is_an_error() {
+        let (points, mut tets, scalars) = cubes();
+        assert!(build_with(&points[1..], &tets, &scalars, &spec(), &mut |_| true).is_err());
+        tets[0] = 99;
+        let e = build_with(&points, &tets, &scalars, &spec(), &mut |_| true)
+            .err()
+            .unwrap();
+        assert!(e.contains("point 99"), "{e}");
+        let (points, tets, scalars) = cubes();
+        let p = build_with(&points, &tets, &scalars, &spec(), &mut |_| true).unwrap();
+        assert!(p.level_for(1.5, 0.0).is_err());
+        assert!(p.level_for(0.5, f64::NAN).is_err());
+    }
+}
