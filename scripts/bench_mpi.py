@@ -79,9 +79,9 @@ def report(results):
     lines = [HEADING, "",
              f"Bonsai 256³ (u8), Tolerance {TOLERANCE:g}, `mpiexec -n R pvbatch` on this 2-core machine (R ranks share "
              "the two cores; each rank's core threads too). Wall times are medians of alternating runs; per-rank "
-             "figures are the filter's field data (seconds and bytes of the first execution, build included; the "
-             "peak is the process's resident set, ParaView and the fetched result included). One rank runs the "
-             "serial filter.", "",
+             "figures are the filter's field data of the last execution, the second query (seconds, bytes sent, "
+             "seconds spent in exchanges, waiting for the other rank included; the peak is the process's resident "
+             "set since it started, ParaView and the fetched result included). One rank runs the serial filter.", "",
              "| ranks | first execution s | second query s | tetrahedra | tetrahedra per rank | bytes sent per rank "
              "| exchange s per rank | rounds | peak RSS per rank MiB |",
              "|---:|---:|---:|---:|---|---|---|---:|---|"]

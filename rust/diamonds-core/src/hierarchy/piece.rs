@@ -735,31 +735,21 @@ mod tests {
         out
     }
 
-    /// The pieces' meshes for `query`, each computed as the filter does, with every
-    /// communication done here.
-    fn distributed(
-        grid: Grid,
-        samples: &[f32],
-        boxes: &[PointBox],
-        query: &Query,
-    ) -> (Vec<TetMesh>, usize) {
-        let hierarchies: Vec<PieceHierarchy> = boxes
+    /// Every piece's hierarchy, built as the filter builds it (samples fetched, coarse errors
+    /// combined), with the communication done here.
+    fn build_pieces(grid: Grid, samples: &[f32], boxes: &[PointBox]) -> Vec<PieceHierarchy> {
+        let mut hierarchies: Vec<PieceHierarchy> = boxes
             .iter()
             .map(|&b| {
                 let layout = PieceLayout::new(grid, b).unwrap();
-                let local: Vec<f32> = if b.is_empty() {
-                    Vec::new()
-                } else {
-                    let mut v = Vec::new();
-                    for z in b.lo.z..=b.hi.z {
-                        for y in b.lo.y..=b.hi.y {
-                            for x in b.lo.x..=b.hi.x {
-                                v.push(samples[grid.index(x as usize, y as usize, z as usize)]);
-                            }
+                let mut local = Vec::new();
+                for z in b.lo.z..=b.hi.z {
+                    for y in b.lo.y..=b.hi.y {
+                        for x in b.lo.x..=b.hi.x {
+                            local.push(samples[grid.index(x as usize, y as usize, z as usize)]);
                         }
                     }
-                    v
-                };
+                }
                 let fetched: Vec<f32> = layout
                     .needed_points()
                     .iter()
@@ -774,16 +764,27 @@ mod tests {
                 .unwrap()
             })
             .collect();
-        let mut combined = hierarchies[0].coarse_errors().to_vec();
-        for h in &hierarchies[1..] {
+        let mut combined = vec![0.0f64; hierarchies[0].coarse_errors().len()];
+        for h in &hierarchies {
             for (c, e) in combined.iter_mut().zip(h.coarse_errors()) {
                 *c = c.max(*e);
             }
         }
-        let mut hierarchies = hierarchies;
         for h in &mut hierarchies {
             h.combine_coarse_errors(&combined).unwrap();
         }
+        hierarchies
+    }
+
+    /// The pieces' meshes for `query`, each computed as the filter does, with every
+    /// communication done here.
+    fn distributed(
+        grid: Grid,
+        samples: &[f32],
+        boxes: &[PointBox],
+        query: &Query,
+    ) -> (Vec<TetMesh>, usize) {
+        let hierarchies = build_pieces(grid, samples, boxes);
         let mut states: Vec<_> = hierarchies
             .iter()
             .map(|h| h.start(query).unwrap())
@@ -891,42 +892,10 @@ mod tests {
         let samples = field(grid);
         let serial = Hierarchy::build(grid, ScalarSlice::F32(&samples), &mut |_| true).unwrap();
         let boxes = pieces(dims, [3, 2, 1]);
-        let mut hierarchies: Vec<PieceHierarchy> = boxes
-            .iter()
-            .map(|&b| {
-                let layout = PieceLayout::new(grid, b).unwrap();
-                let mut local = Vec::new();
-                for z in b.lo.z..=b.hi.z {
-                    for y in b.lo.y..=b.hi.y {
-                        for x in b.lo.x..=b.hi.x {
-                            local.push(samples[grid.index(x as usize, y as usize, z as usize)]);
-                        }
-                    }
-                }
-                let fetched: Vec<f32> = layout
-                    .needed_points()
-                    .iter()
-                    .map(|&i| samples[i as usize])
-                    .collect();
-                PieceHierarchy::build(
-                    layout,
-                    ScalarSlice::F32(&local),
-                    ScalarSlice::F32(&fetched),
-                    &mut |_| true,
-                )
-                .unwrap()
-            })
-            .collect();
-        let mut combined = vec![0.0f64; hierarchies[0].coarse_errors().len()];
-        for h in &hierarchies {
-            for (c, e) in combined.iter_mut().zip(h.coarse_errors()) {
-                *c = c.max(*e);
-            }
-        }
+        let hierarchies = build_pieces(grid, &samples, &boxes);
         let lattice = Lattice::new(dims).unwrap();
         let (mut fine, mut coarse) = (0, 0);
-        for h in &mut hierarchies {
-            h.combine_coarse_errors(&combined).unwrap();
+        for h in &hierarchies {
             for i in 1..grid.len() {
                 let d = Diamond::new(lattice.point(i));
                 if h.layout.meets(d) && d.placement(&lattice) == Placement::Inside {
