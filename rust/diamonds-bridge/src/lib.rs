@@ -17,6 +17,9 @@
 //!   writes straight into the VTK arrays C++ allocates with their exact sizes and hands over as
 //!   mutable slices (no copy on either side), an opaque [`Mesh`] (carrier tetrahedra) and an opaque
 //!   [`Surface`] whose arrays C++ reads as slices;
+//! - interval volumes ([`interval`], for `vtkAdaptiveIntervalVolume`): an [`ffi::IntervalSpec`] and
+//!   the samples again, with the [`IsoState`] kept next to the hierarchy; out an opaque
+//!   [`IntervalVolume`] whose arrays C++ reads as slices;
 //! - material interfaces ([`material`], for `vtkMaterialInterfaceApproximation`): volume fractions
 //!   and fields as `f32` slices added to a [`MaterialBuilder`], optional interface meshes as a
 //!   triangle soup, out an opaque [`MaterialModel`] (kept between executions), [`MaterialMesh`] and
@@ -96,6 +99,20 @@ mod ffi {
         compute_normals: bool,
         /// Also return the tetrahedra that carry the surface.
         carrier_tetrahedra: bool,
+    }
+
+    /// One interval-volume query (see `diamonds::interval::IntervalQuery`).
+    struct IntervalSpec {
+        /// `[α, β]`, data units, `α < β`.
+        range: [f64; 2],
+        /// Isosurface error bound of both bounding surfaces, world units; 0 = full resolution.
+        tolerance: f64,
+        /// Maximum number of tetrahedra, 0 = no limit.
+        max_tetrahedra: usize,
+        /// Whether `region_of_interest` applies.
+        use_region_of_interest: bool,
+        /// World box `[xmin, xmax, ymin, ymax, zmin, zmax]`: refined to `tolerance` inside, coarse outside.
+        region_of_interest: [f64; 6],
     }
 
     /// A numeric array of the input (for `select_material_arrays`).
@@ -401,6 +418,44 @@ mod ffi {
         fn take_carrier(self: &mut Surface) -> Result<Box<Mesh>>;
     }
 
+    // ---- Interval volumes (Weiss & De Floriani §2.1, §5), see `interval.rs`.
+    extern "Rust" {
+        /// The tetrahedra of one interval-volume query and what each point is interpolated from.
+        type IntervalVolume;
+
+        /// Extracts the interval volume of `spec` from an isosurface-only (or full) hierarchy.
+        /// `samples` (of `scalar_type`) must be the very samples the hierarchy was built from.
+        /// `state` is the isosurface state kept with the hierarchy (its cache serves; its mesh is
+        /// forgotten); cleared first when last used with another hierarchy, and when the query
+        /// fails.
+        fn interval_volume(
+            self: &Hierarchy,
+            state: &mut IsoState,
+            scalar_type: ScalarType,
+            samples: &[u8],
+            spec: &IntervalSpec,
+        ) -> Result<Box<IntervalVolume>>;
+        /// World coordinates, three per point.
+        fn points(self: &IntervalVolume) -> &[f64];
+        /// Two input point ids (relative to the grid of the build) per point: the ends of the mesh
+        /// edge it lies on, or the sample itself twice.
+        fn sources(self: &IntervalVolume) -> &[u32];
+        /// Per point, the weight of its second source (0 at a sample).
+        fn weights(self: &IntervalVolume) -> &[f64];
+        /// Four point indices per tetrahedron, positively oriented (VTK_TETRA order).
+        fn tets(self: &IntervalVolume) -> &[u32];
+        /// Bisection depth of the adaptive-mesh leaf each tetrahedron was cut from.
+        fn levels(self: &IntervalVolume) -> &[u8];
+        /// Leaves of the adaptive mesh that meet the range.
+        fn leaves(self: &IntervalVolume) -> usize;
+        /// The tolerance refined for (raised by a budget).
+        fn reached_tolerance(self: &IntervalVolume) -> f64;
+        /// Largest isosurface error (world units) of the diamonds carrying a bounding surface.
+        fn error_bound(self: &IntervalVolume) -> f64;
+        /// Messages for the user (a range missing the data, a budget that cannot be met).
+        fn warnings(self: &IntervalVolume) -> Result<Vec<String>>;
+    }
+
     // ---- Material interfaces (Gregorski §5), see `material.rs`.
     extern "Rust" {
         /// Collects the input of a material model (copies of the arrays).
@@ -553,13 +608,16 @@ mod ffi {
 }
 
 pub use ffi::{
-    ArrayAssociation, ArraySelection, ArrayType, GridSpec, InputArrayInfo, IsoSpec,
+    ArrayAssociation, ArraySelection, ArrayType, GridSpec, InputArrayInfo, IntervalSpec, IsoSpec,
     MaterialQuerySpec, OutputArrayInfo, PlaneSpec, PointFrame, ProgressiveSpec, QuerySpec,
     ScalarType,
 };
 
 pub mod progressive;
 pub use progressive::{build_progressive, Progressive};
+
+pub mod interval;
+pub use interval::IntervalVolume;
 
 pub mod material;
 pub mod piece;

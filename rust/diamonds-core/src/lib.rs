@@ -27,6 +27,10 @@
 //!   [`IsoState`] kept between queries (mesh reuse, isovalue changes "from the current mesh",
 //!   measured, §6.1; the isosurface cache). Entry points: [`isosurface::extract`] and
 //!   [`IsoState::extract`].
+//! - [`interval`]: multiresolution interval volumes `{α ≤ f ≤ β}` (Weiss & De Floriani §2.1, §5):
+//!   the isosurface refinement for both bounding surfaces, every leaf that meets the range clipped and
+//!   tetrahedralised by a rule on global point names, so patches conform. Entry points:
+//!   [`interval::extract`] and [`interval::IntervalState::extract`].
 //! - [`progressive`]: progressive tetrahedral meshes of unstructured input (Labsik et al.): half-edge
 //!   collapses with the weighted cost of §3.3 into a base mesh and vertex splits, replayable to any
 //!   level, with the exact field error at every removed vertex.
@@ -42,6 +46,7 @@ pub mod diamond;
 pub mod fields;
 pub mod geometry;
 pub mod hierarchy;
+pub mod interval;
 pub mod isosurface;
 pub mod lattice;
 pub mod material;

@@ -52,6 +52,8 @@ mod fine;
 mod marching;
 mod state;
 
+#[cfg(test)]
+pub(crate) use fine::cell_tets;
 pub use fine::{full_resolution_triangles, full_resolution_vertices};
 pub use marching::marching_tetrahedra;
 pub use state::{IsoStart, IsoState, IsoStats};
@@ -220,13 +222,8 @@ impl<T: Sample> Extraction<'_, '_, T> {
         let volume = self.volume;
         let mut surface =
             marching_tetrahedra(volume, carriers, &query.isovalues, query.compute_normals)?;
-        // At tolerance 0 the surface is the full-resolution one: error 0.
-        let errors = (tolerance > 0.0).then(|| self.iso_errors(&query.isovalues, tolerance));
-        let error = |t: &Tet| match (&errors, Diamond::of_tet(t)) {
-            (Some(errors), Some(d)) if self.lattice().in_domain(d.center) => errors.error(self, d),
-            _ => 0.0,
-        };
-        surface.error_bound = carriers.iter().map(error).fold(0.0, f64::max);
+        let error = self.carrier_error(&query.isovalues, tolerance);
+        surface.error_bound = carriers.iter().map(&error).fold(0.0, f64::max);
         let (lo, hi) = self.hierarchy.value_range();
         surface.warnings.extend(
             (query.isovalues.iter())
@@ -241,6 +238,16 @@ impl<T: Sample> Extraction<'_, '_, T> {
             surface.carrier = Some(carrier_mesh(self.hierarchy, carriers, error));
         }
         Ok(surface)
+    }
+
+    /// The isosurface error of a carrier leaf's diamond for `isovalues` at `tolerance` (0 at
+    /// tolerance 0, where the surface is the full-resolution one).
+    fn carrier_error<'s>(&'s self, isovalues: &[f64], tolerance: f64) -> impl Fn(&Tet) -> f64 + 's {
+        let errors = (tolerance > 0.0).then(|| self.iso_errors(isovalues, tolerance));
+        move |t: &Tet| match (&errors, Diamond::of_tet(t)) {
+            (Some(errors), Some(d)) if self.lattice().in_domain(d.center) => errors.error(self, d),
+            _ => 0.0,
+        }
     }
 
     /// The leaves of the mesh refined for `query` at `tolerance` that carry the surface.
@@ -263,13 +270,25 @@ impl<T: Sample> Extraction<'_, '_, T> {
         refine: &mut RefineWith<'_>,
     ) -> Result<(SplitSet, Vec<Tet>)> {
         let criterion = self.iso_criterion(&query.isovalues, tolerance);
-        let split = refine(&criterion)?;
+        self.refine_with(query, tolerance, refine, &criterion)
+    }
+
+    /// [`Extraction::refine_iso`] with the diamond error `criterion` (the isosurface criterion, or
+    /// one that splits at least what it splits).
+    fn refine_with(
+        &self,
+        query: &IsoQuery,
+        tolerance: f64,
+        refine: &mut RefineWith<'_>,
+        criterion: &dyn Fn(Diamond) -> f64,
+    ) -> Result<(SplitSet, Vec<Tet>)> {
+        let split = refine(criterion)?;
         if tolerance == 0.0 {
             // Full resolution wherever the surface may pass: nothing is hidden.
             let carriers = self.carriers_of(&query.isovalues, &split);
             return Ok((split, carriers));
         }
-        self.certify(query, tolerance, split, &criterion)
+        self.certify(query, tolerance, split, criterion)
     }
 }
 

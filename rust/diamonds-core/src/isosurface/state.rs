@@ -17,11 +17,14 @@
 
 use super::cache::IsoCache;
 use super::{check, refine_query, Extraction, IsoQuery, IsoSurface};
+use crate::diamond::Diamond;
 use crate::hierarchy::Hierarchy;
-use crate::lattice::Tet;
+use crate::lattice::{Placement, Tet};
+use crate::mesh;
 use crate::refine::{Refiner, SplitSet};
 use crate::volume::{Sample, ScalarSlice, Volume};
 use crate::{with_volume, Result};
+use glam::IVec3;
 use std::time::Instant;
 
 /// Where an isovalue change starts refining.
@@ -194,6 +197,83 @@ impl IsoState {
         });
         self.last = Some(stats);
         Ok(surface)
+    }
+}
+
+impl IsoState {
+    /// What `keep` makes of the leaves of the mesh that [`IsoState::extract`] refines `query` to
+    /// (no budget: `query.max_triangles` is ignored; the two-sided bound checked for every
+    /// isovalue), skipping subtrees whose samples all lie outside `range`, and the isosurface
+    /// error bound of the carriers, as [`IsoSurface::error_bound`]. For extractions that read
+    /// more of the mesh than the surface: interval volumes ([`crate::interval`]) keep the leaves
+    /// that meet their isorange. Uses the cache but keeps no mesh.
+    ///
+    /// The isosurface-only hierarchy has no base mesh: a diamond straddling a far face of the
+    /// domain is split only where the surface may pass, and its tetrahedra have corners without
+    /// samples. Here every straddling diamond whose samples may meet `range` is split too, so that
+    /// the leaves meeting `range` are inside the grid (their closure may refine the surfaces near
+    /// the far faces beyond what [`IsoState::extract`] draws there; grids of `2^k + 1` points per
+    /// axis have no far faces inside the lattice).
+    pub(crate) fn refined_leaves<T: Sample, X: Send>(
+        &mut self,
+        hierarchy: &Hierarchy,
+        volume: &Volume<'_, T>,
+        query: &IsoQuery,
+        range: [f64; 2],
+        keep: impl Fn(&Tet) -> Option<X> + Sync,
+    ) -> Result<(Vec<X>, f64)> {
+        self.forget_mesh();
+        if self.cache.as_ref().is_some_and(|c| !c.fits(&volume.grid)) {
+            self.cache = None;
+        }
+        let cache = self.cache.get_or_insert_with(|| IsoCache::new(volume));
+        let x = Extraction {
+            hierarchy,
+            volume,
+            cache,
+        };
+        let refine = refine_query(query, query.tolerance);
+        let (grid, base) = (hierarchy.grid(), hierarchy.base());
+        let lattice = *hierarchy.lattice();
+        // A superset of the samples' range in the box `[lo, hi]` (clipped to the grid) misses
+        // `range`.
+        let misses = |lo: IVec3, hi: IVec3| {
+            let (a, b) = x.box_range(lo.max(IVec3::ZERO), hi.min(lattice.hi));
+            b < range[0] || a > range[1]
+        };
+        let iso = x.iso_criterion(&query.isovalues, query.tolerance);
+        let criterion = |d: Diamond| {
+            let (lo, hi) = d.bounds();
+            if !hi.cmple(lattice.hi).all()
+                && d.placement(&lattice) == Placement::Straddling
+                && !misses(lo, hi)
+            {
+                f64::INFINITY
+            } else {
+                iso(d)
+            }
+        };
+        let (split, carriers) = x.refine_with(
+            query,
+            query.tolerance,
+            &mut |criterion| Refiner::run(grid, base, &refine, criterion),
+            &criterion,
+        )?;
+        let error_bound = (carriers.iter())
+            .map(x.carrier_error(&query.isovalues, query.tolerance))
+            .fold(0.0, f64::max);
+        // Prunes every unsplit straddling tetrahedron: its diamond's box, which holds its own,
+        // misses `range`.
+        let outside = |t: &Tet| {
+            misses(
+                t[0].min(t[1]).min(t[2].min(t[3])),
+                t[0].max(t[1]).max(t[2].max(t[3])),
+            )
+        };
+        Ok((
+            mesh::leaves_where(&lattice, &split, outside, keep),
+            error_bound,
+        ))
     }
 }
 

@@ -2,6 +2,7 @@
 //! diamonds, no [`crate::scan`]), one module per kind of output:
 //! - [`tetrahedra`]: a [`crate::TetMesh`] against its grid (conformity, exact volume, every vertex an
 //!   input sample, the tolerance at every sample), any tetrahedra against a box (conformity, volume),
+//!   interval volumes (conformity, faces left open only on the box or the bounding isosurfaces),
 //!   and the array consistency of a [`crate::TetMesh`] and a [`crate::material::MaterialMesh`];
 //! - [`surfaces`]: a triangle surface given as plain arrays (watertight and consistently oriented,
 //!   optionally open on the faces of a box; unit normals), and the array consistency of a
@@ -27,8 +28,8 @@ pub use hausdorff::{surface_distances, Farthest, SurfaceDistances};
 pub use polygons::{check_crack_free, check_polygon_arrays};
 pub use surfaces::{check_isosurface_arrays, check_surface, check_unit_normals, SurfaceReport};
 pub use tetrahedra::{
-    check_conforming, check_manifold_tets, check_material_mesh_arrays, check_mesh,
-    check_mesh_arrays, check_tolerance, MeshReport,
+    check_conforming, check_interval_arrays, check_interval_volume, check_manifold_tets,
+    check_material_mesh_arrays, check_mesh, check_mesh_arrays, check_tolerance, MeshReport,
 };
 pub use visibility::{check_back_to_front, VisibilityReport};
 

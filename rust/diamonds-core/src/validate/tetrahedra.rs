@@ -3,6 +3,7 @@
 //! of a [`TetMesh`] ([`check_mesh_arrays`]) and a [`MaterialMesh`] ([`check_material_mesh_arrays`]).
 
 use super::check_corners;
+use crate::interval::IntervalVolume;
 use crate::material::MaterialMesh;
 use crate::volume::{Grid, Sample, Volume};
 use crate::TetMesh;
@@ -140,20 +141,7 @@ pub fn check_conforming(
 /// edge). For unstructured input and the levels of a progressive mesh, whose domain is not a box.
 pub fn check_manifold_tets(points: &[[f64; 3]], tets: &[[u32; 4]]) -> Result<MeshReport, String> {
     check_corners(tets, points.len(), "tetrahedron")?;
-    if let Some((c, x, v)) = tets.par_iter().enumerate().find_map_first(|(c, t)| {
-        let x = t.map(|v| DVec3::from_array(points[v as usize]));
-        let v = (x[1] - x[0]).dot((x[2] - x[0]).cross(x[3] - x[0])) / 6.0;
-        let longest = (0..4)
-            .flat_map(|a| (a + 1..4).map(move |b| (a, b)))
-            .map(|(a, b)| x[a].distance(x[b]))
-            .fold(0.0, f64::max);
-        (v.is_nan() || v <= 1e-12 * longest.powi(3)).then_some((c, x, v))
-    }) {
-        return Err(format!(
-            "tetrahedron {c} {:?} is inverted or degenerate (volume {v})",
-            x.map(|p| p.to_array())
-        ));
-    }
+    check_positive(points, tets, 1e-12)?;
     let mut boundary: Vec<[u32; 3]> = Vec::new();
     let (interior_faces, boundary_faces) = match_faces(
         tets,
@@ -173,6 +161,74 @@ pub fn check_manifold_tets(points: &[[f64; 3]], tets: &[[u32; 4]]) -> Result<Mes
             g.len()
         ));
     }
+    Ok(MeshReport {
+        tets: tets.len(),
+        interior_faces,
+        boundary_faces,
+    })
+}
+
+/// Checks that every tetrahedron has a volume above `relative` times the cube of its longest edge
+/// (so inverted and flat ones are named).
+fn check_positive(points: &[[f64; 3]], tets: &[[u32; 4]], relative: f64) -> Result<(), String> {
+    match tets.par_iter().enumerate().find_map_first(|(c, t)| {
+        let x = t.map(|v| DVec3::from_array(points[v as usize]));
+        let v = (x[1] - x[0]).dot((x[2] - x[0]).cross(x[3] - x[0])) / 6.0;
+        let longest = (0..4)
+            .flat_map(|a| (a + 1..4).map(move |b| (a, b)))
+            .map(|(a, b)| x[a].distance(x[b]))
+            .fold(0.0, f64::max);
+        (v.is_nan() || v <= relative * longest.powi(3)).then_some((c, x, v))
+    }) {
+        Some((c, x, v)) => Err(format!(
+            "tetrahedron {c} {:?} is inverted or degenerate (volume {v})",
+            x.map(|p| p.to_array())
+        )),
+        None => Ok(()),
+    }
+}
+
+/// Checks that `tets` (corners indexing `points`, `values` the field at each point) form a conforming
+/// interval volume of `[α, β] = range` inside the box `bounds`: positive volumes, every face shared by
+/// two tetrahedra, or by one when it lies on one face of the box (within a millionth of its diagonal)
+/// or on a bounding isosurface (its three values all `α` or all `β`). Returns the face counts; the
+/// volume is the caller's to compare.
+pub fn check_interval_volume(
+    points: &[[f64; 3]],
+    values: &[f64],
+    tets: &[[u32; 4]],
+    bounds: [f64; 6],
+    [alpha, beta]: [f64; 2],
+) -> Result<MeshReport, String> {
+    check_corners(tets, points.len(), "tetrahedron")?;
+    if values.len() != points.len() {
+        return Err(format!(
+            "{} values for {} points",
+            values.len(),
+            points.len()
+        ));
+    }
+    check_positive(points, tets, 0.0)?;
+    let faces = super::faces_of_bounds(points, &bounds, super::bounds_eps(&bounds));
+    let (interior_faces, boundary_faces) = match_faces(
+        tets,
+        |f| {
+            let at = |level: f64| f.iter().all(|&v| values[v as usize] == level);
+            faces[f[0] as usize] & faces[f[1] as usize] & faces[f[2] as usize] != 0
+                || at(alpha)
+                || at(beta)
+        },
+        |f| {
+            format!(
+                "{:?} (values {:?})",
+                f.map(|v| points[v as usize]),
+                f.map(|v| values[v as usize])
+            )
+        },
+        // A face on a bounding isosurface may also be interior (a plateau at α between two
+        // tetrahedra in the range): listing the boundary faces lets such faces be shared by two.
+        Some(&mut Vec::new()),
+    )?;
     Ok(MeshReport {
         tets: tets.len(),
         interior_faces,
@@ -248,6 +304,34 @@ pub fn check_mesh_arrays(mesh: &TetMesh, grid_points: usize) -> Result<(), Strin
         ));
     }
     check_corners(&mesh.tets, mesh.point_ids.len(), "tetrahedron")
+}
+
+/// The consistency C++ relies on when it builds VTK arrays from an [`IntervalVolume`]: one source
+/// pair, weight and value per point, one level per tetrahedron, corners inside the points, sources
+/// inside the `grid_points` input points.
+pub fn check_interval_arrays(volume: &IntervalVolume, grid_points: usize) -> Result<(), String> {
+    let (n_points, n_tets) = (volume.points.len(), volume.tets.len());
+    let per_point = [
+        ("sources", volume.sources.len()),
+        ("weights", volume.weights.len()),
+        ("values", volume.values.len()),
+    ];
+    if let Some((what, n)) = per_point.iter().find(|(_, n)| *n != n_points) {
+        return Err(format!("{n_points} points but {n} {what}"));
+    }
+    if volume.levels.len() != n_tets {
+        return Err(format!(
+            "{n_tets} tetrahedra but {} levels",
+            volume.levels.len()
+        ));
+    }
+    if let Some(s) = (volume.sources.iter()).find(|s| s.iter().any(|&i| i as usize >= grid_points))
+    {
+        return Err(format!(
+            "point source {s:?} outside the {grid_points} input points"
+        ));
+    }
+    check_corners(&volume.tets, n_points, "tetrahedron")
 }
 
 /// The consistency C++ relies on when it builds VTK arrays from a [`MaterialMesh`] refined from an

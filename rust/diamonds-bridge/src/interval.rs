@@ -1,0 +1,157 @@
+//! The interval-volume half of the bridge (Weiss & De Floriani §2.1, §5): the Rust side of
+//! `vtkAdaptiveIntervalVolume`. In: the [`IntervalSpec`] and the samples the hierarchy was built
+//! from; out: an opaque [`IntervalVolume`], checked before C++ indexes with it, whose arrays C++
+//! reads as slices (points, the two input points and weight each point interpolates from,
+//! tetrahedra, levels).
+
+use diamonds::interval::{self, IntervalQuery};
+use diamonds::validate::check_interval_arrays;
+
+use crate::ffi::{IntervalSpec, ScalarType};
+use crate::{check_core, guard, typed_slice, Hierarchy, IsoState};
+
+/// Opaque handle on a [`diamonds::interval::IntervalVolume`] for C++, its sources flattened.
+pub struct IntervalVolume {
+    volume: interval::IntervalVolume,
+}
+
+impl Hierarchy {
+    /// Extracts the interval volume of `spec` (see `ffi::Hierarchy::interval_volume`).
+    pub fn interval_volume(
+        &self,
+        state: &mut IsoState,
+        scalar_type: ScalarType,
+        samples: &[u8],
+        spec: &IntervalSpec,
+    ) -> Result<Box<IntervalVolume>, String> {
+        if state.hierarchy != Some(self.id) {
+            state.state.clear();
+            state.hierarchy = Some(self.id);
+        }
+        let result = guard("extracting the interval volume", || {
+            let scalars = typed_slice(scalar_type, samples)?;
+            let expected = self.hierarchy.grid().len();
+            if scalars.len() != expected {
+                return Err(format!(
+                    "the sample array has {} values but the hierarchy was built for {expected} points",
+                    scalars.len()
+                ));
+            }
+            let query = IntervalQuery {
+                range: spec.range,
+                tolerance: spec.tolerance,
+                max_tetrahedra: spec.max_tetrahedra,
+                region_of_interest: spec
+                    .use_region_of_interest
+                    .then_some(spec.region_of_interest),
+            };
+            let volume = interval::extract_with(&mut state.state, &self.hierarchy, scalars, &query)
+                .map_err(|e| e.to_string())?;
+            check_core(check_interval_arrays(&volume, expected))?;
+            Ok(Box::new(IntervalVolume { volume }))
+        });
+        if result.is_err() {
+            state.state.clear();
+        }
+        result
+    }
+}
+
+impl IntervalVolume {
+    pub fn points(&self) -> &[f64] {
+        self.volume.points.as_flattened()
+    }
+
+    pub fn sources(&self) -> &[u32] {
+        self.volume.sources.as_flattened()
+    }
+
+    pub fn weights(&self) -> &[f64] {
+        &self.volume.weights
+    }
+
+    pub fn tets(&self) -> &[u32] {
+        self.volume.tets.as_flattened()
+    }
+
+    pub fn levels(&self) -> &[u8] {
+        &self.volume.levels
+    }
+
+    pub fn leaves(&self) -> usize {
+        self.volume.leaves
+    }
+
+    pub fn reached_tolerance(&self) -> f64 {
+        self.volume.tolerance
+    }
+
+    pub fn error_bound(&self) -> f64 {
+        self.volume.error_bound
+    }
+
+    pub fn warnings(&self) -> Result<Vec<String>, String> {
+        guard("reading the interval volume", || {
+            Ok(self.volume.warnings.clone())
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{build_isosurfaces_with, GridSpec};
+
+    fn spec(range: [f64; 2], tolerance: f64) -> IntervalSpec {
+        IntervalSpec {
+            range,
+            tolerance,
+            max_tetrahedra: 0,
+            use_region_of_interest: false,
+            region_of_interest: [0.0; 6],
+        }
+    }
+
+    #[test]
+    fn interval_volume_through_the_bridge() {
+        // A distance field on 17³ points: the range [2, 4] is a spherical shell.
+        let grid = GridSpec {
+            dims: [17, 17, 17],
+            origin: [0.0; 3],
+            spacing: [0.5; 3],
+        };
+        let values: Vec<f32> = (0..17 * 17 * 17)
+            .map(|i| {
+                let p = [i % 17, i / 17 % 17, i / 289].map(|c| c as f32 * 0.5 - 4.0);
+                (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt()
+            })
+            .collect();
+        let bytes: &[u8] = bytemuck::cast_slice(&values);
+        let h = build_isosurfaces_with(&grid, ScalarType::F32, bytes).unwrap();
+        let mut state = IsoState::default();
+        let v = h
+            .interval_volume(&mut state, ScalarType::F32, bytes, &spec([2.0, 4.0], 0.0))
+            .unwrap();
+        let n = v.weights().len();
+        assert!(n > 0 && v.points().len() == 3 * n && v.sources().len() == 2 * n);
+        assert_eq!(v.tets().len(), 4 * v.levels().len());
+        assert!(v.warnings().unwrap().is_empty());
+        // Bad ranges are errors with the core's message, and clear the state.
+        let e = h
+            .interval_volume(&mut state, ScalarType::F32, bytes, &spec([4.0, 2.0], 0.0))
+            .err()
+            .unwrap();
+        assert!(e.contains("is empty"), "{e}");
+        assert!(state.hierarchy.is_some() && state.state.last().is_none());
+        let e = h
+            .interval_volume(
+                &mut state,
+                ScalarType::F32,
+                &bytes[4..],
+                &spec([2.0, 4.0], 0.0),
+            )
+            .err()
+            .unwrap();
+        assert!(e.contains("built for"), "{e}");
+    }
+}

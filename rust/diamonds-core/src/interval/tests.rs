@@ -1,0 +1,359 @@
+//! Interval volumes against independent references: conformity from the faces alone, the exact
+//! volume of `{α ≤ f ≤ β}` on the finest tetrahedra (clipped here by plain half-space clipping),
+//! the two-sided bound's volume consequence, and Adaptive Isosurface's surfaces.
+
+use super::*;
+use crate::fields::{marschner_lobb, marschner_lobb_u8, sample, sphere_distance, unit_grid};
+use crate::isosurface::{self, cell_tets, full_resolution_triangles};
+use crate::validate::check_interval_volume;
+use crate::volume::Grid;
+use glam::IVec3;
+
+fn volume6(x: [DVec3; 4]) -> f64 {
+    (x[1] - x[0]).dot((x[2] - x[0]).cross(x[3] - x[0]))
+}
+
+/// The tetrahedra (corners, values) of `{g ≥ 0}` in the tetrahedron `x` with values `g`, by the
+/// textbook cases: one vertex kept gives a tetrahedron, two or three a prism cut into three.
+fn keep_nonnegative(x: [DVec3; 4], g: [f64; 4]) -> Vec<([DVec3; 4], [f64; 4])> {
+    let kept: Vec<usize> = (0..4).filter(|&i| g[i] >= 0.0).collect();
+    let gone: Vec<usize> = (0..4).filter(|&i| g[i] < 0.0).collect();
+    let cut = |a: usize, b: usize| {
+        let t = g[a] / (g[a] - g[b]);
+        (x[a] + t * (x[b] - x[a]), 0.0)
+    };
+    let at = |i: usize| (x[i], g[i]);
+    let prism = |p: [(DVec3, f64); 3], q: [(DVec3, f64); 3]| {
+        [
+            [p[0], p[1], p[2], q[0]],
+            [p[1], p[2], q[0], q[1]],
+            [p[2], q[0], q[1], q[2]],
+        ]
+        .map(|t| (t.map(|c| c.0), t.map(|c| c.1)))
+        .to_vec()
+    };
+    match (kept.len(), gone.len()) {
+        (0, _) => vec![],
+        (4, _) => vec![(x, g)],
+        (1, _) => {
+            let a = kept[0];
+            let t = [at(a), cut(a, gone[0]), cut(a, gone[1]), cut(a, gone[2])];
+            vec![(t.map(|c| c.0), t.map(|c| c.1))]
+        }
+        (3, _) => {
+            let d = gone[0];
+            let [a, b, c] = [kept[0], kept[1], kept[2]];
+            prism([at(a), at(b), at(c)], [cut(a, d), cut(b, d), cut(c, d)])
+        }
+        _ => {
+            let ([a, b], [c, d]) = ([kept[0], kept[1]], [gone[0], gone[1]]);
+            prism([at(a), cut(a, c), cut(a, d)], [at(b), cut(b, c), cut(b, d)])
+        }
+    }
+}
+
+/// The volume of `{α ≤ f ≤ β}` for the linear interpolant on every finest tetrahedron of the grid
+/// (six per cell), clipping each by `f ≥ α`, then the pieces by `f ≤ β`.
+fn exact_volume(grid: &Grid, values: &[f32], [alpha, beta]: [f64; 2]) -> f64 {
+    let [nx, ny, nz] = grid.dims;
+    let mut total = 0.0;
+    for z in 0..nz - 1 {
+        for y in 0..ny - 1 {
+            for x in 0..nx - 1 {
+                for t in cell_tets(IVec3::new(x as i32, y as i32, z as i32)) {
+                    let p = t.map(|q| [q.x as usize, q.y as usize, q.z as usize]);
+                    let corners = p.map(|q| DVec3::from(grid.point(q)));
+                    let f = p.map(|q| values[grid.index(q[0], q[1], q[2])] as f64);
+                    for (c, g) in keep_nonnegative(corners, f.map(|v| v - alpha)) {
+                        for (c, _) in keep_nonnegative(c, g.map(|v| beta - alpha - v)) {
+                            total += volume6(c).abs() / 6.0;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    total
+}
+
+fn total_volume(v: &IntervalVolume) -> f64 {
+    v.tets
+        .iter()
+        .map(|t| volume6(t.map(|i| DVec3::from(v.points[i as usize]))) / 6.0)
+        .sum()
+}
+
+fn check(v: &IntervalVolume, grid: &Grid, range: [f64; 2]) {
+    check_interval_volume(&v.points, &v.values, &v.tets, grid.bounds(), range).unwrap();
+    assert_eq!(v.levels.len(), v.tets.len());
+    assert_eq!(v.sources.len(), v.points.len());
+    assert_eq!(v.weights.len(), v.points.len());
+}
+
+fn hierarchy(grid: Grid, values: &[f32]) -> Hierarchy {
+    Hierarchy::build_for_isosurfaces(grid, ScalarSlice::F32(values)).unwrap()
+}
+
+/// Marschner–Lobb (f32), a sphere distance and Marschner–Lobb in bytes (samples equal to the
+/// levels), each with a range.
+fn cases() -> Vec<(&'static str, Grid, Vec<f32>, [f64; 2])> {
+    let grid = unit_grid([33, 29, 41]);
+    let ml = sample(&grid, |x, y, z| marschner_lobb(x, y, z) as f32);
+    let sphere_grid = unit_grid([25, 31, 27]);
+    let sphere = sample(&sphere_grid, |x, y, z| sphere_distance(0.6)(x, y, z) as f32);
+    let (byte_grid, bytes) = marschner_lobb_u8([33, 33, 33]);
+    let bytes: Vec<f32> = bytes.iter().map(|&b| b as f32).collect();
+    vec![
+        ("marschner-lobb", grid, ml, [0.3, 0.65]),
+        ("sphere shell", sphere_grid, sphere, [-0.1, 0.15]),
+        ("marschner-lobb u8", byte_grid, bytes, [100.0, 160.0]),
+    ]
+}
+
+#[test]
+fn conforming_and_exact_at_tolerance_zero() {
+    for (name, grid, values, range) in cases() {
+        let h = hierarchy(grid, &values);
+        let v = extract(
+            &h,
+            ScalarSlice::F32(&values),
+            &IntervalQuery::new(range, 0.0),
+        )
+        .unwrap();
+        check(&v, &grid, range);
+        let (got, want) = (total_volume(&v), exact_volume(&grid, &values, range));
+        assert!(
+            (got - want).abs() <= 1e-9 * want,
+            "{name}: volume {got}, exactly {want}"
+        );
+        assert!(v.warnings.is_empty(), "{name}: {:?}", v.warnings);
+        // Every point is a sample in the range or a point at α or β on an edge between samples.
+        for (k, &[i, j]) in v.sources.iter().enumerate() {
+            let f = v.values[k];
+            if i == j {
+                assert_eq!(f, values[i as usize] as f64);
+                assert!(range[0] <= f && f <= range[1], "{name}: sample value {f}");
+            } else {
+                assert!(f == range[0] || f == range[1]);
+                let w = v.weights[k];
+                let mixed = (1.0 - w) * values[i as usize] as f64 + w * values[j as usize] as f64;
+                assert!((mixed - f).abs() <= 1e-9 * (1.0 + f.abs()), "{name}");
+            }
+        }
+    }
+}
+
+#[test]
+fn conforming_and_converging_as_the_tolerance_shrinks() {
+    for (name, grid, values, range) in cases() {
+        let h = hierarchy(grid, &values);
+        let exact = exact_volume(&grid, &values, range);
+        let volume = Volume::new(grid, &values[..]).unwrap();
+        // The surfaces lie within tolerance + h/√3 of the full-resolution ones, so the volume
+        // differs by at most that times their area.
+        let area: f64 = full_resolution_triangles(&volume, &range)
+            .iter()
+            .map(|t| {
+                let p = t.map(DVec3::from);
+                0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length()
+            })
+            .sum();
+        let h_min = grid.spacing.iter().copied().fold(f64::INFINITY, f64::min);
+        let d = grid.diagonal();
+        let mut tets = Vec::new();
+        let mut last_bound = f64::INFINITY;
+        for fraction in [0.04, 0.02, 0.01, 0.005, 0.0025] {
+            let tolerance = fraction * d;
+            let v = extract(
+                &h,
+                ScalarSlice::F32(&values),
+                &IntervalQuery::new(range, tolerance),
+            )
+            .unwrap();
+            check(&v, &grid, range);
+            let difference = (total_volume(&v) - exact).abs();
+            let bound = (tolerance + h_min / 3f64.sqrt()) * area;
+            assert!(
+                difference <= bound,
+                "{name} at {fraction}: volume off by {difference} > {bound}"
+            );
+            assert!(bound < last_bound);
+            last_bound = bound;
+            assert!(v.error_bound <= tolerance, "{name}: {}", v.error_bound);
+            tets.push(v.tets.len());
+        }
+        assert!(
+            tets.windows(2).all(|w| w[0] <= w[1]),
+            "{name}: tetrahedra {tets:?}"
+        );
+    }
+}
+
+/// The faces of `v` used by one tetrahedron whose values all equal `level`, as sorted point
+/// positions, and the area they cover.
+fn bounding_faces(v: &IntervalVolume, level: f64) -> (Vec<[u64; 3]>, f64) {
+    let mut faces: Vec<[u32; 3]> = v
+        .tets
+        .iter()
+        .flat_map(|t| {
+            (0..4).map(move |skip| {
+                let mut f = [0u32; 3];
+                for (k, i) in (0..4).filter(|&i| i != skip).enumerate() {
+                    f[k] = t[i];
+                }
+                f.sort_unstable();
+                f
+            })
+        })
+        .collect();
+    faces.sort_unstable();
+    let single: Vec<[u32; 3]> = faces
+        .chunk_by(|a, b| a == b)
+        .filter(|g| g.len() == 1 && g[0].iter().all(|&i| v.values[i as usize] == level))
+        .map(|g| g[0])
+        .collect();
+    let area = single
+        .iter()
+        .map(|f| {
+            let p = f.map(|i| DVec3::from(v.points[i as usize]));
+            0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length()
+        })
+        .sum();
+    let mut points: Vec<[u64; 3]> = single
+        .iter()
+        .flatten()
+        .map(|&i| v.points[i as usize].map(f64::to_bits))
+        .collect();
+    points.sort_unstable();
+    points.dedup();
+    (points, area)
+}
+
+#[test]
+fn bounding_surfaces_are_adaptive_isosurfaces() {
+    for (name, grid, values, range) in cases().into_iter().take(2) {
+        let h = hierarchy(grid, &values);
+        for tolerance in [0.0, 0.005 * grid.diagonal(), 0.02 * grid.diagonal()] {
+            let v = extract(
+                &h,
+                ScalarSlice::F32(&values),
+                &IntervalQuery::new(range, tolerance),
+            )
+            .unwrap();
+            let iso = isosurface::extract(
+                &h,
+                ScalarSlice::F32(&values),
+                &IsoQuery {
+                    isovalues: range.to_vec(),
+                    compute_normals: false,
+                    ..IsoQuery::new(0.0, tolerance)
+                },
+            )
+            .unwrap();
+            assert_eq!(v.error_bound, iso.error_bound, "{name}");
+            for level in range {
+                let (points, area) = bounding_faces(&v, level);
+                let on = |i: u32| iso.values[i as usize] == level;
+                let mut want: Vec<[u64; 3]> = (0..iso.points.len() as u32)
+                    .filter(|&i| on(i))
+                    .map(|i| iso.points[i as usize].map(f64::to_bits))
+                    .collect();
+                want.sort_unstable();
+                want.dedup();
+                let want_area: f64 = (iso.triangles.iter())
+                    .filter(|t| on(t[0]))
+                    .map(|t| {
+                        let p = t.map(|i| DVec3::from(iso.points[i as usize]));
+                        0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length()
+                    })
+                    .sum();
+                let what = format!("{name} at {tolerance}, level {level}");
+                assert_eq!(points, want, "{what}: points");
+                assert!(
+                    (area - want_area).abs() <= 1e-9 * want_area,
+                    "{what}: area {area} vs {want_area}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn budget_and_region_of_interest() {
+    let (name, grid, values, range) = cases().swap_remove(0);
+    let h = hierarchy(grid, &values);
+    let full = extract(
+        &h,
+        ScalarSlice::F32(&values),
+        &IntervalQuery::new(range, 0.0),
+    )
+    .unwrap();
+    let budget = full.tets.len() / 4;
+    let q = IntervalQuery {
+        max_tetrahedra: budget,
+        ..IntervalQuery::new(range, 0.0)
+    };
+    let v = extract(&h, ScalarSlice::F32(&values), &q).unwrap();
+    check(&v, &grid, range);
+    assert!(
+        v.tets.len() <= budget,
+        "{name}: {} > {budget}",
+        v.tets.len()
+    );
+    assert!(v.tolerance > 0.0 && v.warnings.is_empty());
+    // Inside the region of interest the mesh is as fine as without it; outside, coarser.
+    let tolerance = 0.005 * grid.diagonal();
+    let everywhere = extract(
+        &h,
+        ScalarSlice::F32(&values),
+        &IntervalQuery::new(range, tolerance),
+    )
+    .unwrap();
+    let q = IntervalQuery {
+        region_of_interest: Some([-1.0, 0.0, -1.0, 1.0, -1.0, 1.0]),
+        ..IntervalQuery::new(range, tolerance)
+    };
+    let roi = extract(&h, ScalarSlice::F32(&values), &q).unwrap();
+    check(&roi, &grid, range);
+    assert!(roi.tets.len() < everywhere.tets.len());
+}
+
+#[test]
+fn bad_ranges_are_refused_and_empty_ones_warned() {
+    let (_, grid, values, _) = cases().swap_remove(0);
+    let h = hierarchy(grid, &values);
+    let run = |range: [f64; 2], tolerance: f64| {
+        extract(
+            &h,
+            ScalarSlice::F32(&values),
+            &IntervalQuery::new(range, tolerance),
+        )
+    };
+    for (range, tolerance, says) in [
+        ([0.6, 0.3], 0.0, "is empty"),
+        ([0.5, 0.5], 0.0, "extract an isosurface"),
+        ([f64::NAN, 0.5], 0.0, "finite"),
+        ([0.1, f64::INFINITY], 0.0, "finite"),
+        ([0.1, 0.5], -1.0, "tolerance"),
+        ([0.1, 0.5], f64::NAN, "tolerance"),
+    ] {
+        match run(range, tolerance) {
+            Err(Error::Parameter(m)) => assert!(m.contains(says), "{range:?}: {m}"),
+            other => panic!("{range:?} {tolerance}: {other:?}"),
+        }
+    }
+    let v = run([5.0, 6.0], 0.0).unwrap();
+    assert!(v.tets.is_empty());
+    assert!(
+        v.warnings[0].contains("misses the data range"),
+        "{:?}",
+        v.warnings
+    );
+    // A range holding the whole data range: the whole box, coarse.
+    let v = run([-10.0, 10.0], 0.01).unwrap();
+    check(&v, &grid, [-10.0, 10.0]);
+    let b = grid.bounds();
+    let box_volume = (b[1] - b[0]) * (b[3] - b[2]) * (b[5] - b[4]);
+    assert!((total_volume(&v) - box_volume).abs() <= 1e-9 * box_volume);
+    assert!(v.tets.len() < 1000, "{}", v.tets.len());
+}
