@@ -7,7 +7,8 @@
 #    (find_package(Diamonds) in build/install) and runs vtkRTAnalyticSource -> vtkAdaptiveTetrahedra
 #    and -> vtkAdaptiveIsosurface.
 # 2. tests/pvpython/test_*.py: the plugin auto-loaded through PV_PLUGIN_PATH, independent numpy
-#    checks of the meshes, isosurfaces and material interfaces, properties, bad inputs
+#    checks of the meshes, isosurfaces, interval volumes (test_interval.py, against Iso Volume)
+#    and material interfaces, properties, bad inputs
 #    (test_material.py writes its impact case with target/release/diamonds, brought up to date
 #    with cargo).
 # 3. tests/pvpython/mpi_pieces.py, mpi_isosurface.py and mpi_material.py under `mpiexec -n 2 pvbatch`,

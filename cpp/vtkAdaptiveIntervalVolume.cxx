@@ -1,0 +1,273 @@
+#include "vtkAdaptiveIntervalVolume.h"
+
+#include "vtkCellArray.h"
+#include "vtkCellData.h"
+#include "vtkDataArray.h"
+#include "vtkDataSetAttributes.h"
+#include "vtkDoubleArray.h"
+#include "vtkFieldData.h"
+#include "vtkIdTypeArray.h"
+#include "vtkImageData.h"
+#include "vtkInformation.h"
+#include "vtkInformationVector.h"
+#include "vtkObjectFactory.h"
+#include "vtkPointData.h"
+#include "vtkPoints.h"
+#include "vtkUnsignedCharArray.h"
+#include "vtkUnstructuredGrid.h"
+
+// The module's internal helpers and the cxx bridge. Kept out of the public header: the VTK
+// wrappers parse that one.
+#include "vtkDiamondsArraySelection.h"
+#include "vtkDiamondsHierarchyCache.h"
+#include "vtkDiamondsImageGeometry.h"
+#include "vtkDiamondsOutput.h"
+
+#include <cmath>
+#include <cstddef>
+#include <optional>
+#include <string>
+
+vtkStandardNewMacro(vtkAdaptiveIntervalVolume);
+
+namespace
+{
+namespace bridge = diamonds::bridge;
+using vtkDiamonds::FixedSizeCells;
+using vtkDiamonds::NamedArray;
+using vtkDiamonds::OneValue;
+
+const vtkDiamonds::FilterText Text = { "Adaptive Interval Volume", "extract the interval volume of",
+  "extracts the interval volume of", "Scalars" };
+
+// Fills `output` with the tetrahedra of `volume` over `input`: points, every input point array
+// copied at samples and interpolated along the mesh edge at new points, cell data "Level".
+void FillVolume(const bridge::IntervalVolume& volume, vtkImageData* input, vtkUnstructuredGrid* output)
+{
+  const rust::Slice<const double> weights = volume.weights();
+  const rust::Slice<const std::uint32_t> sources = volume.sources();
+  const rust::Slice<const std::uint8_t> levels = volume.levels();
+  const vtkIdType numPoints = static_cast<vtkIdType>(weights.size());
+  const vtkIdType numTets = static_cast<vtkIdType>(levels.size());
+  output->SetPoints(vtkDiamonds::PointsFrom(volume.points()));
+  output->SetCells(VTK_TETRA, FixedSizeCells(4, volume.tets(), numPoints));
+  vtkPointData* in = input->GetPointData();
+  vtkPointData* out = output->GetPointData();
+  out->InterpolateAllocate(in, numPoints);
+  for (vtkIdType i = 0; i < numPoints; ++i)
+  {
+    const vtkIdType a = sources[2 * i];
+    const vtkIdType b = sources[2 * i + 1];
+    if (a == b)
+    {
+      out->CopyData(in, a, i);
+    }
+    else
+    {
+      out->InterpolateEdge(in, i, a, b, weights[i]);
+    }
+  }
+  output->GetCellData()->AddArray(
+    NamedArray<vtkUnsignedCharArray>("Level", numTets, levels.data()));
+}
+} // namespace
+
+class vtkAdaptiveIntervalVolume::vtkInternals
+{
+public:
+  // The extraction reads the samples again: keep them with the hierarchy.
+  vtkDiamonds::HierarchyCache Cache{ vtkDiamonds::HierarchyCache::Use::Isosurfaces };
+};
+
+//------------------------------------------------------------------------------
+vtkAdaptiveIntervalVolume::vtkAdaptiveIntervalVolume()
+  : ThresholdRange{ 0.0, 1.0 }
+  , Tolerance(0.0)
+  , RelativeTolerance(0.0)
+  , MaximumNumberOfTetrahedra(0)
+  , UseRegionOfInterest(0)
+  , RegionOfInterest{ 0.0, 1.0, 0.0, 1.0, 0.0, 1.0 }
+  , NumberOfHierarchyBuilds(0)
+  , Internals(new vtkInternals)
+{
+  // Default: the active point scalars.
+  this->SetInputArrayToProcess(
+    0, 0, 0, vtkDataObject::FIELD_ASSOCIATION_POINTS, vtkDataSetAttributes::SCALARS);
+}
+
+//------------------------------------------------------------------------------
+vtkAdaptiveIntervalVolume::~vtkAdaptiveIntervalVolume()
+{
+  delete this->Internals;
+}
+
+//------------------------------------------------------------------------------
+int vtkAdaptiveIntervalVolume::FillInputPortInformation(int, vtkInformation* info)
+{
+  info->Set(vtkAlgorithm::INPUT_REQUIRED_DATA_TYPE(), "vtkImageData");
+  return 1;
+}
+
+//------------------------------------------------------------------------------
+int vtkAdaptiveIntervalVolume::RequestUpdateExtent(
+  vtkInformation* request, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
+{
+  if (!this->Superclass::RequestUpdateExtent(request, inputVector, outputVector))
+  {
+    return 0;
+  }
+  vtkDiamonds::RequestNoGhostLevels(inputVector);
+  return 1;
+}
+
+//------------------------------------------------------------------------------
+vtkIdType vtkAdaptiveIntervalVolume::GetHierarchyMemorySize()
+{
+  return this->Internals->Cache.GetMemorySize();
+}
+
+//------------------------------------------------------------------------------
+void vtkAdaptiveIntervalVolume::ReleaseHierarchy()
+{
+  this->Internals->Cache.Release();
+}
+
+//------------------------------------------------------------------------------
+int vtkAdaptiveIntervalVolume::RequestData(
+  vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
+{
+  vtkImageData* input = vtkImageData::GetData(inputVector[0]);
+  vtkUnstructuredGrid* output = vtkUnstructuredGrid::GetData(outputVector, 0);
+  if (!input || !output)
+  {
+    vtkErrorMacro(<< "Adaptive Interval Volume needs a vtkImageData input.");
+    return 0;
+  }
+  // Every error below leaves an empty output.
+  output->Initialize();
+  this->RelativeTolerance = 0.0;
+
+  // ---- Parameters (the range itself is checked by the core, with the same words everywhere).
+  if (!std::isfinite(this->Tolerance) || this->Tolerance < 0.0)
+  {
+    vtkErrorMacro(<< "Tolerance must be a finite number >= 0 (got " << this->Tolerance
+                  << "); it is in world units, 0 gives the full-resolution interval volume.");
+    return 0;
+  }
+  if (this->MaximumNumberOfTetrahedra < 0)
+  {
+    vtkErrorMacro(<< "MaximumNumberOfTetrahedra must be >= 0 (got "
+                  << this->MaximumNumberOfTetrahedra << "); 0 means no limit.");
+    return 0;
+  }
+  if (input->GetNumberOfPoints() == 0)
+  {
+    // Not an error: e.g. an empty piece when a parallel run has more ranks than image slabs.
+    vtkDebugMacro(<< "The input image is empty; the output is empty.");
+    return 1;
+  }
+  if (!vtkDiamonds::CheckAxisAligned(this, Text, input))
+  {
+    return 0;
+  }
+  double wholeBounds[6];
+  vtkDiamonds::WholeBounds(inputVector, input, wholeBounds);
+  const double diagonal = std::sqrt(std::pow(wholeBounds[1] - wholeBounds[0], 2) +
+    std::pow(wholeBounds[3] - wholeBounds[2], 2) + std::pow(wholeBounds[5] - wholeBounds[4], 2));
+  const double relativeTolerance = diagonal > 0.0 ? this->Tolerance / diagonal : 0.0;
+  int association = vtkDataObject::FIELD_ASSOCIATION_POINTS;
+  vtkDataArray* selected = this->GetInputArrayToProcess(0, inputVector, association);
+  vtkDataArray* array = vtkDiamonds::SelectPointArray(this, Text, input, selected, association);
+  if (!array)
+  {
+    return 0;
+  }
+
+  // ---- Hierarchy: built only when the array or the geometry changed.
+  vtkDiamonds::HierarchyCache& cache = this->Internals->Cache;
+  switch (cache.Update(this, Text, input, array, 0.0, 0.3))
+  {
+    case vtkDiamonds::HierarchyCache::Status::Built:
+      ++this->NumberOfHierarchyBuilds;
+      break;
+    case vtkDiamonds::HierarchyCache::Status::Kept:
+      break;
+    case vtkDiamonds::HierarchyCache::Status::Aborted:
+      return 1;
+    case vtkDiamonds::HierarchyCache::Status::Failed:
+      return 0;
+  }
+  this->UpdateProgress(0.3);
+  if (this->CheckAbort())
+  {
+    return 1;
+  }
+
+  // ---- Extraction, with the isosurface state kept with the hierarchy (its cache serves).
+  bridge::IntervalSpec spec;
+  spec.range = { this->ThresholdRange[0], this->ThresholdRange[1] };
+  spec.tolerance = this->Tolerance;
+  spec.max_tetrahedra = static_cast<std::size_t>(this->MaximumNumberOfTetrahedra);
+  if (!vtkDiamonds::SetRegionOfInterest(
+        this, this->UseRegionOfInterest, this->RegionOfInterest, inputVector, input, spec))
+  {
+    return 0;
+  }
+  std::optional<rust::Box<bridge::IntervalVolume>> volume;
+  try
+  {
+    volume.emplace(cache.GetHierarchy().interval_volume(
+      cache.GetIsoState(), cache.GetSampleType(), cache.GetSamples(), spec));
+    for (const rust::String& warning : (*volume)->warnings())
+    {
+      vtkWarningMacro(<< "Adaptive Interval Volume, array \"" << array->GetName()
+                      << "\": " << std::string(warning));
+    }
+  }
+  catch (const rust::Error& e)
+  {
+    vtkErrorMacro(<< "Adaptive Interval Volume failed for array \"" << array->GetName()
+                  << "\": " << e.what());
+    return 0;
+  }
+  this->UpdateProgress(0.8);
+  if (this->CheckAbort())
+  {
+    return 1;
+  }
+
+  // ---- Output.
+  FillVolume(**volume, input, output);
+  this->RelativeTolerance = relativeTolerance;
+  vtkFieldData* fieldData = output->GetFieldData();
+  fieldData->PassData(input->GetFieldData());
+  fieldData->AddArray(OneValue<vtkDoubleArray>("ErrorBound", (*volume)->error_bound()));
+  fieldData->AddArray(OneValue<vtkDoubleArray>("Tolerance", this->Tolerance));
+  fieldData->AddArray(OneValue<vtkDoubleArray>("RelativeTolerance", relativeTolerance));
+  fieldData->AddArray(
+    OneValue<vtkDoubleArray>("ReachedTolerance", (*volume)->reached_tolerance()));
+  fieldData->AddArray(OneValue<vtkIdTypeArray>("NumberOfTetrahedra", output->GetNumberOfCells()));
+  fieldData->AddArray(OneValue<vtkIdTypeArray>("NumberOfPoints", output->GetNumberOfPoints()));
+  fieldData->AddArray(
+    OneValue<vtkIdTypeArray>("NumberOfLeaves", static_cast<vtkIdType>((*volume)->leaves())));
+  this->UpdateProgress(1.0);
+  return 1;
+}
+
+//------------------------------------------------------------------------------
+void vtkAdaptiveIntervalVolume::PrintSelf(ostream& os, vtkIndent indent)
+{
+  this->Superclass::PrintSelf(os, indent);
+  os << indent << "ThresholdRange: (" << this->ThresholdRange[0] << ", " << this->ThresholdRange[1]
+     << ")\n";
+  os << indent << "Tolerance: " << this->Tolerance << "\n";
+  os << indent << "RelativeTolerance: " << this->RelativeTolerance << "\n";
+  os << indent << "MaximumNumberOfTetrahedra: " << this->MaximumNumberOfTetrahedra << "\n";
+  os << indent << "UseRegionOfInterest: " << (this->UseRegionOfInterest ? "On" : "Off") << "\n";
+  os << indent << "RegionOfInterest: (" << this->RegionOfInterest[0] << ", "
+     << this->RegionOfInterest[1] << ", " << this->RegionOfInterest[2] << ", "
+     << this->RegionOfInterest[3] << ", " << this->RegionOfInterest[4] << ", "
+     << this->RegionOfInterest[5] << ")\n";
+  os << indent << "NumberOfHierarchyBuilds: " << this->NumberOfHierarchyBuilds << "\n";
+  os << indent << "HierarchyMemorySize: " << this->GetHierarchyMemorySize() << "\n";
+}
