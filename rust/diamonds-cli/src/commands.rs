@@ -185,6 +185,21 @@ pub enum IsoTolerance {
     VoxelDiagonals(f64),
 }
 
+impl IsoTolerance {
+    /// The tolerance in world units on `grid`.
+    pub fn world(&self, grid: &Grid) -> f64 {
+        let diagonal = grid.diagonal();
+        match *self {
+            IsoTolerance::Absolute(t) => t,
+            IsoTolerance::Relative(r) => r * diagonal,
+            IsoTolerance::VoxelDiagonals(k) => {
+                let cells: f64 = grid.dims.iter().map(|&d| (d - 1) as f64).product();
+                k * diagonal / cells.cbrt()
+            }
+        }
+    }
+}
+
 /// The default tolerance of `diamonds iso`, as the ParaView filter's: two and a half voxel
 /// diagonals. A tetrahedron no larger than the tolerance is never split for the surface (the surface
 /// drawn through it stays inside it); past two voxel diagonals the tetrahedra of cubes of 2×2×2
@@ -294,14 +309,7 @@ pub fn iso(opts: &IsoOptions) -> Result<IsoSummary> {
     let array = image.scalars(opts.array.as_deref())?;
     let grid = image.grid;
     let diagonal = grid.diagonal();
-    let tolerance = match opts.tolerance {
-        IsoTolerance::Absolute(t) => t,
-        IsoTolerance::Relative(r) => r * diagonal,
-        IsoTolerance::VoxelDiagonals(k) => {
-            let cells: f64 = grid.dims.iter().map(|&d| (d - 1) as f64).product();
-            k * diagonal / cells.cbrt()
-        }
-    };
+    let tolerance = opts.tolerance.world(&grid);
     let start = Instant::now();
     let hierarchy = Hierarchy::build_for_isosurfaces(grid, array.scalar_slice()?)?;
     let build_seconds = start.elapsed().as_secs_f64();

@@ -17,6 +17,7 @@
 //!   case of `generate --field impact`.
 
 pub mod commands;
+pub mod interval;
 pub mod material;
 pub mod progressive;
 pub mod read;

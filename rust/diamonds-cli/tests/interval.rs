@@ -1,0 +1,115 @@
+//! `diamonds interval` end to end on a generated Marschner–Lobb volume: the `.vtu` read back is a
+//! conforming interval volume (faces in one tetrahedron only on the box or at a bound), its
+//! processed array lies in the range and other arrays are interpolated, tetrahedra do not grow with
+//! the tolerance, the budget holds, and bad ranges are clear errors.
+
+mod common;
+
+use common::{diamonds, field_value, s, TempDir};
+use diamonds::validate::check_interval_volume;
+use diamonds_cli::read::{read_unstructured, tetrahedra};
+use std::path::Path;
+
+/// `diamonds interval input out --range lo hi args…`: the summary, the mesh read back.
+fn interval(input: &Path, out: &Path, range: [f64; 2], args: &[&str]) -> String {
+    let range = range.map(|v| v.to_string());
+    let mut all = vec![
+        "interval",
+        s(input),
+        s(out),
+        "--range",
+        &range[0],
+        &range[1],
+    ];
+    all.extend(args);
+    diamonds(&all).ok()
+}
+
+#[test]
+fn interval_volumes_read_back_conforming() {
+    let dir = TempDir::new("interval");
+    let input = dir.join("ml.vti");
+    diamonds(["generate", s(&input), "--dims", "33", "33", "33"]).ok();
+    let range = [90.5, 160.5];
+    let bounds = [-1.0, 1.0, -1.0, 1.0, -1.0, 1.0];
+    let mut counts = Vec::new();
+    for tolerance in ["0", "0.02", "0.08"] {
+        let out = dir.join(&format!("ml-{tolerance}.vtu"));
+        let summary = interval(&input, &out, range, &["--tolerance", tolerance]);
+        assert!(
+            summary.contains("tetrahedra") && summary.contains("volume"),
+            "{summary}"
+        );
+        let mesh = read_unstructured(&out).unwrap();
+        let tets = tetrahedra(&mesh).unwrap();
+        let values: Vec<f64> = {
+            let a = &mesh.point_data[0];
+            (0..a.tuples()).map(|k| a.value(k)).collect()
+        };
+        assert_eq!(mesh.point_data[0].type_name(), "Float64");
+        assert!(values.iter().all(|&v| range[0] <= v && v <= range[1]));
+        let report = check_interval_volume(&mesh.points, &values, &tets, bounds, range).unwrap();
+        assert!(report.boundary_faces > 0, "{report:?}");
+        assert_eq!(
+            field_value(&mesh.field_data, "NumberOfTetrahedra"),
+            tets.len() as f64
+        );
+        let error_bound = field_value(&mesh.field_data, "ErrorBound");
+        assert!(
+            error_bound <= tolerance.parse::<f64>().unwrap(),
+            "{error_bound}"
+        );
+        assert_eq!(mesh.cell_data[0].name, "Level");
+        counts.push(tets.len());
+    }
+    assert!(
+        counts.windows(2).all(|w| w[0] >= w[1]) && counts[2] < counts[0],
+        "{counts:?}"
+    );
+    // The budget.
+    let out = dir.join("budget.vtu");
+    let budget = (counts[0] / 4).to_string();
+    interval(
+        &input,
+        &out,
+        range,
+        &["--tolerance", "0", "--max-tets", &budget],
+    );
+    let mesh = read_unstructured(&out).unwrap();
+    assert!(mesh.types.len() <= counts[0] / 4);
+    assert!(field_value(&mesh.field_data, "ReachedTolerance") > 0.0);
+}
+
+#[test]
+fn bad_ranges_are_clear_errors() {
+    let dir = TempDir::new("interval-bad");
+    let input = dir.join("ml.vti");
+    diamonds(["generate", s(&input), "--dims", "17", "17", "17"]).ok();
+    let out = dir.join("out.vtu");
+    for (range, says) in [(["160", "90"], "is empty"), (["nan", "90"], "finite")] {
+        let e = diamonds([
+            "interval",
+            s(&input),
+            s(&out),
+            "--range",
+            range[0],
+            range[1],
+        ])
+        .user_error();
+        assert!(e.contains(says), "{range:?}: {e}");
+    }
+    let e = diamonds([
+        "interval",
+        s(&input),
+        s(&dir.join("out.vtp")),
+        "--range",
+        "1",
+        "2",
+    ])
+    .user_error();
+    assert!(e.contains(".vtu"), "{e}");
+    // A range missing the data: a warning and an empty volume.
+    let run = diamonds(["interval", s(&input), s(&out), "--range", "1000", "2000"]);
+    assert!(run.stderr.contains("misses the data range"), "{run:?}");
+    assert!(run.ok().contains(" 0 tetrahedra"));
+}
