@@ -3,6 +3,7 @@
 #include "vtkAbstractArray.h"
 #include "vtkCellArray.h"
 #include "vtkCellData.h"
+#include "vtkContourValues.h"
 #include "vtkDataSetTriangleFilter.h"
 #include "vtkDoubleArray.h"
 #include "vtkFieldData.h"
@@ -13,6 +14,7 @@
 #include "vtkObjectFactory.h"
 #include "vtkPointData.h"
 #include "vtkPoints.h"
+#include "vtkPolyData.h"
 #include "vtkSmartPointer.h"
 #include "vtkUnstructuredGrid.h"
 
@@ -71,12 +73,15 @@ vtkProgressiveTetrahedralMesh::vtkProgressiveTetrahedralMesh()
   , MaximumFieldError(0.0)
   , GeometryWeight(1.0)
   , FieldWeight(1.0)
-  , ShapeWeight(0.001)
+  , ShapeWeight(0.0)
   , PreserveBoundary(1)
   , BoundaryTolerance(0.001)
   , NumberOfSimplifications(0)
+  , ComputeIsosurface(0)
+  , ContourValues(vtkContourValues::New())
   , Internals(new vtkInternals)
 {
+  this->SetNumberOfOutputPorts(2);
   this->SetInputArrayToProcess(
     0, 0, 0, vtkDataObject::FIELD_ASSOCIATION_POINTS, vtkDataSetAttributes::SCALARS);
 }
@@ -85,6 +90,41 @@ vtkProgressiveTetrahedralMesh::vtkProgressiveTetrahedralMesh()
 vtkProgressiveTetrahedralMesh::~vtkProgressiveTetrahedralMesh()
 {
   delete this->Internals;
+  this->ContourValues->Delete();
+}
+
+//------------------------------------------------------------------------------
+vtkMTimeType vtkProgressiveTetrahedralMesh::GetMTime()
+{
+  return std::max(this->Superclass::GetMTime(), this->ContourValues->GetMTime());
+}
+
+void vtkProgressiveTetrahedralMesh::SetValue(int i, double value)
+{
+  this->ContourValues->SetValue(i, value);
+}
+
+double vtkProgressiveTetrahedralMesh::GetValue(int i)
+{
+  return this->ContourValues->GetValue(i);
+}
+
+void vtkProgressiveTetrahedralMesh::SetNumberOfContours(int number)
+{
+  this->ContourValues->SetNumberOfContours(number);
+}
+
+vtkIdType vtkProgressiveTetrahedralMesh::GetNumberOfContours()
+{
+  return this->ContourValues->GetNumberOfContours();
+}
+
+//------------------------------------------------------------------------------
+int vtkProgressiveTetrahedralMesh::FillOutputPortInformation(int port, vtkInformation* info)
+{
+  // Port 0: the level's tetrahedra; port 1: its isosurface.
+  info->Set(vtkDataObject::DATA_TYPE_NAME(), port == 0 ? "vtkUnstructuredGrid" : "vtkPolyData");
+  return 1;
 }
 
 //------------------------------------------------------------------------------
@@ -99,7 +139,12 @@ int vtkProgressiveTetrahedralMesh::RequestData(
   vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
 {
   vtkUnstructuredGrid* input = vtkUnstructuredGrid::GetData(inputVector[0]);
-  vtkUnstructuredGrid* output = vtkUnstructuredGrid::GetData(outputVector);
+  vtkUnstructuredGrid* output = vtkUnstructuredGrid::GetData(outputVector, 0);
+  vtkPolyData* surface = vtkPolyData::GetData(outputVector, 1);
+  if (surface)
+  {
+    surface->Initialize();
+  }
   if (!input || !output)
   {
     vtkErrorMacro(<< "Progressive Tetrahedral Mesh needs a vtkUnstructuredGrid input.");
@@ -234,9 +279,18 @@ int vtkProgressiveTetrahedralMesh::RequestData(
   }
   bridge::Progressive& pm = **in.Progressive;
 
-  // ---- The level: replayed from the current one.
+  // ---- The level: replayed from the current one (the isosurface updated under each split).
   try
   {
+    std::vector<double> isovalues;
+    if (this->ComputeIsosurface)
+    {
+      for (vtkIdType k = 0; k < this->ContourValues->GetNumberOfContours(); ++k)
+      {
+        isovalues.push_back(this->ContourValues->GetValue(static_cast<int>(k)));
+      }
+    }
+    pm.set_isovalues(rust::Slice<const double>(isovalues.data(), isovalues.size()));
     pm.set_level(pm.level_for(this->TargetReduction, this->MaximumFieldError));
   }
   catch (const rust::Error& e)
@@ -296,6 +350,42 @@ int vtkProgressiveTetrahedralMesh::RequestData(
   fieldData->AddArray(OneValue<vtkIdTypeArray>("NumberOfTetrahedra", nt));
   fieldData->AddArray(OneValue<vtkDoubleArray>("MaximumFieldError", pm.level_max_field_error()));
   fieldData->AddArray(OneValue<vtkDoubleArray>("RMSFieldError", pm.level_rms_field_error()));
+  if (surface && this->ComputeIsosurface)
+  {
+    rust::Slice<const double> isoPoints = pm.iso_points();
+    rust::Slice<const double> isoValues = pm.iso_values();
+    rust::Slice<const std::uint32_t> triangles = pm.iso_triangles();
+    const vtkIdType nip = static_cast<vtkIdType>(isoValues.size());
+    const vtkIdType ntri = static_cast<vtkIdType>(triangles.size() / 3);
+    vtkNew<vtkPoints> sp;
+    sp->SetDataTypeToDouble();
+    sp->SetNumberOfPoints(nip);
+    vtkNew<vtkDoubleArray> values;
+    values->SetName(array->GetName() ? array->GetName() : "Isovalue");
+    values->SetNumberOfValues(nip);
+    for (vtkIdType k = 0; k < nip; ++k)
+    {
+      sp->SetPoint(k, &isoPoints[3 * k]);
+      values->SetValue(k, isoValues[k]);
+    }
+    vtkNew<vtkIdTypeArray> triOffsets;
+    triOffsets->SetNumberOfValues(ntri + 1);
+    for (vtkIdType t = 0; t <= ntri; ++t)
+    {
+      triOffsets->SetValue(t, 3 * t);
+    }
+    vtkNew<vtkIdTypeArray> triConnectivity;
+    triConnectivity->SetNumberOfValues(3 * ntri);
+    for (vtkIdType k = 0; k < 3 * ntri; ++k)
+    {
+      triConnectivity->SetValue(k, triangles[k]);
+    }
+    vtkNew<vtkCellArray> polys;
+    polys->SetData(triOffsets, triConnectivity);
+    surface->SetPoints(sp);
+    surface->SetPolys(polys);
+    surface->GetPointData()->SetScalars(values);
+  }
   if (pm.merged_points() > 0)
   {
     vtkWarningMacro(<< "Progressive Tetrahedral Mesh: " << pm.merged_points()
@@ -318,4 +408,6 @@ void vtkProgressiveTetrahedralMesh::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "PreserveBoundary: " << (this->PreserveBoundary ? "On" : "Off") << "\n";
   os << indent << "BoundaryTolerance: " << this->BoundaryTolerance << "\n";
   os << indent << "NumberOfSimplifications: " << this->NumberOfSimplifications << "\n";
+  os << indent << "ComputeIsosurface: " << (this->ComputeIsosurface ? "On" : "Off") << "\n";
+  os << indent << "NumberOfContours: " << this->ContourValues->GetNumberOfContours() << "\n";
 }

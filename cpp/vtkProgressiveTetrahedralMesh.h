@@ -18,10 +18,14 @@
  * collapses from the current level (GetNumberOfSimplifications() counts the computations).
  *
  * Input: tetrahedra (other cells are tetrahedralised first, with a warning); coincident points are
- * merged and the tetrahedra they flatten dropped. Output: VTK_TETRA cells at the chosen level, all
- * point data, cell data "FieldError" (the largest error of the removed vertices inside each
- * tetrahedron), field data "Level", "NumberOfLevels", "NumberOfTetrahedra", "MaximumFieldError"
- * and "RMSFieldError".
+ * merged and the tetrahedra they flatten dropped. Output port 0: VTK_TETRA cells at the chosen
+ * level, all point data, cell data "FieldError" (the largest error of the removed vertices inside
+ * each tetrahedron), field data "Level", "NumberOfLevels", "NumberOfTetrahedra", "MaximumFieldError"
+ * and "RMSFieldError". Output port 1 (with ComputeIsosurface): the progressive isosurface of the
+ * contour values on that level (§4): marching tetrahedra kept up to date under each replayed split
+ * or collapse for its tetrahedra only, new isovalues found through an interval tree over the
+ * level's tetrahedra (§4.2); one point per crossed edge (watertight inside the mesh), point data
+ * named after Scalars holding the isovalue.
  */
 
 #ifndef vtkProgressiveTetrahedralMesh_h
@@ -29,6 +33,8 @@
 
 #include "vtkDiamondsModule.h" // For export macro
 #include "vtkUnstructuredGridAlgorithm.h"
+
+class vtkContourValues;
 
 class VTKDIAMONDS_EXPORT vtkProgressiveTetrahedralMesh : public vtkUnstructuredGridAlgorithm
 {
@@ -59,7 +65,8 @@ public:
   /**
    * Weights of the geometric, field and shape errors in the collapse cost (§3.3, Eq. 2); the
    * geometric error is over the squared bounding-box diagonal, the field error over the squared
-   * value range. Defaults 1, 1, 0.001.
+   * value range. Defaults 1, 1, 0: the shape measure is unbounded and any weight that makes it
+   * count outweighs the field error; flipped and flat tetrahedra are refused without it.
    */
   vtkSetMacro(GeometryWeight, double);
   vtkGetMacro(GeometryWeight, double);
@@ -81,6 +88,27 @@ public:
   vtkGetMacro(BoundaryTolerance, double);
   ///@}
 
+  ///@{
+  /**
+   * Extract the isosurfaces of the contour values on output port 1. Default off.
+   */
+  vtkSetMacro(ComputeIsosurface, vtkTypeBool);
+  vtkGetMacro(ComputeIsosurface, vtkTypeBool);
+  vtkBooleanMacro(ComputeIsosurface, vtkTypeBool);
+  ///@}
+
+  ///@{
+  /**
+   * The contour values (isovalues) of output port 1, as in vtkContourFilter.
+   */
+  void SetValue(int i, double value);
+  double GetValue(int i);
+  void SetNumberOfContours(int number);
+  vtkIdType GetNumberOfContours();
+  ///@}
+
+  vtkMTimeType GetMTime() override;
+
   /**
    * Number of times the filter has computed the collapse sequence (not when only TargetReduction
    * or MaximumFieldError changed).
@@ -92,6 +120,7 @@ protected:
   ~vtkProgressiveTetrahedralMesh() override;
 
   int FillInputPortInformation(int port, vtkInformation* info) override;
+  int FillOutputPortInformation(int port, vtkInformation* info) override;
   int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
 
   double TargetReduction;
@@ -102,6 +131,8 @@ protected:
   vtkTypeBool PreserveBoundary;
   double BoundaryTolerance;
   vtkIdType NumberOfSimplifications;
+  vtkTypeBool ComputeIsosurface;
+  vtkContourValues* ContourValues;
 
 private:
   vtkProgressiveTetrahedralMesh(const vtkProgressiveTetrahedralMesh&) = delete;

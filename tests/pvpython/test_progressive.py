@@ -2,7 +2,9 @@
 for TargetReduction is a manifold tetrahedralisation with positive volumes, every point array passes
 through, FieldError and the field data agree; changing TargetReduction or MaximumFieldError only
 replays the kept sequence (NumberOfSimplifications stays 1), changing a weight computes it again;
-other cells are tetrahedralised with a warning; the shared disk_out_ref when present.
+other cells are tetrahedralised with a warning; the progressive isosurface on output port 1 is
+watertight inside the mesh at every level asked, holds the isovalue and follows level changes without
+a new simplification; the shared disk_out_ref when present.
 
   PV_PLUGIN_PATH=$PWD/build/lib/paraview-5.11/plugins/Diamonds pvpython tests/pvpython/test_progressive.py
 """
@@ -80,6 +82,54 @@ prog.MaximumFieldError = 0
 prog.FieldWeight = 2.0
 dc.fetch(prog)
 dc.check(simplifications(prog) == 2, "a weight change computes the sequence again")
+
+def check_isosurface(poly, isovalue, bounds, label):
+    """Triangles only, every point on the isovalue, every edge in two triangles traversed in opposite
+    directions unless both ends lie on one face of the mesh's box (where the surface is open)."""
+    from paraview import servermanager  # noqa: F401
+
+    points = vtk_to_numpy(poly.GetPoints().GetData()).astype(np.float64)
+    conn = vtk_to_numpy(poly.GetPolys().GetConnectivityArray()).astype(np.int64)
+    offsets = vtk_to_numpy(poly.GetPolys().GetOffsetsArray())
+    dc.check(len(conn) > 0 and (np.diff(offsets) == 3).all(), f"{label}: {len(conn) // 3} triangles")
+    tris = conn.reshape(-1, 3)
+    values = vtk_to_numpy(poly.GetPointData().GetArray("RTData"))
+    dc.check(np.allclose(values, isovalue), f"{label}: every point at the isovalue")
+    directed = np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]])
+    undirected = np.sort(directed, axis=1)
+    keys, counts = np.unique(undirected, axis=0, return_counts=True)
+    eps = 1e-9 * np.linalg.norm(bounds[1::2] - bounds[0::2])
+    on_face = np.zeros(len(points), dtype=np.int64)
+    for axis in range(3):
+        on_face |= (np.abs(points[:, axis] - bounds[2 * axis]) < eps) << (2 * axis)
+        on_face |= (np.abs(points[:, axis] - bounds[2 * axis + 1]) < eps) << (2 * axis + 1)
+    open_edges = keys[counts == 1]
+    dc.check((counts <= 2).all() and ((on_face[open_edges[:, 0]] & on_face[open_edges[:, 1]]) != 0).all(),
+             f"{label}: watertight inside the mesh ({len(open_edges)} edges on the boundary)")
+    forward = {tuple(e) for e in directed}
+    dc.check(len(forward) == len(directed), f"{label}: consistently oriented")
+    return len(tris)
+
+
+def fetch_port(proxy, port):
+    from paraview import servermanager
+
+    proxy.UpdatePipeline()
+    return servermanager.Fetch(proxy, idx=port)
+
+
+bounds = np.array(source.GetBounds())
+prog.ComputeIsosurface = 1
+prog.Isosurfaces = [150.0]
+prog.TargetReduction = 0.9
+coarse = check_isosurface(fetch_port(prog, 1), 150.0, bounds, "isosurface 90 %")
+prog.TargetReduction = 0.2
+fine = check_isosurface(fetch_port(prog, 1), 150.0, bounds, "isosurface 20 %")
+dc.check(fine > coarse, f"the isosurface refines with the level ({coarse} -> {fine} triangles)")
+prog.Isosurfaces = [120.0, 200.0]
+two = fetch_port(prog, 1)
+dc.check(sorted(set(vtk_to_numpy(two.GetPointData().GetArray("RTData")))) == [120.0, 200.0], "two isovalues")
+dc.check(simplifications(prog) == 2, "isosurfaces and level changes only replayed")
 
 # Other cells: voxels from Threshold are tetrahedralised first, with a warning.
 voxels = simple.Threshold(Input=wavelet)

@@ -604,6 +604,15 @@ mod ffi {
         /// How many coincident input points were merged, and how many tetrahedra that flattened.
         fn merged_points(self: &Progressive) -> usize;
         fn dropped_tets(self: &Progressive) -> usize;
+        /// Extracts the isosurfaces of `isovalues` (none: no surface) on the current level, kept up
+        /// to date under every later `set_level` by the tetrahedra of each split only (Labsik §4.3);
+        /// new isovalues find their tetrahedra in the interval tree (§4.2).
+        fn set_isovalues(self: &mut Progressive, isovalues: &[f64]) -> Result<()>;
+        /// The isosurface of the current level: 3 coordinates per point, the isovalue of each point,
+        /// 3 point indices per triangle (oriented toward increasing values).
+        fn iso_points(self: &Progressive) -> &[f64];
+        fn iso_values(self: &Progressive) -> &[f64];
+        fn iso_triangles(self: &Progressive) -> &[u32];
     }
 }
 

@@ -7,19 +7,23 @@
 
 use std::pin::Pin;
 
+use diamonds::progressive::isosurface::ProgressiveIsosurface;
 use diamonds::progressive::{self, Params, ProgressiveMesh, Replay, TetInput};
-use diamonds::validate::check_manifold_tets;
 
 use crate::ffi::{self, ProgressiveSpec};
-use crate::{check_core, guard};
+use crate::guard;
 
-/// A progressive mesh, its cursor and the current level's arrays.
+/// A progressive mesh, its cursor, the progressive isosurface if any, and the current level's arrays.
 pub struct Progressive {
     pm: ProgressiveMesh,
     replay: Replay,
+    iso: Option<ProgressiveIsosurface>,
     point_ids: Vec<u32>,
     tets: Vec<u32>,
     errors: Vec<f64>,
+    iso_points: Vec<f64>,
+    iso_values: Vec<f64>,
+    iso_triangles: Vec<u32>,
 }
 
 /// Simplifies the input as far as it goes (see [`ffi::build_progressive`]).
@@ -104,28 +108,38 @@ pub fn build_with(
     let mut p = Progressive {
         pm,
         replay,
+        iso: None,
         point_ids: Vec::new(),
         tets: Vec::new(),
         errors: Vec::new(),
+        iso_points: Vec::new(),
+        iso_values: Vec::new(),
+        iso_triangles: Vec::new(),
     };
-    p.extract()?;
+    p.extract();
     Ok(p)
 }
 
 impl Progressive {
-    /// Reads the current level into the arrays C++ takes, checked.
-    fn extract(&mut self) -> Result<(), String> {
+    /// Reads the current level (every level is valid by construction: nothing is checked or
+    /// located again) and its isosurface into the arrays C++ takes.
+    fn extract(&mut self) {
         let mesh = self.replay.mesh(self.pm.points().len());
-        self.errors = self.replay.field_errors(&self.pm);
-        let points: Vec<[f64; 3]> = mesh
-            .point_ids
-            .iter()
-            .map(|&v| self.pm.points()[v as usize])
-            .collect();
-        check_core(check_manifold_tets(&points, &mesh.tets).map(|_| ()))?;
+        self.errors = self.replay.field_errors();
         self.tets = mesh.tets.iter().flatten().copied().collect();
         self.point_ids = mesh.point_ids;
-        Ok(())
+        self.extract_surface();
+    }
+
+    fn extract_surface(&mut self) {
+        let surface = self
+            .iso
+            .as_ref()
+            .map(|iso| iso.surface(&self.pm))
+            .unwrap_or_default();
+        self.iso_points = surface.points.iter().flatten().copied().collect();
+        self.iso_values = surface.values;
+        self.iso_triangles = surface.triangles.iter().flatten().copied().collect();
     }
 
     pub fn number_of_levels(&self) -> usize {
@@ -158,8 +172,11 @@ impl Progressive {
 
     pub fn set_level(&mut self, level: usize) -> Result<usize, String> {
         guard("replaying the progressive mesh", || {
-            let steps = self.replay.set_level(&self.pm, level);
-            self.extract()?;
+            let steps = match &mut self.iso {
+                Some(iso) => iso.set_level(&self.pm, &mut self.replay, level),
+                None => self.replay.set_level(&self.pm, level),
+            };
+            self.extract();
             Ok(steps)
         })
     }
@@ -194,6 +211,38 @@ impl Progressive {
 
     pub fn dropped_tets(&self) -> usize {
         self.pm.cleaning().1
+    }
+
+    pub fn set_isovalues(&mut self, isovalues: &[f64]) -> Result<(), String> {
+        guard("extracting the progressive isosurface", || {
+            if isovalues.is_empty() {
+                self.iso = None;
+            } else if let Some(iso) = &mut self.iso {
+                if iso.isovalues() != isovalues {
+                    iso.set_isovalues(&self.pm, &self.replay, isovalues, true)
+                        .map_err(|e| e.to_string())?;
+                }
+            } else {
+                self.iso = Some(
+                    ProgressiveIsosurface::new(&self.pm, &self.replay, isovalues)
+                        .map_err(|e| e.to_string())?,
+                );
+            }
+            self.extract_surface();
+            Ok(())
+        })
+    }
+
+    pub fn iso_points(&self) -> &[f64] {
+        &self.iso_points
+    }
+
+    pub fn iso_values(&self) -> &[f64] {
+        &self.iso_values
+    }
+
+    pub fn iso_triangles(&self) -> &[u32] {
+        &self.iso_triangles
     }
 }
 
@@ -256,7 +305,7 @@ mod tests {
         ProgressiveSpec {
             geometry_weight: 1.0,
             field_weight: 1.0,
-            shape_weight: 1e-3,
+            shape_weight: 0.0,
             preserve_boundary: true,
             boundary_tolerance: 1e-9,
         }
@@ -282,6 +331,21 @@ mod tests {
         let largest = p.level_field_errors().iter().copied().fold(0.0, f64::max);
         assert!((largest - p.level_max_field_error()).abs() < 1e-9);
         assert_eq!(p.level_for(0.0, 0.0).unwrap(), n);
+        // The isosurface follows the level: at the original level, marching tetrahedra on the
+        // input gives one point per crossed edge.
+        p.set_isovalues(&[2.5]).unwrap();
+        assert!(!p.iso_triangles().is_empty());
+        p.set_level(n).unwrap();
+        assert_eq!(p.iso_points().len(), 3 * p.iso_values().len());
+        assert!(p.iso_values().iter().all(|&v| v == 2.5));
+        assert!(!p.iso_triangles().is_empty());
+        assert!(p
+            .iso_triangles()
+            .iter()
+            .all(|&v| (v as usize) < p.iso_values().len()));
+        assert!(p.set_isovalues(&[f64::INFINITY]).is_err());
+        p.set_isovalues(&[]).unwrap();
+        assert!(p.iso_points().is_empty());
     }
 
     #[test]

@@ -746,10 +746,10 @@ enum ProgressiveCommand {
             allow_negative_numbers = true
         )]
         field_weight: f64,
-        /// Weight of the shape error.
+        /// Weight of the shape error (condition number; 0 = only the validity tests keep shapes).
         #[arg(
             long,
-            default_value_t = 1e-3,
+            default_value_t = 0.0,
             value_name = "W",
             allow_negative_numbers = true
         )]

@@ -2,17 +2,20 @@
 //! volume: every decoded level is a manifold tetrahedralisation equal to the library's replay of that
 //! level, point data passes through, any prefix of the stream decodes to a valid level, bad input is
 //! a clean error. And the shared blunt fin (`../shared/data/tets`): simplified by 90 %, its base mesh
-//! checked independently (manifold, field error at every removed vertex within the reported one).
+//! checked independently (manifold, field error at every removed vertex within the reported one,
+//! boundary surface within the boundary tolerance of the original's).
 //! Without `../shared` that test passes after printing "skipped", except under `CI=true` or
 //! `DIAMONDS_REQUIRE_SHARED=1`, where it fails.
 
 mod common;
 
 use common::{diamonds, field_value, s, shared_file, TempDir};
+use diamonds::geometry::{point_triangle_distance, triangle_samples, triangle_tree};
 use diamonds::progressive::{simplify, Params, Replay, TetInput};
 use diamonds::validate::check_manifold_tets;
 use diamonds_cli::read::{read_unstructured, tetrahedra, Unstructured};
 use diamonds_cli::Values;
+use glam::DVec3;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -352,6 +355,7 @@ fn check_shared(path: &Path, array: &str) -> String {
     )
     .unwrap();
     let seconds = start.elapsed().as_secs_f64();
+    let tolerance = 1e-3 * diagonal(&grid.points);
     let mut replay = Replay::new(&pm);
     replay.set_level(&pm, 0);
     let base = replay.mesh(grid.points.len());
@@ -399,8 +403,54 @@ fn check_shared(path: &Path, array: &str) -> String {
         outside * 10 < inside,
         "{outside} removed vertices outside the mesh, {inside} inside"
     );
+    // The boundary: every vertex of the original's boundary surface within the boundary tolerance
+    // of the base mesh's (the bound the reduction keeps), and the base mesh's boundary, sampled at
+    // the tolerance, near the original's (measured: nothing bounds how far a face cuts a corner).
+    let surface = |points: &[[f64; 3]], tets: &[[u32; 4]]| -> Vec<[DVec3; 3]> {
+        let mut faces: Vec<([u32; 3], [u32; 3])> = tets
+            .iter()
+            .flat_map(|t| {
+                [[0, 1, 2], [0, 1, 3], [0, 2, 3], [1, 2, 3]].map(|f| {
+                    let c = f.map(|k| t[k]);
+                    let mut key = c;
+                    key.sort_unstable();
+                    (key, c)
+                })
+            })
+            .collect();
+        faces.sort_unstable();
+        faces
+            .chunk_by(|a, b| a.0 == b.0)
+            .filter(|g| g.len() == 1)
+            .map(|g| g[0].1.map(|v| DVec3::from_array(points[v as usize])))
+            .collect()
+    };
+    let original = surface(&grid.points, &tets);
+    let simplified = surface(&points, &base.tets);
+    let tree = triangle_tree(simplified.iter().copied());
+    let to_simplified = original
+        .iter()
+        .flatten()
+        .map(|&p| {
+            let t = tree.nearest_neighbor(&p.to_array()).unwrap();
+            point_triangle_distance(p, t.corners)
+        })
+        .fold(0.0, f64::max);
+    assert!(
+        to_simplified <= tolerance * (1.0 + 1e-9),
+        "an original boundary vertex is {to_simplified} from the simplified boundary (tolerance {tolerance})"
+    );
+    let tree = triangle_tree(original.iter().copied());
+    let to_original = simplified
+        .iter()
+        .flat_map(|&t| triangle_samples(t, tolerance))
+        .map(|p| {
+            let t = tree.nearest_neighbor(&p.to_array()).unwrap();
+            point_triangle_distance(p, t.corners)
+        })
+        .fold(0.0, f64::max);
     format!(
-        "{}: {} -> {} tets in {seconds:.1} s, max field error {:.4e} (measured {max:.4e} at {inside} vertices inside), RMS {:.4e}",
+        "{}: {} -> {} tets in {seconds:.1} s, max field error {:.4e} (measured {max:.4e} at {inside} vertices inside), RMS {:.4e}; boundary Hausdorff {to_simplified:.3e} (original to simplified, tolerance {tolerance:.3e}) / {to_original:.3e} (back)",
         path.display(),
         tets.len(),
         reported.tets,

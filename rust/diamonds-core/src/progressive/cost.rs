@@ -50,20 +50,9 @@ impl Quadric {
 }
 
 /// Six times the signed volume of the tetrahedron `x` (§3.2, Eq. 1).
-#[inline]
+#[cfg(test)]
 pub(super) fn volume6(x: &[DVec3; 4]) -> f64 {
     (x[1] - x[0]).dot((x[2] - x[0]).cross(x[3] - x[0]))
-}
-
-/// Is the tetrahedron `x` positively oriented and not degenerate: six times its volume above a
-/// millionth of a millionth of the cube of its longest edge?
-pub(super) fn is_proper(x: &[DVec3; 4]) -> bool {
-    let longest = (0..4)
-        .flat_map(|a| (a + 1..4).map(move |b| (a, b)))
-        .map(|(a, b)| x[a].distance_squared(x[b]))
-        .fold(0.0, f64::max)
-        .sqrt();
-    volume6(x) > 1e-12 * longest.powi(3)
 }
 
 /// The shape measure `M(T) = κ(S) - 3` of §3.3, `S = A W^{-1}` the map from the equilateral
@@ -93,11 +82,43 @@ fn equilateral_inverse() -> DMat3 {
     w.inverse()
 }
 
+/// A tetrahedron prepared for barycentric coordinates by Cramer's rule: `x[0]`, the cross products
+/// of its edge vectors `e1 = x1 - x0`, `e2`, `e3` over six times its signed volume, so that each
+/// point costs three dot products (`λ_k = (p - x0)·c_k / (e1·(e2×e3))`).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Frame {
+    origin: DVec3,
+    c: [DVec3; 3],
+}
+
+impl Frame {
+    /// The frame of `x` and six times its signed volume (`None` if that is 0).
+    #[inline]
+    pub(super) fn of(x: &[DVec3; 4]) -> Option<(Self, f64)> {
+        let (e1, e2, e3) = (x[1] - x[0], x[2] - x[0], x[3] - x[0]);
+        let c1 = e2.cross(e3);
+        let v = e1.dot(c1);
+        if v == 0.0 || !v.is_finite() {
+            return None;
+        }
+        let r = 1.0 / v;
+        let c = [c1 * r, e3.cross(e1) * r, e1.cross(e2) * r];
+        Some((Self { origin: x[0], c }, v))
+    }
+
+    /// Barycentric coordinates of `p`.
+    #[inline]
+    pub(super) fn barycentric(&self, p: DVec3) -> [f64; 4] {
+        let d = p - self.origin;
+        let l = [d.dot(self.c[0]), d.dot(self.c[1]), d.dot(self.c[2])];
+        [1.0 - l[0] - l[1] - l[2], l[0], l[1], l[2]]
+    }
+}
+
 /// Barycentric coordinates of `p` in the tetrahedron `x` (any orientation, not degenerate).
+#[cfg(test)]
 pub(super) fn barycentric(x: &[DVec3; 4], p: DVec3) -> [f64; 4] {
-    let m = DMat3::from_cols(x[1] - x[0], x[2] - x[0], x[3] - x[0]);
-    let l = m.inverse() * (p - x[0]);
-    [1.0 - l.x - l.y - l.z, l.x, l.y, l.z]
+    Frame::of(x).map_or([0.25; 4], |(f, _)| f.barycentric(p))
 }
 
 /// The value at barycentric coordinates `b` of the linear interpolant of `f`. Coordinates outside

@@ -8,7 +8,7 @@
 /// the edge are removed (`removed`, the split's T_new) and the others around `p_i` have `p_i`
 /// replaced by `p_j` (`moved`, the split's T_moved). Tetrahedra are named by their index among the
 /// original ones; a removed tetrahedron keeps its corners while it is away.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct VertexSplit {
     /// `p_i`, the vertex the collapse removes and the split brings back (original point index).
     pub vertex: u32,
@@ -18,6 +18,11 @@ pub struct VertexSplit {
     pub removed: Vec<u32>,
     /// The other tetrahedra around `p_i` (T_moved of the split: around `p_j` between the levels).
     pub moved: Vec<u32>,
+    /// The field error of each tetrahedron of `removed` then `moved` before the collapse (the
+    /// largest error of the removed vertices inside it), and of each of `moved` after it: a replay
+    /// keeps every tetrahedron's `FieldError` without locating a vertex.
+    pub errors_before: Vec<f64>,
+    pub errors_after: Vec<f64>,
 }
 
 /// The field error of a level at the original vertices it does not have, and the boundary distance of
@@ -52,6 +57,9 @@ pub struct ProgressiveMesh {
     pub(super) merged_points: Vec<u32>,
     /// Input tetrahedra dropped because merging made them flat.
     pub(super) dropped_tets: usize,
+    /// The field error of each original tetrahedron at the original level (non-zero only around
+    /// merged points).
+    pub(super) original_tet_errors: Vec<f64>,
 }
 
 /// One level as a compact mesh: the original indices of its points (ascending) and its tetrahedra
@@ -129,6 +137,8 @@ impl ProgressiveMesh {
 pub struct Replay {
     tets: Vec<[u32; 4]>,
     alive: Vec<bool>,
+    /// The field error of each tetrahedron at the current level (as it was last when not in it).
+    errors: Vec<f64>,
     level: usize,
     live: usize,
 }
@@ -146,6 +156,7 @@ impl Replay {
         Self {
             tets: pm.tets.clone(),
             alive: vec![true; pm.tets.len()],
+            errors: pm.original_tet_errors.clone(),
             level: pm.levels(),
             live: pm.tets.len(),
         }
@@ -164,6 +175,17 @@ impl Replay {
     /// Moves to `level` (clamped to `pm.levels()`) by collapses or splits; returns how many were
     /// replayed.
     pub fn set_level(&mut self, pm: &ProgressiveMesh, level: usize) -> usize {
+        self.set_level_with(pm, level, &mut |_, _| {})
+    }
+
+    /// [`Replay::set_level`], calling `on_step` after each collapse or split with the cursor and
+    /// the split (whose `removed` and `moved` tetrahedra are the only ones that changed).
+    pub fn set_level_with(
+        &mut self,
+        pm: &ProgressiveMesh,
+        level: usize,
+        on_step: &mut dyn FnMut(&Replay, &VertexSplit),
+    ) -> usize {
         let level = level.min(pm.levels());
         let steps = self.level.abs_diff(level);
         while self.level > level {
@@ -171,11 +193,13 @@ impl Replay {
             for &t in &s.removed {
                 self.alive[t as usize] = false;
             }
-            for &t in &s.moved {
+            for (&t, &e) in s.moved.iter().zip(&s.errors_after) {
                 substitute(&mut self.tets[t as usize], s.vertex, s.target);
+                self.errors[t as usize] = e;
             }
             self.live -= s.removed.len();
             self.level -= 1;
+            on_step(self, s);
         }
         while self.level < level {
             let s = pm.split(self.level);
@@ -185,10 +209,32 @@ impl Replay {
             for &t in &s.moved {
                 substitute(&mut self.tets[t as usize], s.target, s.vertex);
             }
+            for (&t, &e) in s.removed.iter().chain(&s.moved).zip(&s.errors_before) {
+                self.errors[t as usize] = e;
+            }
             self.live += s.removed.len();
             self.level += 1;
+            on_step(self, s);
         }
         steps
+    }
+
+    /// Is the original tetrahedron `t` in the current level?
+    pub fn is_live(&self, t: u32) -> bool {
+        self.alive[t as usize]
+    }
+
+    /// For each tetrahedron of the current level (in [`Replay::live_tets`] order), the largest
+    /// `|f(v) - L(v)|` over the removed original vertices `v` inside it (0 if none; a vertex outside
+    /// the mesh, where the boundary moved, counts for the tetrahedron it is nearest the inside of),
+    /// as the reduction placed them.
+    pub fn field_errors(&self) -> Vec<f64> {
+        self.errors
+            .iter()
+            .zip(&self.alive)
+            .filter(|(_, &a)| a)
+            .map(|(&e, _)| e)
+            .collect()
     }
 
     /// The corners of the original tetrahedron `t` at the current level (as it was last when it is

@@ -18,7 +18,7 @@
 //! move only along them, and every removed boundary vertex is kept within the boundary tolerance of
 //! the boundary faces (carried like the field's vertices, by the tetrahedron of the nearest face).
 
-use super::cost::{barycentric, interpolate, is_proper, shape_measure, Quadric};
+use super::cost::{interpolate, shape_measure, Frame, Quadric};
 use super::record::{LevelError, ProgressiveMesh, VertexSplit};
 use super::validity::{feature_edges_at, is_feature_edge, link_condition, Link};
 use super::{Params, TetInput};
@@ -127,6 +127,66 @@ struct Exact {
     max_field: f64,
 }
 
+/// A tetrahedron around the vertex `i` that a collapse `hec(i → j)` moves, prepared for any `j`:
+/// six times the moved tetrahedron's volume is `(p_j - o)·n` (it is affine in `p_j`), so a flipped
+/// or flat result is refused after one dot product.
+struct Around {
+    corners: [u32; 4],
+    /// The slot of `i` in `corners`.
+    slot: usize,
+    x: [DVec3; 4],
+    o: DVec3,
+    n: DVec3,
+    /// The squared length of the longest edge not at `i`.
+    fixed2: f64,
+}
+
+impl Around {
+    fn new(corners: [u32; 4], i: u32, pos: &[DVec3]) -> Self {
+        let slot = corners
+            .iter()
+            .position(|&v| v == i)
+            .expect("i is a corner of its star");
+        let x = corners.map(|v| pos[v as usize]);
+        let [a, b, c] = [1, 2, 3].map(|d| x[(slot + d) % 4]);
+        let n = (b - a).cross(c - a);
+        // The sign that gives the tetrahedron's own (positive) volume at p_i.
+        let n = if (x[slot] - a).dot(n) < 0.0 { -n } else { n };
+        let fixed2 = a
+            .distance_squared(b)
+            .max(a.distance_squared(c))
+            .max(b.distance_squared(c));
+        Self {
+            corners,
+            slot,
+            x,
+            o: a,
+            n,
+            fixed2,
+        }
+    }
+
+    /// With `i` moved to `pj`: the barycentric coordinates of `pi` and the corners' positions, or
+    /// `None` unless the tetrahedron is proper: positively oriented, six times its volume above a
+    /// millionth of a millionth of the cube of its longest edge (§3.2, no flipped or degenerate
+    /// tetrahedra).
+    #[inline]
+    fn moved_to(&self, pj: DVec3, pi: DVec3) -> Option<([f64; 4], [DVec3; 4])> {
+        let v = (pj - self.o).dot(self.n);
+        let mut l2 = self.fixed2;
+        for d in 1..4 {
+            l2 = l2.max(pj.distance_squared(self.x[(self.slot + d) % 4]));
+        }
+        let proper = v > 1e-12 * l2 * l2.sqrt();
+        if !proper {
+            return None;
+        }
+        let mut x = self.x;
+        x[self.slot] = pj;
+        Some((Frame::of(&x)?.0.barycentric(pi), x))
+    }
+}
+
 /// The state of the reduction.
 struct Simplifier<'a> {
     params: &'a Params,
@@ -157,6 +217,9 @@ struct Simplifier<'a> {
     /// Vertices whose star changed since their offer: re-evaluated when they come out of the queue
     /// (lazy updates: a vertex's star usually changes several times before its turn).
     dirty: Vec<bool>,
+    /// Collapses made so far, and for each vertex how many had been made when its offer was.
+    made: usize,
+    offered_at: Vec<usize>,
     live: usize,
     removed_count: usize,
 }
@@ -179,6 +242,7 @@ pub fn simplify(
     let goal = start.saturating_sub(params.target_tets).max(1);
     let mut collapses = Vec::new();
     let mut errors = vec![s.level_error()];
+    let original_tet_errors = s.tet_max.clone();
     let all: Vec<u32> = (0..s.pos.len() as u32).collect();
     s.offer_all(&all);
     let mut popped = 0usize;
@@ -195,7 +259,8 @@ pub fn simplify(
         let Some(c) = s.offer[i as usize].take() else {
             continue;
         };
-        if !s.still_valid(i, c.target) {
+        // An offer made since the last collapse is still valid: nothing changed.
+        if s.offered_at[i as usize] != s.made && !s.still_valid(i, c.target) {
             s.offer_all(&[i]);
             continue;
         }
@@ -229,6 +294,7 @@ pub fn simplify(
         scalars: input.scalars.to_vec(),
         merged_points: cleaned.merged.iter().map(|&(v, _)| v).collect(),
         dropped_tets: cleaned.dropped,
+        original_tet_errors,
     })
 }
 
@@ -306,6 +372,8 @@ impl<'a> Simplifier<'a> {
             queue: PriorityQueue::with_capacity(n),
             offer: vec![None; n],
             dirty: vec![false; n],
+            made: 0,
+            offered_at: vec![usize::MAX; n],
             live: m,
             removed_count: 0,
             pos,
@@ -366,6 +434,7 @@ impl<'a> Simplifier<'a> {
         };
         for (&v, o) in verts.iter().zip(offers) {
             self.offer[v as usize] = o;
+            self.offered_at[v as usize] = self.made;
             match o {
                 Some(c) => {
                     self.queue.push(v, Cost(c.cost));
@@ -392,6 +461,12 @@ impl<'a> Simplifier<'a> {
             .fold(0.0, f64::max);
         let pi = self.pos[i as usize];
         let fi = self.f[i as usize];
+        let shaped = self.params.shape_weight > 0.0;
+        // Each tetrahedron around `i`, ready for any `j`.
+        let ring: Vec<Around> = star
+            .iter()
+            .map(|&t| Around::new(self.tets[t as usize], i, &self.pos))
+            .collect();
         let mut candidates = Vec::with_capacity(link.verts().len());
         for &j in link.verts() {
             // §3.2: a boundary vertex moves only along a boundary edge.
@@ -408,23 +483,25 @@ impl<'a> Simplifier<'a> {
             let mut proper = true;
             let (mut shape, mut n) = (0.0, 0usize);
             let (mut inside, mut value) = (f64::NEG_INFINITY, 0.0);
-            for &t in star {
-                if self.tets[t as usize].contains(&j) {
+            let pj = self.pos[j as usize];
+            for r in &ring {
+                if r.corners.contains(&j) {
                     continue;
                 }
-                let c = self.moved_corners(t, i, j);
-                let x = self.points(c);
-                if !is_proper(&x) {
+                let Some((b, x)) = r.moved_to(pj, pi) else {
                     proper = false;
                     break;
+                };
+                if shaped {
+                    shape += shape_measure(&x);
                 }
-                shape += shape_measure(&x);
                 n += 1;
-                let b = barycentric(&x, pi);
                 let m = b.iter().copied().fold(f64::INFINITY, f64::min);
                 if m > inside {
                     inside = m;
-                    value = interpolate(b, c.map(|v| self.f[v as usize]));
+                    let mut f = r.corners.map(|v| self.f[v as usize]);
+                    f[r.slot] = self.f[j as usize];
+                    value = interpolate(b, f);
                 }
             }
             if !proper || n == 0 {
@@ -473,13 +550,14 @@ impl<'a> Simplifier<'a> {
         }
     }
 
-    /// Places `v` in the best of the tetrahedra `new` (corners after the collapse): the one it is
-    /// inside, else the one it is least outside; returns the index in `new` and the field error.
-    fn place_field(&self, v: u32, new: &[(u32, [u32; 4])]) -> (u32, f64) {
+    /// Places `v` in the best of the tetrahedra `new` (corners after the collapse, each with its
+    /// [`Frame`]): the one it is inside, else the one it is least outside; returns the index in `new`
+    /// and the field error.
+    fn place_field(&self, v: u32, new: &[(u32, [u32; 4], Frame)]) -> (u32, f64) {
         let p = self.pos[v as usize];
         let mut best = (f64::NEG_INFINITY, 0, 0.0);
-        for &(t, c) in new {
-            let b = barycentric(&self.points(c), p);
+        for &(t, c, frame) in new {
+            let b = frame.barycentric(p);
             let m = b.iter().copied().fold(f64::INFINITY, f64::min);
             if m > best.0 {
                 let value = interpolate(b, c.map(|k| self.f[k as usize]));
@@ -504,20 +582,30 @@ impl<'a> Simplifier<'a> {
         if new.is_empty() {
             return None;
         }
-        let carried = std::iter::once(i).chain(
-            star.iter()
-                .flat_map(|&t| self.field_bins[t as usize].iter().copied()),
-        );
-        let field: Vec<Placed> = carried
-            .map(|v| {
-                let (tet, error) = self.place_field(v, &new);
-                Placed {
-                    vertex: v,
-                    tet,
-                    error,
-                }
-            })
+        let framed: Vec<(u32, [u32; 4], Frame)> = new
+            .iter()
+            .map(|&(t, c)| Some((t, c, Frame::of(&self.points(c))?.0)))
+            .collect::<Option<_>>()?;
+        let carried: Vec<u32> = std::iter::once(i)
+            .chain(
+                star.iter()
+                    .flat_map(|&t| self.field_bins[t as usize].iter().copied()),
+            )
             .collect();
+        let place = |&v: &u32| {
+            let (tet, error) = self.place_field(v, &framed);
+            Placed {
+                vertex: v,
+                tet,
+                error,
+            }
+        };
+        // Coarse levels carry hundreds of removed vertices per star: place them in parallel.
+        let field: Vec<Placed> = if carried.len() * framed.len() > 1 << 14 {
+            carried.par_iter().map(place).collect()
+        } else {
+            carried.iter().map(place).collect()
+        };
         let max_field = field.iter().map(|p| p.error).fold(0.0, f64::max);
         let mut boundary = Vec::new();
         if self.params.preserve_boundary {
@@ -607,6 +695,11 @@ impl<'a> Simplifier<'a> {
             boundary,
             ..
         } = exact;
+        let errors_before = removed
+            .iter()
+            .chain(&moved)
+            .map(|&t| self.tet_max[t as usize])
+            .collect();
         for &t in &removed {
             self.alive[t as usize] = false;
             for v in self.tets[t as usize] {
@@ -626,6 +719,7 @@ impl<'a> Simplifier<'a> {
             self.tet_max[t as usize] = 0.0;
         }
         self.star[i as usize].clear();
+        self.made += 1;
         self.removed[i as usize] = true;
         self.removed_count += 1;
         let qi = self.quadric[i as usize];
@@ -672,6 +766,8 @@ impl<'a> Simplifier<'a> {
         VertexSplit {
             vertex: i,
             target: j,
+            errors_after: moved.iter().map(|&t| self.tet_max[t as usize]).collect(),
+            errors_before,
             removed,
             moved,
         }

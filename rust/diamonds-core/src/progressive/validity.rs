@@ -2,7 +2,7 @@
 //! vertex moves only along a boundary edge), the link condition (the mesh stays a manifold
 //! tetrahedralisation: Dey et al.'s `Lk(i) ∩ Lk(j) = Lk(ij)`, with the boundary closed by a vertex at
 //! infinity) and feature edges. Flipped or degenerate tetrahedra are tested where the cost is
-//! computed ([`super::cost::is_proper`]).
+//! computed (`Around::moved_to` in [`super::simplify`]).
 
 use glam::DVec3;
 
