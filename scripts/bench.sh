@@ -15,6 +15,7 @@ cargo build --release --locked -p diamonds-cli   # the material benchmark genera
 pvpython scripts/bench.py "$@"
 pvpython scripts/bench_isosurface.py
 pvpython scripts/bench_isovalue_change.py
+pvpython scripts/bench_interval.py
 # Issue 11's goals compare with fast-simplification (PyPI), a benchmark dependency only: it lives in a
 # virtual environment of Debian's python3 (python3-venv), created once.
 if ! dpkg-query -W -f='${Status}' python3-venv 2>/dev/null | grep -q "install ok installed"; then
