@@ -55,19 +55,16 @@ public:
   // The mesh query does not read the samples again: no need to keep them.
   vtkDiamonds::HierarchyCache Cache{ vtkDiamonds::HierarchyCache::Use::Tetrahedra };
 
-  // On more than one rank: this rank's part of the hierarchy and what it was built from.
+  // On more than one rank: this rank's part of the hierarchy and what it was built from (this
+  // rank's input, every rank's extent and the whole grid).
   struct PieceKey
   {
-    const void* Array = nullptr;
-    vtkMTimeType ArrayMTime = 0;
-    int DataType = 0;
-    std::array<std::int64_t, 6> Whole{};
+    vtkDiamonds::InputKey Input;
     std::vector<std::int64_t> Extents;
-    std::array<double, 6> Geometry{};
+    std::array<double, 9> Whole{};
     bool operator==(const PieceKey& o) const
     {
-      return Array == o.Array && ArrayMTime == o.ArrayMTime && DataType == o.DataType &&
-        Whole == o.Whole && Extents == o.Extents && Geometry == o.Geometry;
+      return Input == o.Input && Extents == o.Extents && Whole == o.Whole;
     }
   };
   std::optional<rust::Box<bridge::PieceHierarchy>> Piece;
@@ -306,13 +303,14 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
 
   // ---- This rank's part of the hierarchy: rebuilt on every rank when any rank's input changed.
   vtkInternals::PieceKey key;
-  key.Array = array;
-  key.ArrayMTime = array ? array->GetMTime() : 0;
-  key.DataType = static_cast<int>(type);
-  std::copy(whole, whole + 6, key.Whole.begin());
+  key.Input = vtkDiamonds::InputKey(input, array);
   key.Extents.assign(pieces.Extents().begin(), pieces.Extents().end());
-  std::copy(origin, origin + 3, key.Geometry.begin());
-  std::copy(spacing, spacing + 3, key.Geometry.begin() + 3);
+  for (int axis = 0; axis < 3; ++axis)
+  {
+    key.Whole[axis] = static_cast<double>(pieces.Whole().dims[axis]);
+    key.Whole[3 + axis] = pieces.Whole().origin[axis];
+    key.Whole[6 + axis] = pieces.Whole().spacing[axis];
+  }
   const bool stale = !this->Internals->Piece || !(this->Internals->PieceBuilt == key);
   if (pieces.Sum(stale ? 1 : 0) > 0)
   {
@@ -329,7 +327,7 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
       {
         arrays.push_back(samples);
       }
-      ok = pieces.Fetch({ needed.data(), needed.size() }, arrays, input, fetched, error);
+      ok = pieces.Fetch({ needed.data(), needed.size() }, arrays, fetched, error);
     }
     catch (const rust::Error& e)
     {
@@ -447,27 +445,31 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
   this->UpdateProgress(0.85);
   const rust::Slice<const std::size_t> ids = (*mesh)->point_ids();
   const vtkIdType numPoints = static_cast<vtkIdType>(ids.size());
-  const vtkIdType nx = static_cast<vtkIdType>(pieces.Whole().dims[0]);
-  const vtkIdType ny = static_cast<vtkIdType>(pieces.Whole().dims[1]);
-  std::vector<vtkIdType> localId(ids.size(), -1);
+  // Which of them this rank holds (with their ids in its input), and which others hold.
+  std::vector<vtkIdType> localSlots, localIds, remoteSlots;
   std::vector<std::uint64_t> remote;
-  std::vector<vtkIdType> remoteSlot(ids.size(), -1);
-  for (std::size_t k = 0; k < ids.size(); ++k)
+  try
   {
-    const auto g = static_cast<vtkIdType>(ids[k]);
-    int ijk[3] = { static_cast<int>(g % nx + whole[0]), static_cast<int>(g / nx % ny + whole[2]),
-      static_cast<int>(g / (nx * ny) + whole[4]) };
-    const bool here = ijk[0] >= extent[0] && ijk[0] <= extent[1] && ijk[1] >= extent[2] &&
-      ijk[1] <= extent[3] && ijk[2] >= extent[4] && ijk[2] <= extent[5];
-    if (here)
+    const rust::Vec<std::int64_t> local =
+      bridge::piece_local_ids(pieces.Whole(), pieces.OwnExtent(), ids);
+    for (std::size_t k = 0; k < local.size(); ++k)
     {
-      localId[k] = input->ComputePointId(ijk);
+      if (local[k] >= 0)
+      {
+        localSlots.push_back(static_cast<vtkIdType>(k));
+        localIds.push_back(static_cast<vtkIdType>(local[k]));
+      }
+      else
+      {
+        remoteSlots.push_back(static_cast<vtkIdType>(k));
+        remote.push_back(ids[k]);
+      }
     }
-    else
-    {
-      remoteSlot[k] = static_cast<vtkIdType>(remote.size());
-      remote.push_back(ids[k]);
-    }
+  }
+  catch (const rust::Error& e)
+  {
+    error = e.what();
+    ok = false;
   }
   vtkPointData* inPD = input->GetPointData();
   std::vector<vtkDataArray*> pointArrays;
@@ -479,7 +481,7 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
     }
   }
   std::vector<vtkSmartPointer<vtkDataArray>> fetched;
-  ok = pieces.Fetch({ remote.data(), remote.size() }, pointArrays, input, fetched, error);
+  ok = pieces.Fetch({ remote.data(), remote.size() }, pointArrays, fetched, error) && ok;
   if (!ok)
   {
     vtkErrorMacro(<< "Adaptive Tetrahedra could not fetch point data from other ranks: " << error);
@@ -500,17 +502,9 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
     out->SetName(pointArrays[a]->GetName());
     out->SetNumberOfComponents(pointArrays[a]->GetNumberOfComponents());
     out->SetNumberOfTuples(numPoints);
-    for (vtkIdType k = 0; k < numPoints; ++k)
-    {
-      if (localId[k] >= 0)
-      {
-        out->SetTuple(k, localId[k], pointArrays[a]);
-      }
-      else
-      {
-        out->SetTuple(k, remoteSlot[k], fetched[a]);
-      }
-    }
+    out->InsertTuples(vtkDiamonds::IdList(localSlots), vtkDiamonds::IdList(localIds), pointArrays[a]);
+    out->InsertTuples(vtkDiamonds::IdList(remoteSlots),
+      vtkDiamonds::IdList(0, static_cast<vtkIdType>(remote.size())), fetched[a]);
     const int attribute = inPD->IsArrayAnAttribute(static_cast<int>(a));
     outPD->AddArray(out);
     if (attribute >= 0 && attribute != vtkDataSetAttributes::GLOBALIDS)

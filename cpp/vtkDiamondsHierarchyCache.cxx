@@ -126,7 +126,19 @@ HierarchyCache::HierarchyCache(Use use)
 {
 }
 
-bool HierarchyCache::Key::operator==(const Key& o) const
+InputKey::InputKey(vtkImageData* input, vtkDataArray* array)
+  : Array(array)
+  , ArrayMTime(array ? array->GetMTime() : 0)
+  , Name(array && array->GetName() ? array->GetName() : "")
+  , DataType(array ? array->GetDataType() : 0)
+{
+  const ImageGeometry image(input);
+  std::copy(image.Extent, image.Extent + 6, this->Extent.begin());
+  std::copy(image.Origin, image.Origin + 3, this->Origin.begin());
+  std::copy(image.Spacing, image.Spacing + 3, this->Spacing.begin());
+}
+
+bool InputKey::operator==(const InputKey& o) const
 {
   return this->Array == o.Array && this->ArrayMTime == o.ArrayMTime && this->Name == o.Name &&
     this->DataType == o.DataType && this->Extent == o.Extent && this->Origin == o.Origin &&
@@ -154,7 +166,7 @@ void HierarchyCache::Release()
 {
   this->IsoState.reset();
   this->Hierarchy.reset();
-  this->Built = Key{};
+  this->Built = InputKey{};
   this->Samples = nullptr;
 }
 
@@ -169,14 +181,7 @@ HierarchyCache::Status HierarchyCache::Update(vtkAlgorithm* filter, const Filter
   const double* spacing = image.Spacing;
   const std::string name = array->GetName() ? array->GetName() : "";
 
-  Key key;
-  key.Array = array;
-  key.ArrayMTime = array->GetMTime();
-  key.Name = name;
-  key.DataType = array->GetDataType();
-  std::copy(extent, extent + 6, key.Extent.begin());
-  std::copy(origin, origin + 3, key.Origin.begin());
-  std::copy(spacing, spacing + 3, key.Spacing.begin());
+  const InputKey key(input, array);
   if (this->Hierarchy && this->Built == key)
   {
     return Status::Kept;

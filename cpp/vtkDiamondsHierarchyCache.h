@@ -34,6 +34,25 @@ struct FilterText;
 bool CoreSamples(vtkAlgorithm* filter, const FilterText& text, vtkDataArray* array,
   vtkSmartPointer<vtkDataArray>& samples, bridge::ScalarType& type);
 
+// What a hierarchy is built from: an array on an image's geometry. The array pointer is an
+// identity only (never dereferenced); together with the array's MTime it detects a new or modified
+// array.
+struct InputKey
+{
+  const void* Array = nullptr;
+  vtkMTimeType ArrayMTime = 0;
+  std::string Name;
+  int DataType = 0;
+  std::array<int, 6> Extent{};
+  std::array<double, 3> Origin{};
+  std::array<double, 3> Spacing{};
+
+  InputKey() = default;
+  // `array` (null for none) on `input`.
+  InputKey(vtkImageData* input, vtkDataArray* array);
+  bool operator==(const InputKey& o) const;
+};
+
 class HierarchyCache
 {
 public:
@@ -76,25 +95,10 @@ public:
   void Release();
 
 private:
-  // What the cached hierarchy was built from. The array pointer is an identity only (never
-  // dereferenced); together with the array's MTime it detects a new or modified array.
-  struct Key
-  {
-    const void* Array = nullptr;
-    vtkMTimeType ArrayMTime = 0;
-    std::string Name;
-    int DataType = 0;
-    std::array<int, 6> Extent{};
-    std::array<double, 3> Origin{};
-    std::array<double, 3> Spacing{};
-
-    bool operator==(const Key& o) const;
-  };
-
   Use Purpose;
   std::optional<rust::Box<bridge::Hierarchy>> Hierarchy;
   std::optional<rust::Box<bridge::IsoState>> IsoState;
-  Key Built;
+  InputKey Built;
   vtkSmartPointer<vtkDataArray> Samples;
   bridge::ScalarType SampleType = bridge::ScalarType::F64;
 };

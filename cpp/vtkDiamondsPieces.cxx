@@ -2,7 +2,7 @@
 
 #include "vtkCommunicator.h"
 #include "vtkDataArray.h"
-#include "vtkImageData.h"
+#include "vtkIdList.h"
 #include "vtkMultiProcessController.h"
 #include "vtkNew.h"
 #include "vtkTypeInt64Array.h"
@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <numeric>
 
 namespace vtkDiamonds
 {
@@ -41,6 +42,23 @@ vtkSmartPointer<vtkDataArray> SameKind(vtkDataArray* like, vtkIdType n)
   return out;
 }
 } // namespace
+
+//------------------------------------------------------------------------------
+vtkSmartPointer<vtkIdList> IdList(const std::vector<vtkIdType>& ids)
+{
+  auto list = vtkSmartPointer<vtkIdList>::New();
+  list->SetNumberOfIds(static_cast<vtkIdType>(ids.size()));
+  std::copy(ids.begin(), ids.end(), list->GetPointer(0));
+  return list;
+}
+
+vtkSmartPointer<vtkIdList> IdList(vtkIdType first, vtkIdType count)
+{
+  auto list = vtkSmartPointer<vtkIdList>::New();
+  list->SetNumberOfIds(count);
+  std::iota(list->GetPointer(0), list->GetPointer(0) + count, first);
+  return list;
+}
 
 //------------------------------------------------------------------------------
 vtkMultiProcessController* Pieces::DistributedController()
@@ -134,7 +152,7 @@ std::vector<double> Pieces::PerRank(double value)
 
 //------------------------------------------------------------------------------
 bool Pieces::Fetch(rust::Slice<const std::uint64_t> ids, const std::vector<vtkDataArray*>& arrays,
-  vtkImageData* input, std::vector<vtkSmartPointer<vtkDataArray>>& fetched, std::string& error)
+  std::vector<vtkSmartPointer<vtkDataArray>>& fetched, std::string& error)
 {
   Clock clock{ this->Seconds };
   fetched.clear();
@@ -211,37 +229,40 @@ bool Pieces::Fetch(rust::Slice<const std::uint64_t> ids, const std::vector<vtkDa
   }
 
   // Responses: one message per array of the responding rank.
-  const int* extent = input->GetExtent();
-  const vtkIdType wholeNx = static_cast<vtkIdType>(this->WholeGrid.dims[0]);
-  const vtkIdType wholeNy = static_cast<vtkIdType>(this->WholeGrid.dims[1]);
   for (int q = 0; q < this->Ranks; ++q)
   {
     if (q == this->Me)
     {
       continue;
     }
-    // What q asked for, from this rank's arrays.
+    // What q asked for, from this rank's arrays (an answer of no tuples, refused by q, when this
+    // rank does not hold every point asked for).
     std::vector<vtkSmartPointer<vtkDataArray>> answers;
-    vtkIdType local = 0;
+    vtkNew<vtkIdList> held;
+    if (!asked[q].empty())
+    {
+      try
+      {
+        const rust::Vec<std::int64_t> local = bridge::piece_local_ids(
+          this->WholeGrid, this->OwnExtent(), { asked[q].data(), asked[q].size() });
+        if (std::find(local.begin(), local.end(), -1) == local.end())
+        {
+          held->SetNumberOfIds(static_cast<vtkIdType>(local.size()));
+          std::copy(local.begin(), local.end(), held->GetPointer(0));
+        }
+      }
+      catch (const rust::Error& e)
+      {
+        error = e.what();
+        ok = false;
+      }
+    }
     for (vtkDataArray* a : arrays)
     {
-      auto answer = SameKind(a, static_cast<vtkIdType>(asked[q].size()));
-      for (std::size_t i = 0; i < asked[q].size(); ++i)
+      auto answer = SameKind(a, held->GetNumberOfIds());
+      if (held->GetNumberOfIds() > 0)
       {
-        const auto g = static_cast<vtkIdType>(asked[q][i]);
-        int ijk[3] = { static_cast<int>(g % wholeNx + this->WholeLo[0]),
-          static_cast<int>(g / wholeNx % wholeNy + this->WholeLo[1]),
-          static_cast<int>(g / (wholeNx * wholeNy) + this->WholeLo[2]) };
-        local = ijk[0] < extent[0] || ijk[0] > extent[1] || ijk[1] < extent[2] ||
-            ijk[1] > extent[3] || ijk[2] < extent[4] || ijk[2] > extent[5]
-          ? -1
-          : input->ComputePointId(ijk);
-        if (local < 0)
-        {
-          answer->SetNumberOfTuples(0); // not held here: an answer of no tuples, refused by q
-          break;
-        }
-        answer->SetTuple(static_cast<vtkIdType>(i), local, a);
+        a->GetTuples(held, answer);
       }
       answers.push_back(answer);
     }
@@ -297,10 +318,7 @@ bool Pieces::Fetch(rust::Slice<const std::uint64_t> ids, const std::vector<vtkDa
         ok = false;
         continue;
       }
-      for (std::size_t i = 0; i < slots[q].size(); ++i)
-      {
-        fetched[m]->SetTuple(slots[q][i], static_cast<vtkIdType>(i), incoming);
-      }
+      fetched[m]->InsertTuples(IdList(slots[q]), IdList(0, incoming->GetNumberOfTuples()), incoming);
     }
   }
   return ok;

@@ -19,12 +19,15 @@
 #include <vector>
 
 class vtkDataArray;
-class vtkImageData;
-class vtkInformationVector;
+class vtkIdList;
 class vtkMultiProcessController;
 
 namespace vtkDiamonds
 {
+// The ids of a vtkIdList: `ids`, or `count` consecutive ids from `first`.
+vtkSmartPointer<vtkIdList> IdList(const std::vector<vtkIdType>& ids);
+vtkSmartPointer<vtkIdList> IdList(vtkIdType first, vtkIdType count);
+
 class Pieces
 {
 public:
@@ -55,12 +58,12 @@ public:
   // Collective: one value per rank.
   std::vector<double> PerRank(double value);
 
-  // Collective: the tuples of `arrays` (point arrays over this rank's extent of `input`) at the
+  // Collective: the tuples of `arrays` (point arrays over this rank's extent) at the
   // whole-grid point indices `ids` (none of them in this rank's extent), fetched from the first
   // rank holding each. `fetched` receives one array per input array (same type, components and
   // name) with a tuple per id. Returns false with `error` set when a point is held by no rank.
   bool Fetch(rust::Slice<const std::uint64_t> ids, const std::vector<vtkDataArray*>& arrays,
-    vtkImageData* input, std::vector<vtkSmartPointer<vtkDataArray>>& fetched, std::string& error);
+    std::vector<vtkSmartPointer<vtkDataArray>>& fetched, std::string& error);
 
   // Bytes this rank sent so far (point-to-point and collective contributions), and seconds spent
   // in the steps above (exchanging and waiting for the other ranks).

@@ -82,7 +82,8 @@ for t in tests/pvpython/test_*.py; do
   step "pvpython $t" pvpython "$t"
 done
 for t in tests/pvpython/mpi_pieces.py tests/pvpython/mpi_isosurface.py tests/pvpython/mpi_material.py; do
-  step "mpiexec -n 2 pvbatch $t" mpiexec --allow-run-as-root --oversubscribe -n 2 pvbatch "$t"
+  step "mpiexec -n 2 pvbatch $t" env DIAMONDS_MPI_LARGE=1 \
+    mpiexec --allow-run-as-root --oversubscribe -n 2 pvbatch "$t"
 done
 step "mpiexec -n 3 pvbatch tests/pvpython/mpi_pieces.py" env DIAMONDS_EXPECTED_RANKS=3 \
   mpiexec --allow-run-as-root --oversubscribe -n 3 pvbatch tests/pvpython/mpi_pieces.py

@@ -273,6 +273,9 @@ mod ffi {
         /// For each whole-grid point index of `ids`, the first piece of `pieces` (six extent
         /// values each) that holds it, or the number of pieces when none does.
         fn piece_point_owners(whole: &GridSpec, pieces: &[i64], ids: &[u64]) -> Result<Vec<u32>>;
+        /// For each whole-grid point index of `ids`, its index (x fastest) among the points of the
+        /// piece of extent `owned`, or -1 when that piece does not hold it.
+        fn piece_local_ids(whole: &GridSpec, owned: &[i64], ids: &[u64]) -> Result<Vec<i64>>;
         /// Builds the piece's part of the hierarchy from its own samples (`local`, its extent, x
         /// fastest) and `fetched`, the samples at `piece_needed_points` in that order (same type).
         fn build_piece_hierarchy(
@@ -635,7 +638,8 @@ pub use material::{
     MaterialMesh, MaterialModel, OutputArrays, PolygonMesh,
 };
 pub use piece::{
-    build_piece_hierarchy, piece_needed_points, piece_point_owners, PieceHierarchy, PieceRefinement,
+    build_piece_hierarchy, piece_local_ids, piece_needed_points, piece_point_owners,
+    PieceHierarchy, PieceRefinement,
 };
 
 /// Opaque handle on a [`diamonds::Hierarchy`] for C++, with an identity that tells the

@@ -12,6 +12,7 @@
 use std::pin::Pin;
 
 use diamonds::hierarchy::piece::{self, PieceLayout, PointBox};
+use diamonds::lattice::Lattice;
 use diamonds::validate::check_mesh_arrays;
 use glam::IVec3;
 
@@ -73,7 +74,16 @@ pub fn piece_point_owners(
         if let Some(bad) = ids.iter().find(|&&i| i >= n) {
             return Err(format!("point {bad} lies outside the grid of {n} points"));
         }
-        Ok(piece::point_owners(whole.dims, &boxes(pieces)?, ids))
+        let lattice = Lattice::new(whole.dims).map_err(|e| e.to_string())?;
+        Ok(piece::point_owners(&lattice, &boxes(pieces)?, ids))
+    })
+}
+
+/// For each whole-grid index of `ids`, its index among the points of the piece `owned` (x
+/// fastest), or −1 when the piece does not hold it.
+pub fn piece_local_ids(whole: &GridSpec, owned: &[i64], ids: &[u64]) -> Result<Vec<i64>, String> {
+    guard("finding a piece's own points", || {
+        Ok(layout(whole, owned)?.local_ids(ids))
     })
 }
 

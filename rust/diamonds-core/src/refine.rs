@@ -118,27 +118,6 @@ impl SplitSet {
         &self.lattice
     }
 
-    /// The diamonds centred in the domain that are split here and not in `before` (a subset of
-    /// this set on the same lattice), in index order.
-    pub(crate) fn added_since(&self, before: &SplitSet) -> Vec<Diamond> {
-        self.bits
-            .par_iter()
-            .zip(&before.bits)
-            .enumerate()
-            .flat_map_iter(|(w, (&now, &was))| {
-                let mut added = now & !was;
-                std::iter::from_fn(move || {
-                    (added != 0).then(|| {
-                        let b = added.trailing_zeros() as usize;
-                        added &= added - 1;
-                        w * 64 + b
-                    })
-                })
-            })
-            .map(|i| Diamond::new(self.lattice.point(i)))
-            .collect()
-    }
-
     /// The bitset over the domain's points (bit `i` of word `i / 64` for the diamond centred on the
     /// point of [`Lattice::index`] `i`).
     pub(crate) fn domain_bits(&self) -> &[u64] {
@@ -336,7 +315,9 @@ impl<'h> Refiner<'h> {
             .copied()
             .filter(|&d| !r.split.contains(d) && error(d) > tolerance)
             .collect();
-        grow_concurrent(r.split, first, tolerance, &error)
+        let mut split = r.split;
+        grow_concurrent(&mut split, first, tolerance, &error)?;
+        Ok(split)
     }
 
     /// A refiner of `grid` at `base`, set up for `query` (queue, tolerance, region).
@@ -630,13 +611,14 @@ impl<'h> Refiner<'h> {
 /// The growth of [`Refiner::run_concurrent`], from any closed split set `split`: splits the
 /// diamonds of `first` (split whatever their error), their unsplit parents not outside the domain,
 /// and every child of a diamond split here whose `error` exceeds `tolerance`, in parallel rounds.
-/// The result is the least such closed superset of `split`, whatever the order of the splits.
+/// `split` becomes the least such closed superset of itself, whatever the order of the splits (left
+/// as it was on an error). Returns the diamonds split here, in index order.
 pub(crate) fn grow_concurrent(
-    mut split: SplitSet,
+    split: &mut SplitSet,
     first: Vec<Diamond>,
     tolerance: f64,
     error: &(dyn Fn(Diamond) -> f64 + Sync),
-) -> Result<SplitSet> {
+) -> Result<Vec<Diamond>> {
     let lattice = split.lattice;
     let bits: Vec<AtomicU64> = split.bits.iter().map(|&w| AtomicU64::new(w)).collect();
     let outside = &split.outside;
@@ -649,41 +631,50 @@ pub(crate) fn grow_concurrent(
         }
     };
     let mut round = first;
+    let mut added = Vec::new();
     while !round.is_empty() {
-        let next: Result<Vec<Diamond>> = round
-            .par_iter()
-            .try_fold(Vec::new, |mut next, &d| {
-                if !lattice.in_domain(d.center) {
-                    return Err(Error::Parameter(format!(
+        // Per thread: the diamonds to try next round, and the diamonds split in this one.
+        let next: Result<(Vec<Diamond>, Vec<Diamond>)> =
+            round
+                .par_iter()
+                .try_fold(
+                    Default::default,
+                    |(mut next, mut here): (Vec<_>, Vec<_>), &d| {
+                        if !lattice.in_domain(d.center) {
+                            return Err(Error::Parameter(format!(
                         "internal error: diamond {:?} outside the domain is not in the base mesh",
                         d.center
                     )));
-                }
-                let i = lattice.index(d.center);
-                let bit = 1u64 << (i % 64);
-                if bits[i / 64].fetch_or(bit, AtomicOrdering::Relaxed) & bit != 0 {
-                    return Ok(next); // split by another diamond of this round
-                }
-                next.extend(
-                    d.parents(&lattice)
-                        .into_iter()
-                        .filter(|&p| !is_split(p) && p.placement(&lattice) != Placement::Outside),
-                );
-                next.extend(
-                    d.children(&lattice)
-                        .into_iter()
-                        .filter(|&c| !is_split(c) && error(c) > tolerance),
-                );
-                Ok(next)
-            })
-            .try_reduce(Vec::new, |mut a, mut b| {
-                a.append(&mut b);
-                Ok(a)
-            });
-        round = next?;
+                        }
+                        let i = lattice.index(d.center);
+                        let bit = 1u64 << (i % 64);
+                        if bits[i / 64].fetch_or(bit, AtomicOrdering::Relaxed) & bit != 0 {
+                            return Ok((next, here)); // split by another diamond of this round
+                        }
+                        here.push(d);
+                        next.extend(d.parents(&lattice).into_iter().filter(|&p| {
+                            !is_split(p) && p.placement(&lattice) != Placement::Outside
+                        }));
+                        next.extend(
+                            d.children(&lattice)
+                                .into_iter()
+                                .filter(|&c| !is_split(c) && error(c) > tolerance),
+                        );
+                        Ok((next, here))
+                    },
+                )
+                .try_reduce(Default::default, |(mut a, mut x), (mut b, mut y)| {
+                    a.append(&mut b);
+                    x.append(&mut y);
+                    Ok((a, x))
+                });
+        let (next, mut here) = next?;
+        added.append(&mut here);
+        round = next;
     }
     split.bits = bits.into_iter().map(AtomicU64::into_inner).collect();
-    Ok(split)
+    added.sort_unstable_by_key(|d| lattice.index(d.center));
+    Ok(added)
 }
 
 /// Checks the tolerance of `query` and returns its region of interest in lattice coordinates of

@@ -221,6 +221,20 @@ impl PieceLayout {
         out
     }
 
+    /// For each whole-grid index of `ids`, the index (x fastest) of that point among the points this
+    /// piece holds, or −1 when it holds no such point: where a pass-through array finds the point.
+    pub fn local_ids(&self, ids: &[u64]) -> Vec<i64> {
+        ids.par_iter()
+            .map(|&i| {
+                let p = (i < self.grid.len() as u64).then(|| self.lattice.point(i as usize));
+                match p {
+                    Some(p) if self.owned.contains(p) => self.owned.index(p) as i64,
+                    _ => -1,
+                }
+            })
+            .collect()
+    }
+
     /// The reach of `d`: its bounding box grown by its scale, which holds the tetrahedra of all its
     /// children (the pieces that judge them must know that `d` is split).
     #[inline]
@@ -248,16 +262,11 @@ fn coarse_stride(lattice: &Lattice) -> i32 {
 }
 
 /// Which piece owns each point: the first of `pieces` (closed point boxes) that holds it, or
-/// `pieces.len()` when none does. `ids` are whole-grid indices of a grid of `dims` points.
-pub fn point_owners(dims: [usize; 3], pieces: &[PointBox], ids: &[u64]) -> Vec<u32> {
-    let (nx, ny) = (dims[0] as u64, dims[1] as u64);
+/// `pieces.len()` when none does. `ids` are whole-grid indices of the points of `lattice`.
+pub fn point_owners(lattice: &Lattice, pieces: &[PointBox], ids: &[u64]) -> Vec<u32> {
     ids.par_iter()
         .map(|&i| {
-            let p = IVec3::new(
-                (i % nx) as i32,
-                (i / nx % ny) as i32,
-                (i / (nx * ny)) as i32,
-            );
+            let p = lattice.point(i as usize);
             pieces
                 .iter()
                 .position(|b| b.contains(p))
@@ -349,13 +358,25 @@ impl PieceHierarchy {
             });
         }
         let (owned, padded) = (layout.owned, layout.padded);
+        let missing = |i: usize| Error::Parameter(format!("sample {i} was not received"));
         let fetched_at = |i: usize| -> Result<T> {
             needed
                 .binary_search(&(i as u64))
                 .map(|k| fetched[k])
-                .map_err(|_| Error::Parameter(format!("sample {i} was not received")))
+                .map_err(|_| missing(i))
         };
-        // The padded box's samples: own ones, then the halo received.
+        // The padded box's samples: own ones, then the halo received. The loop visits the halo in
+        // ascending whole-grid index, as `needed` lists it (with coarse points between): one walk.
+        let mut next = 0;
+        let mut halo_at = |i: usize| -> Result<T> {
+            while next < needed.len() && needed[next] < i as u64 {
+                next += 1;
+            }
+            match needed.get(next) {
+                Some(&n) if n == i as u64 => Ok(fetched[next]),
+                _ => Err(missing(i)),
+            }
+        };
         let mut samples = memory::with_capacity(padded.len(), "the piece's samples")?;
         for z in padded.lo.z..=padded.hi.z {
             for y in padded.lo.y..=padded.hi.y {
@@ -364,7 +385,7 @@ impl PieceHierarchy {
                     samples.push(if owned.contains(p) {
                         local[owned.index(p)]
                     } else {
-                        fetched_at(layout.lattice.index(p))?
+                        halo_at(layout.lattice.index(p))?
                     });
                 }
             }
@@ -536,7 +557,7 @@ impl PieceHierarchy {
                 .candidates
                 .par_iter()
                 .copied()
-                .filter(|&d| !r.split.contains(d) && self.judged_error(&r, d) > r.tolerance)
+                .filter(|&d| !r.split.contains(d) && self.judged_error(r.roi, d) > r.tolerance)
                 .collect();
             self.grow(&mut r, first, &[])?;
         }
@@ -545,10 +566,8 @@ impl PieceHierarchy {
 
     /// The error of `d` as this piece judges it: its error when it meets the piece and lies in the
     /// region of interest, else 0 (other pieces judge it).
-    fn judged_error(&self, r: &PieceRefinement, d: Diamond) -> f64 {
-        let outside = r
-            .roi
-            .is_some_and(|roi| outside_roi(roi, &self.layout.lattice, d));
+    fn judged_error(&self, roi: Option<(DVec3, DVec3)>, d: Diamond) -> f64 {
+        let outside = roi.is_some_and(|roi| outside_roi(roi, &self.layout.lattice, d));
         if outside || !self.layout.meets(d) {
             0.0
         } else {
@@ -565,15 +584,14 @@ impl PieceHierarchy {
         first: Vec<Diamond>,
         received: &[Diamond],
     ) -> Result<()> {
-        let judge = |d: Diamond| self.judged_error(r, d);
-        let grown = grow_concurrent(r.split.clone(), first, r.tolerance, &judge)?;
-        let mut added = grown.added_since(&r.split);
+        let (tolerance, roi) = (r.tolerance, r.roi);
+        let judge = |d: Diamond| self.judged_error(roi, d);
+        let mut added = grow_concurrent(&mut r.split, first, tolerance, &judge)?;
         if !received.is_empty() {
             let received: FxHashSet<Diamond> = received.iter().copied().collect();
             added.retain(|d| !received.contains(d));
         }
         r.outbox.extend(added);
-        r.split = grown;
         Ok(())
     }
 
@@ -968,8 +986,37 @@ mod tests {
         let boxes = pieces(dims, [2, 1, 1]);
         let grid = Grid::new(dims);
         let ids = [0u64, 4, 5, grid.index(8, 4, 4) as u64];
-        assert_eq!(point_owners(dims, &boxes, &ids), vec![0, 0, 1, 1]);
-        assert_eq!(point_owners(dims, &boxes[1..], &[0]), vec![1]);
+        let lattice = Lattice::new(dims).unwrap();
+        assert_eq!(point_owners(&lattice, &boxes, &ids), vec![0, 0, 1, 1]);
+        assert_eq!(point_owners(&lattice, &boxes[1..], &[0]), vec![1]);
+    }
+
+    #[test]
+    fn local_ids_index_the_held_points_only() {
+        let dims = [9, 5, 5];
+        let grid = Grid::new(dims);
+        let held = PointBox {
+            lo: IVec3::new(4, 1, 2),
+            hi: IVec3::new(8, 3, 4),
+        };
+        let layout = PieceLayout::new(grid, held).unwrap();
+        let ids: Vec<u64> = (0..grid.len() as u64 + 2).collect();
+        let local = layout.local_ids(&ids);
+        // Every held point once, numbered x fastest over the held box; the others (and indices
+        // past the grid) −1.
+        let mut expected = vec![-1i64; ids.len()];
+        let mut next = 0;
+        for z in 2..=4 {
+            for y in 1..=3 {
+                for x in 4..=8 {
+                    expected[grid.index(x, y, z)] = next;
+                    next += 1;
+                }
+            }
+        }
+        assert_eq!(local, expected);
+        let nothing = PieceLayout::new(grid, PointBox::EMPTY).unwrap();
+        assert!(nothing.local_ids(&ids).iter().all(|&i| i == -1));
     }
 
     #[test]
