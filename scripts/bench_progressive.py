@@ -70,7 +70,7 @@ def metrics(original, result, array, result_array):
         cid, sub, d2 = reference(0), reference(0), reference(0.0)
         locator.FindClosestPoint(original.GetPoint(int(k)), closest, cell, cid, sub, d2)
         pc, w = [0.0] * 3, [0.0] * 4
-        cell.EvaluatePosition(closest, None, reference(0), pc, reference(0.0), w)
+        cell.EvaluatePosition(closest, [0.0, 0.0, 0.0], reference(0), pc, reference(0.0), w)
         ids = [cell.GetPointId(i) for i in range(4)]
         got[k] = sum(w[i] * values[ids[i]] for i in range(4))
     err = np.abs(got - want)[used]
@@ -283,9 +283,9 @@ def main():
         probed = probe(path, array, isovalue)
         print(name, probed, flush=True)
         cases.append((name, runs, probed))
-    lines = report(cases)
-    print("\n".join(lines))
-    replace_section(lines)
+        # Written after each case: the largest takes minutes.
+        replace_section(report(cases))
+    print("\n".join(report(cases)))
 
 
 if __name__ == "__main__":
