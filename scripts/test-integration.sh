@@ -13,7 +13,8 @@
 #    with cargo).
 # 3. tests/pvpython/mpi_pieces.py, mpi_isosurface.py and mpi_material.py under `mpiexec -n 2 pvbatch`,
 #    and mpi_pieces.py again under `mpiexec -n 3 pvbatch` and as a pvpython client of `mpiexec -n 2 pvserver`.
-# 4. scripts/demo.py under `xvfb-run -a pvbatch` (the only step that renders), into build/test-demo.
+# 4. scripts/demo.py under `xvfb-run -a pvbatch`, into build/test-demo, and
+#    tests/pvpython/render_visibility_sort.py under `xvfb-run -a pvpython` (the steps that render).
 # Ends with the line "N passed, M failed"; exits non-zero if any step failed.
 set -uo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -90,6 +91,8 @@ step "mpiexec -n 3 pvbatch tests/pvpython/mpi_pieces.py" env DIAMONDS_EXPECTED_R
 step "pvpython tests/pvpython/mpi_pieces.py --client-server (mpiexec -n 2 pvserver)" \
   timeout 1200 pvpython tests/pvpython/mpi_pieces.py --client-server
 step "xvfb-run -a pvbatch scripts/demo.py" demo_render
+step "xvfb-run -a pvpython tests/pvpython/render_visibility_sort.py" \
+  xvfb-run -a -s "-screen 0 1024x768x24" pvpython tests/pvpython/render_visibility_sort.py
 
 echo
 for s in "${failed_steps[@]}"; do

@@ -336,3 +336,46 @@ def diamonds_binary():
     if os.path.exists(cargo):
         subprocess.run([cargo, "build", "--release", "--locked", "-p", "diamonds-cli"], cwd=root, check=True)
     return binary
+
+
+def order_violations(points, tets, eye):
+    """Checks that the cells of `tets` (M,4 point indices into `points`, N,3) are in back-to-front
+    order for an eye at `eye`, face by face and independently of how the order was made: for every
+    face shared by two tetrahedra, the one whose fourth vertex lies on the other side of the face's
+    plane than the eye (the far one) must come first. Faces whose plane holds the eye (within
+    rounding) constrain nothing. Returns (violations, faces checked, faces on the eye's plane);
+    reverse a front-to-back order before checking it."""
+    tets = np.asarray(tets, dtype=np.int64)
+    m = len(tets)
+    if m == 0:
+        return 0, 0, 0
+    skip = [(1, 2, 3, 0), (0, 2, 3, 1), (0, 1, 3, 2), (0, 1, 2, 3)]
+    faces = np.concatenate([tets[:, list(s[:3])] for s in skip])
+    apex = np.concatenate([tets[:, s[3]] for s in skip])
+    owner = np.tile(np.arange(m, dtype=np.int64), 4)
+    faces = np.sort(faces, axis=1)
+    order = np.lexsort((faces[:, 2], faces[:, 1], faces[:, 0]))
+    f = faces[order]
+    same = (f[1:] == f[:-1]).all(axis=1)
+    first = order[:-1][same]
+    second = order[1:][same]
+    a, b, c = (points[faces[first, k]] for k in range(3))
+    u, v = b - a, c - a
+    normal = np.cross(u, v)
+
+    def side(x):
+        w = x - a
+        det = np.einsum("ij,ij->i", normal, w)
+        bound = 1e-12 * np.linalg.norm(u, axis=1) * np.linalg.norm(v, axis=1) * np.linalg.norm(w, axis=1)
+        return np.where(np.abs(det) <= bound, 0, np.sign(det))
+
+    eye_side = side(np.broadcast_to(np.asarray(eye, dtype=np.float64), a.shape))
+    apex_first = side(points[apex[first]])
+    t_first, t_second = owner[first], owner[second]
+    # The far tetrahedron: the one whose apex is across the plane from the eye.
+    first_is_far = apex_first == -eye_side
+    far = np.where(first_is_far, t_first, t_second)
+    near = np.where(first_is_far, t_second, t_first)
+    constrained = eye_side != 0
+    violations = int((far[constrained] > near[constrained]).sum())
+    return violations, int(constrained.sum()), int((~constrained).sum())

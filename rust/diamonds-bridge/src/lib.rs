@@ -216,6 +216,34 @@ mod ffi {
         normal: [f64; 3],
     }
 
+    /// One view-dependent query (see `diamonds::view::ViewQuery`): a perspective camera as
+    /// vtkCamera describes it, the screen-space tolerance and the budget.
+    struct ViewSpec {
+        position: [f64; 3],
+        focal_point: [f64; 3],
+        view_up: [f64; 3],
+        /// Vertical view angle in degrees.
+        view_angle: f64,
+        /// Viewport width and height in pixels.
+        viewport: [u32; 2],
+        /// Gregorski's screen-space error in pixels, ≥ 0.
+        pixel_tolerance: f64,
+        /// Maximum number of tetrahedra, 0 = no limit.
+        max_tetrahedra: usize,
+    }
+
+    /// What one view update did (see `diamonds::view::FrameStats`).
+    struct ViewFrame {
+        splits: usize,
+        merges: usize,
+        tets: usize,
+        /// The pixel tolerance reached (above the asked one when the budget bound).
+        tolerance: f64,
+        /// Diamonds whose view error was evaluated.
+        evaluated: usize,
+        seconds: f64,
+    }
+
     unsafe extern "C++" {
         include!("diamonds-bridge/include/progress.h");
 
@@ -617,12 +645,57 @@ mod ffi {
         fn iso_values(self: &Progressive) -> &[f64];
         fn iso_triangles(self: &Progressive) -> &[u32];
     }
+
+    // ---- View-dependent meshes and their visibility order (Gregorski §4, Marchesin §6), see
+    // `view.rs`.
+    extern "Rust" {
+        /// The split and merge queues' state and the view-error bounds of one hierarchy, kept
+        /// between executions.
+        type ViewMesh;
+        /// The BSP tree of cells rebuilt from their bisection paths.
+        type PathOrder;
+
+        /// The base mesh's state and the view-error bounds (2 bytes per point) of `hierarchy`.
+        fn new_view_mesh(hierarchy: &Hierarchy) -> Result<Box<ViewMesh>>;
+        /// Whether the state belongs to `hierarchy`.
+        fn belongs_to(self: &ViewMesh, hierarchy: &Hierarchy) -> bool;
+        /// Splits and merges from the current mesh to the mesh of `spec`'s view; unchanged on error.
+        fn update_view(
+            self: &mut ViewMesh,
+            hierarchy: &Hierarchy,
+            spec: &ViewSpec,
+        ) -> Result<ViewFrame>;
+        /// The current mesh, counted, written with `write_tets_*` like a query's.
+        fn view_plan(self: &ViewMesh, hierarchy: &Hierarchy) -> Result<Box<MeshPlan>>;
+        /// The grid the hierarchy was built for.
+        fn grid_spec(self: &Hierarchy) -> GridSpec;
+        /// Writes each tetrahedron's bisection path into `paths` (one per tetrahedron of `plan`)
+        /// and returns the visibility order from `eye` (3 coordinates): `sort` 1 back to front, 2
+        /// front to back, 0 none (empty).
+        fn order_plan(
+            self: &Hierarchy,
+            plan: &MeshPlan,
+            sort: u8,
+            eye: &[f64],
+            paths: &mut [u64],
+        ) -> Result<Vec<u32>>;
+        /// The tree of cells whose bisection paths are `paths`, refined on `grid`.
+        fn new_path_order(grid: &GridSpec, paths: &[u64]) -> Result<Box<PathOrder>>;
+        fn number_of_cells(self: &PathOrder) -> usize;
+        /// Writes the cell ids in visibility order from `eye` (3 coordinates) into `cells`.
+        fn order_cells(
+            self: &PathOrder,
+            eye: &[f64],
+            front_to_back: bool,
+            cells: &mut [i64],
+        ) -> Result<()>;
+    }
 }
 
 pub use ffi::{
     ArrayAssociation, ArraySelection, ArrayType, GridSpec, InputArrayInfo, IntervalSpec, IsoSpec,
     MaterialQuerySpec, OutputArrayInfo, PlaneSpec, PointFrame, ProgressiveSpec, QuerySpec,
-    ScalarType,
+    ScalarType, ViewFrame, ViewSpec,
 };
 
 pub mod progressive;
@@ -637,10 +710,12 @@ pub use material::{
     grid_from_coordinates, new_material_builder, select_material_arrays, MaterialBuilder,
     MaterialMesh, MaterialModel, OutputArrays, PolygonMesh,
 };
+pub mod view;
 pub use piece::{
     build_piece_hierarchy, piece_local_ids, piece_needed_points, piece_point_owners,
     PieceHierarchy, PieceRefinement,
 };
+pub use view::{new_path_order, new_view_mesh, PathOrder, ViewMesh};
 
 /// Opaque handle on a [`diamonds::Hierarchy`] for C++, with an identity that tells the
 /// [`IsoState`]s of different hierarchies apart.

@@ -15,7 +15,7 @@
 //! node, about 8 bytes per tetrahedron), so that every new eye position costs one traversal.
 
 use crate::diamond::{bisect, Diamond};
-use crate::lattice::{Placement, Tet};
+use crate::lattice::{Lattice, Placement, Tet};
 use crate::mesh::{pieces, MeshPlan};
 use crate::volume::Grid;
 use crate::{Error, Result, TetMesh};
@@ -36,6 +36,24 @@ pub enum Direction {
 const EMPTY: u32 = u32::MAX;
 /// Marks a leaf; the low bits are its index in the mesh.
 const LEAF: u32 = 1 << 31;
+
+/// Bisection paths ([`BspTree::paths`]): the root tetrahedron's index from this bit, then one bit
+/// per bisection, then the depth in the low bits.
+const ROOT_SHIFT: u32 = 61;
+const DEPTH_BITS: u32 = 6;
+/// Bisections a path can hold (bits 6 to 60).
+const PATH_BITS: u32 = ROOT_SHIFT - DEPTH_BITS;
+/// The depth at which [`BspTree::from_paths`] cuts the tree into the subtrees an order fills in
+/// parallel (at most 6 × 2^9 of them).
+const SUBTREE_DEPTH: u32 = 9;
+
+fn path_root(path: u64) -> usize {
+    (path >> ROOT_SHIFT) as usize
+}
+
+fn path_depth(path: u64) -> u32 {
+    (path & ((1 << DEPTH_BITS) - 1)) as u32
+}
 
 /// The binary space partition of a mesh's tetrahedra by their bisection planes (Marchesin §6).
 #[derive(Clone, Debug)]
@@ -129,6 +147,133 @@ impl BspTree {
             subtrees,
             tets: plan.tets(),
         })
+    }
+
+    /// The tree of a mesh given by the [bisection paths](BspTree::paths) of its tetrahedra, the
+    /// `i`-th path that of the tetrahedron of index `i`, on `grid` (the grid of the hierarchy the
+    /// mesh was refined on). Any subset of a conforming mesh's tetrahedra can be ordered this way
+    /// (e.g. one rank's piece, or cells left by a threshold): branches without tetrahedra are
+    /// empty. Paths that are not valid (a root index past the sixth, bits past the depth) or that
+    /// overlap (twice the same tetrahedron, or one inside another) are refused. Sorts the paths
+    /// (`O(n log n)`) and builds the tree in one pass over them.
+    pub fn from_paths(grid: &Grid, paths: &[u64]) -> Result<Self> {
+        let lattice = Lattice::new(grid.dims)?;
+        let root_tets = Diamond::root(&lattice).tets(&lattice);
+        if paths.len() >= LEAF as usize {
+            return Err(Error::Parameter(
+                "the mesh is too large for a visibility order (2^31 tetrahedra)".into(),
+            ));
+        }
+        for (i, &p) in paths.iter().enumerate() {
+            let depth = path_depth(p);
+            let bits_below = PATH_BITS - depth.min(PATH_BITS);
+            let stray = (p >> DEPTH_BITS) & ((1u64 << bits_below) - 1);
+            if depth > PATH_BITS || path_root(p) >= root_tets.len() || stray != 0 {
+                return Err(Error::Parameter(format!(
+                    "cell {i} has no valid bisection path ({p:#x}) for a grid of {:?} points",
+                    grid.dims
+                )));
+            }
+        }
+        let mut sorted: Vec<(u64, u32)> = paths
+            .iter()
+            .enumerate()
+            .map(|(i, &p)| (p, i as u32))
+            .collect();
+        sorted.par_sort_unstable();
+        let mut nodes = Vec::with_capacity(2 * paths.len() + 64);
+        let mut roots = Vec::with_capacity(root_tets.len());
+        let mut subtrees = FxHashMap::default();
+        // (range of `sorted`, depth, the inner node whose first child it is)
+        let mut stack: Vec<(std::ops::Range<usize>, u32, Option<usize>)> = Vec::new();
+        let mut lo = 0;
+        for (r, t) in root_tets.iter().enumerate() {
+            let hi = lo + sorted[lo..].partition_point(|&(p, _)| path_root(p) == r);
+            roots.push((*t, nodes.len() as u32));
+            stack.push((lo..hi, 0, None));
+            lo = hi;
+            while let Some((range, depth, parent)) = stack.pop() {
+                let at = nodes.len();
+                if at >= LEAF as usize {
+                    return Err(Error::Parameter(
+                        "the mesh is too large for a visibility order (2^31 tree nodes)".into(),
+                    ));
+                }
+                if let Some(p) = parent {
+                    nodes[p] = at as u32;
+                }
+                let count = range.len();
+                if count > 0 && (depth == SUBTREE_DEPTH || depth < SUBTREE_DEPTH && count == 1) {
+                    subtrees.insert(at as u32, count);
+                }
+                let Some(&(first, index)) = sorted.get(range.start).filter(|_| count > 0) else {
+                    nodes.push(EMPTY);
+                    continue;
+                };
+                if path_depth(first) == depth {
+                    if count > 1 {
+                        return Err(Error::Parameter(format!(
+                            "cells {index} and {} overlap (bisection paths {first:#x} and {:#x})",
+                            sorted[range.start + 1].1,
+                            sorted[range.start + 1].0
+                        )));
+                    }
+                    nodes.push(LEAF | index);
+                    continue;
+                }
+                let bit = 1u64 << (DEPTH_BITS + PATH_BITS - 1 - depth);
+                let mid =
+                    range.start + sorted[range.clone()].partition_point(|&(p, _)| p & bit == 0);
+                nodes.push(EMPTY); // patched when its first child is placed
+                stack.push((range.start..mid, depth + 1, Some(at)));
+                stack.push((mid..range.end, depth + 1, None));
+            }
+        }
+        if lo != sorted.len() {
+            return Err(Error::Parameter(format!(
+                "cell {} has no valid bisection path",
+                sorted[lo].1
+            )));
+        }
+        Ok(Self {
+            grid: *grid,
+            nodes,
+            roots,
+            subtrees,
+            tets: paths.len(),
+        })
+    }
+
+    /// The bisection path of each tetrahedron, by mesh index: which of the six root tetrahedra it
+    /// lies in (3 bits, from bit 61), which child it is at each bisection from there (bit
+    /// `60 - k` for the `k`-th: 1 for the second of [`bisect`]'s pair) and its bisection depth
+    /// (the low 6 bits). A mesh carries these as a cell array so that
+    /// [`BspTree::from_paths`] rebuilds its tree wherever its cells went.
+    pub fn paths(&self) -> Result<Vec<u64>> {
+        let mut out = vec![u64::MAX; self.tets];
+        let mut stack: Vec<(u32, u64, u32)> = Vec::with_capacity(128);
+        for (r, &(_, node)) in self.roots.iter().enumerate() {
+            stack.push((node, (r as u64) << ROOT_SHIFT, 0));
+            while let Some((node, code, depth)) = stack.pop() {
+                let v = self.nodes[node as usize];
+                if v == EMPTY {
+                    continue;
+                }
+                if v & LEAF != 0 {
+                    out[(v & !LEAF) as usize] = code | u64::from(depth);
+                    continue;
+                }
+                if depth >= PATH_BITS {
+                    return Err(Error::Parameter(format!(
+                        "the mesh is too deep for bisection paths ({PATH_BITS} levels)"
+                    )));
+                }
+                let bit = 1u64 << (DEPTH_BITS + PATH_BITS - 1 - depth);
+                stack.push((v, code, depth + 1));
+                stack.push((node + 1, code | bit, depth + 1));
+            }
+        }
+        Ok(out)
     }
 
     /// Number of tetrahedra ordered.
@@ -379,6 +524,67 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn paths_rebuild_the_order_of_any_cells() {
+        let h = hierarchy([20, 13, 9], [1.0, -2.0, 3.0], [0.5, 2.0, 1.5]);
+        let g = *h.grid();
+        for q in [Query::tolerance(0.0), Query::tolerance(6.0)] {
+            let plan = h.plan(&q).unwrap();
+            let mesh = plan.to_mesh(&g, |d| h.error(d)).unwrap();
+            let tree = BspTree::new(&plan, &g).unwrap();
+            let paths = tree.paths().unwrap();
+            // Depth in the low bits: the mesh's bisection depth.
+            let depths: Vec<u8> = paths.iter().map(|&p| path_depth(p) as u8).collect();
+            assert_eq!(depths, mesh.depths);
+            let rebuilt = BspTree::from_paths(&g, &paths).unwrap();
+            // The cells shuffled (as a redistribution would) and only every third one kept.
+            let n = mesh.tets.len();
+            let kept: Vec<usize> = (0..n).rev().filter(|i| i % 3 != 1).collect();
+            let kept_paths: Vec<u64> = kept.iter().map(|&i| paths[i]).collect();
+            let kept_tets: Vec<[u32; 4]> = kept.iter().map(|&i| mesh.tets[i]).collect();
+            let subset = BspTree::from_paths(&g, &kept_paths).unwrap();
+            for eye in eyes(&g) {
+                for direction in [Direction::BackToFront, Direction::FrontToBack] {
+                    let order = rebuilt.order(eye, direction).unwrap();
+                    assert_eq!(order, tree.order(eye, direction).unwrap(), "{eye:?}");
+                    let order = subset.order(eye, direction).unwrap();
+                    let sub = TetMesh {
+                        tets: kept_tets.clone(),
+                        ..mesh.clone()
+                    };
+                    check(&sub, &order, eye, direction)
+                        .unwrap_or_else(|e| panic!("subset, eye {eye:?}: {e}"));
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn bad_paths_are_refused() {
+        let h = hierarchy([9, 9, 9], [0.0; 3], [1.0; 3]);
+        let plan = h.plan(&Query::tolerance(2.0)).unwrap();
+        let paths = BspTree::new(&plan, h.grid()).unwrap().paths().unwrap();
+        let deep = *paths.iter().max_by_key(|&&p| path_depth(p)).unwrap();
+        let parent = {
+            let d = path_depth(deep) - 1;
+            let below = DEPTH_BITS + PATH_BITS - d;
+            (deep >> below << below) | u64::from(d)
+        };
+        let cases: Vec<(Vec<u64>, &str)> = vec![
+            (vec![paths[0], paths[1], paths[0]], "overlap"),
+            (vec![deep, parent], "overlap"),
+            (vec![7 << ROOT_SHIFT], "no valid bisection path"),
+            (vec![paths[0] | 1 << DEPTH_BITS], "no valid bisection path"),
+            (vec![63], "no valid bisection path"),
+        ];
+        for (bad, message) in cases {
+            let err = BspTree::from_paths(h.grid(), &bad).unwrap_err().to_string();
+            assert!(err.contains(message), "{bad:x?}: {err}");
+        }
+        assert!(BspTree::from_paths(&Grid::new([1, 9, 9]), &paths).is_err());
+        assert_eq!(BspTree::from_paths(h.grid(), &[]).unwrap().tets(), 0);
     }
 
     #[test]
