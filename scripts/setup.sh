@@ -15,7 +15,8 @@ set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
 JOBS="${JOBS:-2}"
-PACKAGES=(paraview-dev python3-paraview python3-numpy cmake ninja-build libopenmpi-dev openmpi-bin g++ xvfb xauth)
+PACKAGES=(paraview-dev python3-paraview python3-numpy cmake ninja-build libopenmpi-dev openmpi-bin g++ xvfb xauth
+  libglew-dev) # libglew-dev: ParaView::RemotingViews (the Adaptive Volume representation) links VTK::glew
 
 if ! command -v apt-get >/dev/null 2>&1; then
   echo "error: apt-get not found. This script targets Debian 12; install the equivalents of" >&2

@@ -14,7 +14,8 @@
 # 3. tests/pvpython/mpi_pieces.py, mpi_isosurface.py and mpi_material.py under `mpiexec -n 2 pvbatch`,
 #    and mpi_pieces.py again under `mpiexec -n 3 pvbatch` and as a pvpython client of `mpiexec -n 2 pvserver`.
 # 4. scripts/demo.py under `xvfb-run -a pvbatch`, into build/test-demo, and
-#    tests/pvpython/render_visibility_sort.py under `xvfb-run -a pvpython` (the steps that render).
+#    tests/pvpython/render_visibility_sort.py and render_adaptive_volume.py under `xvfb-run -a`
+#    (the steps that render).
 # Ends with the line "N passed, M failed"; exits non-zero if any step failed.
 set -uo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -91,8 +92,26 @@ step "mpiexec -n 3 pvbatch tests/pvpython/mpi_pieces.py" env DIAMONDS_EXPECTED_R
 step "pvpython tests/pvpython/mpi_pieces.py --client-server (mpiexec -n 2 pvserver)" \
   timeout 1200 pvpython tests/pvpython/mpi_pieces.py --client-server
 step "xvfb-run -a pvbatch scripts/demo.py" demo_render
+# A rendering test under xvfb, retried once when the X server or its OpenGL context could not be
+# had (the test then prints no summary line); a test that ran and failed is not retried.
+render_test() {
+  local log="$ROOT/build/$(basename "$2" .py).log"
+  local attempt status
+  for attempt in 1 2; do
+    xvfb-run -a -s "-screen 0 1024x768x24" "$1" "$2" >"$log" 2>&1
+    status=$?
+    cat "$log"
+    if grep -q "^$(basename "$2" .py): " "$log"; then
+      return $status
+    fi
+    echo "$2: no result (attempt $attempt), the X server or OpenGL context failed"
+  done
+  return 1
+}
 step "xvfb-run -a pvpython tests/pvpython/render_visibility_sort.py" \
-  xvfb-run -a -s "-screen 0 1024x768x24" pvpython tests/pvpython/render_visibility_sort.py
+  render_test pvpython tests/pvpython/render_visibility_sort.py
+step "xvfb-run -a pvbatch tests/pvpython/render_adaptive_volume.py" \
+  render_test pvbatch tests/pvpython/render_adaptive_volume.py
 
 echo
 for s in "${failed_steps[@]}"; do
