@@ -8,7 +8,7 @@ use diamonds::interval::{self, IntervalQuery};
 use diamonds::validate::check_interval_arrays;
 
 use crate::ffi::{IntervalSpec, ScalarType};
-use crate::{check_core, guard, typed_slice, Hierarchy, IsoState};
+use crate::{check_core, guard, Hierarchy, IsoState};
 
 /// Opaque handle on a [`diamonds::interval::IntervalVolume`] for C++, its sources flattened.
 pub struct IntervalVolume {
@@ -24,36 +24,27 @@ impl Hierarchy {
         samples: &[u8],
         spec: &IntervalSpec,
     ) -> Result<Box<IntervalVolume>, String> {
-        if state.hierarchy != Some(self.id) {
-            state.state.clear();
-            state.hierarchy = Some(self.id);
-        }
-        let result = guard("extracting the interval volume", || {
-            let scalars = typed_slice(scalar_type, samples)?;
-            let expected = self.hierarchy.grid().len();
-            if scalars.len() != expected {
-                return Err(format!(
-                    "the sample array has {} values but the hierarchy was built for {expected} points",
-                    scalars.len()
-                ));
-            }
-            let query = IntervalQuery {
-                range: spec.range,
-                tolerance: spec.tolerance,
-                max_tetrahedra: spec.max_tetrahedra,
-                region_of_interest: spec
-                    .use_region_of_interest
-                    .then_some(spec.region_of_interest),
-            };
-            let volume = interval::extract_with(&mut state.state, &self.hierarchy, scalars, &query)
-                .map_err(|e| e.to_string())?;
-            check_core(check_interval_arrays(&volume, expected))?;
-            Ok(Box::new(IntervalVolume { volume }))
-        });
-        if result.is_err() {
-            state.state.clear();
-        }
-        result
+        let what = "extracting the interval volume";
+        self.with_iso_state(
+            state,
+            what,
+            scalar_type,
+            samples,
+            |state, scalars, expected| {
+                let query = IntervalQuery {
+                    range: spec.range,
+                    tolerance: spec.tolerance,
+                    max_tetrahedra: spec.max_tetrahedra,
+                    region_of_interest: spec
+                        .use_region_of_interest
+                        .then_some(spec.region_of_interest),
+                };
+                let volume = interval::extract_with(state, &self.hierarchy, scalars, &query)
+                    .map_err(|e| e.to_string())?;
+                check_core(check_interval_arrays(&volume, expected))?;
+                Ok(Box::new(IntervalVolume { volume }))
+            },
+        )
     }
 }
 

@@ -975,11 +975,55 @@ impl Hierarchy {
         isovalues: &[f64],
         spec: &IsoSpec,
     ) -> Result<Box<Surface>, String> {
+        let what = "extracting the isosurface";
+        self.with_iso_state(
+            state,
+            what,
+            scalar_type,
+            samples,
+            |state, scalars, expected| {
+                let query = IsoQuery {
+                    isovalues: isovalues.to_vec(),
+                    tolerance: spec.tolerance,
+                    max_triangles: spec.max_triangles,
+                    region_of_interest: spec
+                        .use_region_of_interest
+                        .then_some(spec.region_of_interest),
+                    compute_normals: spec.compute_normals,
+                    carrier_tetrahedra: spec.carrier_tetrahedra,
+                };
+                let mut surface = state
+                    .extract(&self.hierarchy, scalars, &query)
+                    .map_err(|e| e.to_string())?;
+                check_core(check_isosurface_arrays(&surface, &query))?;
+                let carrier = surface.carrier.take();
+                if let Some(mesh) = &carrier {
+                    check_core(check_mesh_arrays(mesh, expected))?;
+                }
+                Ok(Box::new(Surface {
+                    surface,
+                    carrier: carrier.map(|mesh| Box::new(Mesh(mesh))),
+                }))
+            },
+        )
+    }
+
+    /// Runs a query `body` (inside [`guard`], for `what`) on `state` with the samples the hierarchy
+    /// was built from and their number: `state` is cleared first when it was last used with another
+    /// hierarchy, and cleared when the query fails; samples of another length are refused.
+    pub(crate) fn with_iso_state<R>(
+        &self,
+        state: &mut IsoState,
+        what: &str,
+        scalar_type: ScalarType,
+        samples: &[u8],
+        body: impl FnOnce(&mut diamonds::IsoState, ScalarSlice<'_>, usize) -> Result<R, String>,
+    ) -> Result<R, String> {
         if state.hierarchy != Some(self.id) {
             state.state.clear();
             state.hierarchy = Some(self.id);
         }
-        let result = guard("extracting the isosurface", || {
+        let result = guard(what, || {
             let scalars = typed_slice(scalar_type, samples)?;
             let expected = self.hierarchy.grid().len();
             if scalars.len() != expected {
@@ -988,29 +1032,7 @@ impl Hierarchy {
                     scalars.len()
                 ));
             }
-            let query = IsoQuery {
-                isovalues: isovalues.to_vec(),
-                tolerance: spec.tolerance,
-                max_triangles: spec.max_triangles,
-                region_of_interest: spec
-                    .use_region_of_interest
-                    .then_some(spec.region_of_interest),
-                compute_normals: spec.compute_normals,
-                carrier_tetrahedra: spec.carrier_tetrahedra,
-            };
-            let mut surface = state
-                .state
-                .extract(&self.hierarchy, scalars, &query)
-                .map_err(|e| e.to_string())?;
-            check_core(check_isosurface_arrays(&surface, &query))?;
-            let carrier = surface.carrier.take();
-            if let Some(mesh) = &carrier {
-                check_core(check_mesh_arrays(mesh, expected))?;
-            }
-            Ok(Box::new(Surface {
-                surface,
-                carrier: carrier.map(|mesh| Box::new(Mesh(mesh))),
-            }))
+            body(&mut state.state, scalars, expected)
         });
         if result.is_err() {
             state.state.clear();
