@@ -54,15 +54,8 @@ enum Command {
         /// Largest number of tetrahedra (0 = no limit); refinement stops before exceeding it.
         #[arg(long, default_value_t = 0, value_name = "N")]
         max_tets: usize,
-        /// Region of interest in world coordinates: the tolerance applies inside, the mesh stays coarse
-        /// outside.
-        #[arg(
-            long,
-            num_args = 6,
-            allow_negative_numbers = true,
-            value_names = ["XMIN", "XMAX", "YMIN", "YMAX", "ZMIN", "ZMAX"]
-        )]
-        roi: Option<Vec<f64>>,
+        #[command(flatten)]
+        roi: RegionOfInterest,
     },
     /// Extract a multiresolution isosurface (.vtp) of a volume (.vti or legacy .vtk).
     ///
@@ -88,32 +81,13 @@ enum Command {
         /// Point-data array to contour [default: the active scalars, else the first single-component array].
         #[arg(long, value_name = "NAME")]
         array: Option<String>,
-        /// Largest isosurface error in world units (0 = full resolution where the surface passes)
-        /// [default: two and a half voxel diagonals (a voxel diagonal: the diagonal of the image's
-        /// bounds over the cube root of its number of cells), as the ParaView filter].
-        #[arg(
-            long,
-            value_name = "T",
-            allow_negative_numbers = true,
-            conflicts_with = "relative_tolerance"
-        )]
-        tolerance: Option<f64>,
-        /// The tolerance as a fraction of the diagonal of the image's bounds (0.01 = 1 %; exclusive with
-        /// --tolerance).
-        #[arg(long, value_name = "R", allow_negative_numbers = true)]
-        relative_tolerance: Option<f64>,
+        #[command(flatten)]
+        tolerance: SurfaceTolerance,
         /// Largest number of triangles (0 = no limit): the smallest tolerance whose surface fits.
         #[arg(long, default_value_t = 0, value_name = "N")]
         max_triangles: usize,
-        /// Region of interest in world coordinates: the tolerance applies inside, the surface stays
-        /// coarse outside.
-        #[arg(
-            long,
-            num_args = 6,
-            allow_negative_numbers = true,
-            value_names = ["XMIN", "XMAX", "YMIN", "YMAX", "ZMIN", "ZMAX"]
-        )]
-        roi: Option<Vec<f64>>,
+        #[command(flatten)]
+        roi: RegionOfInterest,
         /// Do not write point normals.
         #[arg(long)]
         no_normals: bool,
@@ -154,30 +128,13 @@ enum Command {
         /// Point-data array [default: the active scalars, else the first single-component array].
         #[arg(long, value_name = "NAME")]
         array: Option<String>,
-        /// Largest isosurface error of both bounding surfaces in world units (0 = full resolution)
-        /// [default: two and a half voxel diagonals, as `iso` and the ParaView filter].
-        #[arg(
-            long,
-            value_name = "T",
-            allow_negative_numbers = true,
-            conflicts_with = "relative_tolerance"
-        )]
-        tolerance: Option<f64>,
-        /// The tolerance as a fraction of the diagonal of the image's bounds (exclusive with
-        /// --tolerance).
-        #[arg(long, value_name = "R", allow_negative_numbers = true)]
-        relative_tolerance: Option<f64>,
+        #[command(flatten)]
+        tolerance: SurfaceTolerance,
         /// Largest number of tetrahedra (0 = no limit): the smallest tolerance whose volume fits.
         #[arg(long, default_value_t = 0, value_name = "N")]
         max_tets: usize,
-        /// Region of interest in world coordinates: the tolerance applies inside, coarse outside.
-        #[arg(
-            long,
-            num_args = 6,
-            allow_negative_numbers = true,
-            value_names = ["XMIN", "XMAX", "YMIN", "YMAX", "ZMIN", "ZMAX"]
-        )]
-        roi: Option<Vec<f64>>,
+        #[command(flatten)]
+        roi: RegionOfInterest,
     },
     /// Build the view-dependent mesh (.vtu) of a volume for a camera (Gregorski 2002 section 4,
     /// Marchesin 2004).
@@ -397,6 +354,58 @@ enum ViewMetric {
 }
 
 /// `diamonds view --sort`.
+/// The isosurface tolerance of `iso` and `interval`: absolute, relative or the default.
+#[derive(clap::Args, Debug)]
+struct SurfaceTolerance {
+    /// Largest isosurface error in world units, of every surface (for `interval`: of both bounding
+    /// surfaces) (0 = full resolution where a surface passes) [default: two and a half voxel diagonals
+    /// (a voxel diagonal: the diagonal of the image's bounds over the cube root of its number of
+    /// cells), as the ParaView filters].
+    #[arg(
+        long,
+        value_name = "T",
+        allow_negative_numbers = true,
+        conflicts_with = "relative_tolerance"
+    )]
+    tolerance: Option<f64>,
+    /// The tolerance as a fraction of the diagonal of the image's bounds (0.01 = 1 %; exclusive with
+    /// --tolerance).
+    #[arg(long, value_name = "R", allow_negative_numbers = true)]
+    relative_tolerance: Option<f64>,
+}
+
+impl SurfaceTolerance {
+    fn get(&self) -> IsoTolerance {
+        match (self.tolerance, self.relative_tolerance) {
+            (Some(t), _) => IsoTolerance::Absolute(t),
+            (None, Some(r)) => IsoTolerance::Relative(r),
+            (None, None) => DEFAULT_ISO_TOLERANCE,
+        }
+    }
+}
+
+/// The region of interest of `tetra`, `iso` and `interval`.
+#[derive(clap::Args, Debug)]
+struct RegionOfInterest {
+    /// Region of interest in world coordinates: the tolerance applies inside, the result stays coarse
+    /// outside.
+    #[arg(
+        long,
+        num_args = 6,
+        allow_negative_numbers = true,
+        value_names = ["XMIN", "XMAX", "YMIN", "YMAX", "ZMIN", "ZMAX"]
+    )]
+    roi: Option<Vec<f64>>,
+}
+
+impl RegionOfInterest {
+    fn get(&self) -> Option<[f64; 6]> {
+        self.roi
+            .as_ref()
+            .map(|r| <[f64; 6]>::try_from(r.as_slice()).expect("clap gives 6 values"))
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 enum Sort {
     /// The mesh's own order.
@@ -425,14 +434,13 @@ fn run(cli: Cli) -> diamonds_cli::Result<ExitCode> {
             max_tets,
             roi,
         } => {
-            let roi = roi.map(|r| <[f64; 6]>::try_from(r).expect("clap gives 6 values"));
             let summary = commands::tetra(&TetraOptions {
                 input,
                 output: output.clone(),
                 array,
                 tolerance,
                 max_tets,
-                roi,
+                roi: roi.get(),
             })?;
             println!("{}: {summary}", output.display());
         }
@@ -442,27 +450,20 @@ fn run(cli: Cli) -> diamonds_cli::Result<ExitCode> {
             isovalues,
             array,
             tolerance,
-            relative_tolerance,
             max_triangles,
             roi,
             no_normals,
             scalars,
             carrier,
         } => {
-            let roi = roi.map(|r| <[f64; 6]>::try_from(r).expect("clap gives 6 values"));
-            let tolerance = match (tolerance, relative_tolerance) {
-                (Some(t), _) => IsoTolerance::Absolute(t),
-                (None, Some(r)) => IsoTolerance::Relative(r),
-                (None, None) => DEFAULT_ISO_TOLERANCE,
-            };
             let summary = commands::iso(&IsoOptions {
                 input,
                 output: output.clone(),
                 array,
                 isovalues,
-                tolerance,
+                tolerance: tolerance.get(),
                 max_triangles,
-                roi,
+                roi: roi.get(),
                 normals: !no_normals,
                 scalars,
                 carrier,
@@ -475,23 +476,17 @@ fn run(cli: Cli) -> diamonds_cli::Result<ExitCode> {
             range,
             array,
             tolerance,
-            relative_tolerance,
             max_tets,
             roi,
         } => {
-            let tolerance = match (tolerance, relative_tolerance) {
-                (Some(t), _) => IsoTolerance::Absolute(t),
-                (None, Some(r)) => IsoTolerance::Relative(r),
-                (None, None) => DEFAULT_ISO_TOLERANCE,
-            };
             let summary = interval::interval(&IntervalOptions {
                 input,
                 output: output.clone(),
                 array,
                 range: [range[0], range[1]],
-                tolerance,
+                tolerance: tolerance.get(),
                 max_tets,
-                roi: roi.map(|r| <[f64; 6]>::try_from(r).expect("clap gives 6 values")),
+                roi: roi.get(),
             })?;
             println!("{}: {summary}", output.display());
         }
