@@ -27,10 +27,11 @@ import statistics
 import subprocess
 import sys
 
+from benchlib import replace_section  # scripts/benchlib.py, beside this file
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SHARED = os.path.join(os.path.dirname(ROOT), "shared", "data", "volumes")
 PLUGIN = os.path.join(ROOT, "build", "lib", "paraview-5.11", "plugins", "Diamonds")
-BENCHMARKS = os.path.join(ROOT, "docs", "benchmarks.md")
 SECTION = "## Interval volumes (issue 16)"
 RELATIVE_TOLERANCES = [0.0, 0.005, 0.01]
 REPEATS = int(os.environ.get("DIAMONDS_BENCH_REPEATS", "3"))
@@ -182,16 +183,6 @@ def report(results):
     return lines
 
 
-def replace_section(lines):
-    text = open(BENCHMARKS).read() if os.path.exists(BENCHMARKS) else "# Benchmarks\n"
-    start = text.find(SECTION)
-    if start >= 0:
-        end = text.find("\n## ", start + len(SECTION))
-        text = text[:start] + (text[end + 1:] if end >= 0 else "")
-    with open(BENCHMARKS, "w") as f:
-        f.write(text.rstrip("\n") + "\n\n" + "\n".join(lines) + "\n")
-
-
 def main():
     if not os.path.isdir(SHARED):
         print(f"../shared not found at {SHARED}: skipped")
@@ -204,7 +195,7 @@ def main():
             results.append((label, measure(label, os.path.join(SHARED, name))))
     lines = report(results)
     if not only:
-        replace_section(lines)
+        replace_section(SECTION, lines)
     print("\n".join(lines))
     return 0
 

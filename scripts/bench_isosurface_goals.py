@@ -38,12 +38,12 @@ import tempfile
 import time
 
 from bench_isosurface import hausdorff  # scripts/bench_isosurface.py, beside this file
+from benchlib import replace_section  # scripts/benchlib.py, beside this file
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SHARED = os.path.join(os.path.dirname(ROOT), "shared", "data", "volumes")
 PLUGIN = os.path.join(ROOT, "build", "lib", "paraview-5.11", "plugins", "Diamonds")
 VENV_PYTHON = os.path.join(ROOT, "build", "bench-venv", "bin", "python")
-BENCHMARKS = os.path.join(ROOT, "docs", "benchmarks.md")
 SECTION = "## Isosurface goals (issue 11)"
 RELATIVE_TOLERANCE = 0.01
 CHANGES = [-0.10, -0.05, -0.01, 0.01, 0.05, 0.10]
@@ -347,16 +347,6 @@ def report(results):
     return lines
 
 
-def replace_section(lines):
-    text = open(BENCHMARKS).read() if os.path.exists(BENCHMARKS) else "# Benchmarks\n"
-    start = text.find(SECTION)
-    if start >= 0:
-        end = text.find("\n## ", start + len(SECTION))
-        text = text[:start] + (text[end + 1:] if end >= 0 else "")
-    with open(BENCHMARKS, "w") as f:
-        f.write(text.rstrip("\n") + "\n\n" + "\n".join(lines) + "\n")
-
-
 def main():
     if not os.path.isdir(SHARED):
         print(f"../shared not found at {SHARED}: skipped")
@@ -372,7 +362,7 @@ def main():
             results.append((label, measure_volume(label, path, tmp)))
     lines = report(results)
     if not only:
-        replace_section(lines)
+        replace_section(SECTION, lines)
     print("\n".join(lines))
     return 0
 

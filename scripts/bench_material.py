@@ -35,6 +35,8 @@ import time
 
 import numpy as np
 
+from benchlib import replace_section  # scripts/benchlib.py, beside this file
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 CTH = os.path.join(os.path.dirname(ROOT), "shared", "data", "multimaterial", "cth_armor_impact.vtr")
 PLUGIN = os.path.join(ROOT, "build", "lib", "paraview-5.11", "plugins", "Diamonds", "Diamonds.so")
@@ -242,23 +244,6 @@ def number_list(text, pattern):
     return [float(g) for g in re.search(pattern, text, re.MULTILINE).groups()]
 
 
-def replace_section(path, heading, lines):
-    """Replaces the section under `heading` (up to the next heading of its level or above) in `path`
-    with `lines` (appended when there is none)."""
-    with open(path) as f:
-        text = f.read().split("\n")
-    level = heading.split(" ")[0]
-    if heading in text:
-        start = text.index(heading)
-        end = next((i for i in range(start + 1, len(text))
-                    if text[i].startswith("#") and len(text[i].split(" ")[0]) <= len(level)), len(text))
-        text[start:end] = lines
-    else:
-        text += lines
-    with open(path, "w") as f:
-        f.write("\n".join(text))
-
-
 def interface_defects(path):
     """(positions holding two or more distinct points, open edges not on the domain boundary) of the
     interface polygons written by the CLI at `path`."""
@@ -367,7 +352,7 @@ def main():
     if "--tissue" in sys.argv:
         lines = []
         tissue_maps(lines)
-        replace_section(os.path.join(ROOT, "docs", "benchmarks.md"), TISSUE_HEADING, lines)
+        replace_section(TISSUE_HEADING, lines)
         return 0
     lines = [
         "",

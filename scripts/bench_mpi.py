@@ -16,9 +16,10 @@ import resource
 import subprocess
 import sys
 
+from benchlib import replace_section  # scripts/benchlib.py, beside this file
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BONSAI = os.path.join(ROOT, "..", "shared", "data", "volumes", "bonsai_256x256x256_uint8_lossy.vti")
-BENCHMARKS = os.path.join(ROOT, "docs", "benchmarks.md")
 HEADING = "## Distributed Adaptive Tetrahedra (issue 12)"
 TOLERANCE = 8.0
 REPEATS = 2
@@ -98,18 +99,6 @@ def report(results):
     return lines
 
 
-def replace_section(lines):
-    text = open(BENCHMARKS).read().split("\n") if os.path.exists(BENCHMARKS) else ["# Benchmarks", ""]
-    if HEADING in text:
-        start = text.index(HEADING)
-        end = next((i for i in range(start + 1, len(text)) if text[i].startswith("## ")), len(text))
-        text[start:end] = lines
-    else:
-        text += [""] + lines
-    with open(BENCHMARKS, "w") as f:
-        f.write("\n".join(text).rstrip("\n") + "\n")
-
-
 def main():
     if not os.path.exists(BONSAI):
         print(f"{BONSAI} not found: skipped")
@@ -121,7 +110,7 @@ def main():
             print(ranks, results[ranks][-1], flush=True)
     lines = report(sorted(results.items()))
     print("\n".join(lines))
-    replace_section(lines)
+    replace_section(HEADING, lines)
 
 
 if __name__ == "__main__":

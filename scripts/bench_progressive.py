@@ -22,9 +22,10 @@ import os
 import subprocess
 import sys
 
+from benchlib import replace_section  # scripts/benchlib.py, beside this file
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SHARED = os.path.join(ROOT, "..", "shared")
-BENCHMARKS = os.path.join(ROOT, "docs", "benchmarks.md")
 HEADING = "## Progressive Tetrahedral Mesh (issue 15)"
 BONSAI_TETS = os.path.join(ROOT, "build", "bench", "bonsai_tolerance8.vtu")
 REDUCTIONS = (0.5, 0.9, 0.99)
@@ -248,19 +249,6 @@ def report(cases):
     return lines
 
 
-def replace_section(lines):
-    text = open(BENCHMARKS).read().split("\n") if os.path.exists(BENCHMARKS) else ["# Benchmarks", ""]
-    if HEADING in text:
-        start = text.index(HEADING)
-        end = next((i for i in range(start + 1, len(text))
-                    if text[i].startswith("## ") or text[i].startswith("# ")), len(text))
-        text[start:end] = lines
-    else:
-        text += [""] + lines
-    with open(BENCHMARKS, "w") as f:
-        f.write("\n".join(text).rstrip("\n") + "\n")
-
-
 def main():
     subprocess.run(["cargo", "build", "--release", "-p", "diamonds-cli", "--example", "progressive_probe"],
                    cwd=ROOT, check=True)
@@ -284,7 +272,7 @@ def main():
         print(name, probed, flush=True)
         cases.append((name, runs, probed))
         # Written after each case: the largest takes minutes.
-        replace_section(report(cases))
+        replace_section(HEADING, report(cases))
     print("\n".join(report(cases)))
 
 

@@ -27,9 +27,10 @@ import subprocess
 import sys
 import time
 
+from benchlib import replace_section  # scripts/benchlib.py, beside this file
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BONSAI = os.path.join(ROOT, "..", "shared", "data", "volumes", "bonsai_256x256x256_uint8_lossy.vti")
-BENCHMARKS = os.path.join(ROOT, "docs", "benchmarks.md")
 IMAGES = os.path.join(ROOT, "docs", "images")
 STRIP = os.path.join(IMAGES, "view-dependent-bonsai.png")
 HEADING = "## View-dependent refinement and exact-order volume rendering (issue 14)"
@@ -322,18 +323,6 @@ def strip(budgets):
     writer.Write()
 
 
-def replace_section(lines):
-    text = open(BENCHMARKS).read().split("\n") if os.path.exists(BENCHMARKS) else ["# Benchmarks", ""]
-    if HEADING in text:
-        start = text.index(HEADING)
-        end = next((i for i in range(start + 1, len(text)) if text[i].startswith("## ")), len(text))
-        text[start:end] = lines
-    else:
-        text += [""] + lines
-    with open(BENCHMARKS, "w") as f:
-        f.write("\n".join(text).rstrip("\n") + "\n")
-
-
 def main():
     if not os.path.exists(BONSAI):
         print(f"{BONSAI} not found: skipped")
@@ -343,7 +332,7 @@ def main():
         results.append((budget, run(budget)))
     lines = report(results)
     print("\n".join(lines))
-    replace_section(lines)
+    replace_section(HEADING, lines)
     subprocess.run(["pvpython", __file__, "--strip"], check=True)
 
 

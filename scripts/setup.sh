@@ -70,6 +70,6 @@ cat <<MSG
 ==> done
 ParaView plugin:  $plugin/Diamonds.so
   load it with:   export PV_PLUGIN_PATH=$plugin
-  (or in ParaView: Tools > Manage Plugins > Load New, then Filters > Diamonds > Adaptive Tetrahedra or Adaptive Isosurface)
+  (or in ParaView: Tools > Manage Plugins > Load New, then the Filters > Diamonds menu)
 Installed tree:   $PWD/build/install  (C++: find_package(Diamonds) with CMAKE_PREFIX_PATH=$PWD/build/install)
 MSG
