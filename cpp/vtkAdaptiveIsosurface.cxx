@@ -263,47 +263,23 @@ int vtkAdaptiveIsosurface::RequestData(
   {
     return 0;
   }
-  if (input->GetNumberOfPoints() == 0)
-  {
-    // Not an error: e.g. an empty piece when a parallel run has more ranks than image slabs.
-    vtkDebugMacro(<< "The input image is empty; the output is empty.");
-    return 1;
-  }
-  if (!vtkDiamonds::CheckAxisAligned(this, Text, input))
-  {
-    return 0;
-  }
-  double wholeBounds[6];
-  vtkDiamonds::WholeBounds(inputVector, input, wholeBounds);
-  const double diagonal = std::sqrt(std::pow(wholeBounds[1] - wholeBounds[0], 2) +
-    std::pow(wholeBounds[3] - wholeBounds[2], 2) + std::pow(wholeBounds[5] - wholeBounds[4], 2));
-  const double relativeTolerance = diagonal > 0.0 ? this->Tolerance / diagonal : 0.0;
   int association = vtkDataObject::FIELD_ASSOCIATION_POINTS;
   vtkDataArray* selected = this->GetInputArrayToProcess(0, inputVector, association);
-  vtkDataArray* array = vtkDiamonds::SelectPointArray(this, Text, input, selected, association);
+  int result = 0;
+  vtkDataArray* array =
+    vtkDiamonds::ImageArrayToProcess(this, Text, input, selected, association, result);
   if (!array)
   {
-    return 0;
+    return result;
   }
+  const double diagonal = vtkDiamonds::WholeDiagonal(inputVector, input);
+  const double relativeTolerance = diagonal > 0.0 ? this->Tolerance / diagonal : 0.0;
 
   // ---- Hierarchy: built only when the array or the geometry changed.
   vtkDiamonds::HierarchyCache& cache = this->Internals->Cache;
-  switch (cache.Update(this, Text, input, array, 0.0, 0.7))
+  if (!cache.Prepare(this, Text, input, array, 0.0, 0.7, this->NumberOfHierarchyBuilds, result))
   {
-    case vtkDiamonds::HierarchyCache::Status::Built:
-      ++this->NumberOfHierarchyBuilds;
-      break;
-    case vtkDiamonds::HierarchyCache::Status::Kept:
-      break;
-    case vtkDiamonds::HierarchyCache::Status::Aborted:
-      return 1;
-    case vtkDiamonds::HierarchyCache::Status::Failed:
-      return 0;
-  }
-  this->UpdateProgress(0.7);
-  if (this->CheckAbort())
-  {
-    return 1;
+    return result;
   }
 
   // ---- Extraction. The cache's isosurface state belongs to its hierarchy (recreated with every

@@ -154,44 +154,18 @@ int vtkAdaptiveTetrahedra::RequestData(
     return this->RequestDistributed(controller, inputVector, input, output);
   }
 
-  // ---- Geometry.
-  if (input->GetNumberOfPoints() == 0)
-  {
-    // Not an error: e.g. an empty piece when a parallel run has more ranks than image slabs.
-    vtkDebugMacro(<< "The input image is empty; the output is empty.");
-    return 1;
-  }
-  if (!vtkDiamonds::CheckAxisAligned(this, Text, input))
-  {
-    return 0;
-  }
-
-  // ---- The array to approximate.
+  // ---- The array to approximate, and its hierarchy (built only when the array or the geometry
+  // changed).
   int association = vtkDataObject::FIELD_ASSOCIATION_POINTS;
   vtkDataArray* selected = this->GetInputArrayToProcess(0, inputVector, association);
-  vtkDataArray* array = vtkDiamonds::SelectPointArray(this, Text, input, selected, association);
-  if (!array)
+  int result = 0;
+  vtkDataArray* array =
+    vtkDiamonds::ImageArrayToProcess(this, Text, input, selected, association, result);
+  if (!array ||
+    !this->Internals->Cache.Prepare(
+      this, Text, input, array, 0.0, 0.8, this->NumberOfHierarchyBuilds, result))
   {
-    return 0;
-  }
-
-  // ---- Hierarchy: built only when the array or the geometry changed.
-  switch (this->Internals->Cache.Update(this, Text, input, array, 0.0, 0.8))
-  {
-    case vtkDiamonds::HierarchyCache::Status::Built:
-      ++this->NumberOfHierarchyBuilds;
-      break;
-    case vtkDiamonds::HierarchyCache::Status::Kept:
-      break;
-    case vtkDiamonds::HierarchyCache::Status::Aborted:
-      return 1;
-    case vtkDiamonds::HierarchyCache::Status::Failed:
-      return 0;
-  }
-  this->UpdateProgress(0.8);
-  if (this->CheckAbort())
-  {
-    return 1;
+    return result;
   }
 
   // ---- Query.

@@ -1,5 +1,7 @@
 #include "vtkDiamondsArraySelection.h"
 
+#include "vtkDiamondsImageGeometry.h"
+
 #include "vtkAlgorithm.h"
 #include "vtkCellData.h"
 #include "vtkDataArray.h"
@@ -22,6 +24,24 @@ std::string ArrayNames(vtkFieldData* data)
     names << (i ? ", " : "") << '"' << (name ? name : "") << '"';
   }
   return names.str();
+}
+
+//------------------------------------------------------------------------------
+vtkDataArray* ImageArrayToProcess(vtkAlgorithm* filter, const FilterText& text, vtkImageData* input,
+  vtkDataArray* selected, int association, int& result)
+{
+  result = 0;
+  if (input->GetNumberOfPoints() == 0)
+  {
+    vtkDebugWithObjectMacro(filter, << "The input image is empty; the output is empty.");
+    result = 1;
+    return nullptr;
+  }
+  if (!CheckAxisAligned(filter, text, input))
+  {
+    return nullptr;
+  }
+  return SelectPointArray(filter, text, input, selected, association);
 }
 
 //------------------------------------------------------------------------------

@@ -30,6 +30,14 @@ struct FilterText
 vtkDataArray* SelectPointArray(vtkAlgorithm* filter, const FilterText& text, vtkImageData* input,
   vtkDataArray* selected, int association);
 
+// The checks every image filter makes before meshing `input`, in order: an empty image ends the
+// execution with empty outputs and is not an error (an empty piece when a parallel run has more ranks
+// than image slabs); the image must be axis-aligned (CheckAxisAligned); the array to process is
+// SelectPointArray's. Returns that array, or nullptr with `result` set to what RequestData returns
+// (1 for an empty image, 0 after an error reported on `filter`).
+vtkDataArray* ImageArrayToProcess(vtkAlgorithm* filter, const FilterText& text, vtkImageData* input,
+  vtkDataArray* selected, int association, int& result);
+
 // Quoted, comma-separated names of the arrays of `data`, for messages.
 std::string ArrayNames(vtkFieldData* data);
 

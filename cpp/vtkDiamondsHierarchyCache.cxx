@@ -171,6 +171,33 @@ void HierarchyCache::Release()
 }
 
 //------------------------------------------------------------------------------
+bool HierarchyCache::Prepare(vtkAlgorithm* filter, const FilterText& text, vtkImageData* input,
+  vtkDataArray* array, double from, double to, vtkIdType& builds, int& result)
+{
+  switch (this->Update(filter, text, input, array, from, to))
+  {
+    case Status::Built:
+      ++builds;
+      break;
+    case Status::Kept:
+      break;
+    case Status::Aborted:
+      result = 1;
+      return false;
+    case Status::Failed:
+      result = 0;
+      return false;
+  }
+  filter->UpdateProgress(to);
+  if (filter->CheckAbort())
+  {
+    result = 1;
+    return false;
+  }
+  return true;
+}
+
+//------------------------------------------------------------------------------
 HierarchyCache::Status HierarchyCache::Update(vtkAlgorithm* filter, const FilterText& text,
   vtkImageData* input, vtkDataArray* array, double from, double to)
 {

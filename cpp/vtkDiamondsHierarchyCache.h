@@ -68,18 +68,11 @@ public:
   };
   explicit HierarchyCache(Use use);
 
-  enum class Status
-  {
-    Kept,    // the cached hierarchy matches the array and geometry
-    Built,   // a new hierarchy was built
-    Aborted, // the build was aborted (AbortExecute): no hierarchy
-    Failed   // an error was reported on the filter: no hierarchy
-  };
-
   // Makes the cached hierarchy that of `array` on `input`'s geometry, building it when needed with
-  // progress mapped onto [from, to].
-  Status Update(vtkAlgorithm* filter, const FilterText& text, vtkImageData* input,
-    vtkDataArray* array, double from, double to);
+  // progress mapped onto [from, to] and counting the build in `builds`, then checks for an abort. Returns true to go on; false to stop, with `result` set to what
+  // RequestData returns (1 after an abort: empty outputs are not an error; 0 after a failure).
+  bool Prepare(vtkAlgorithm* filter, const FilterText& text, vtkImageData* input,
+    vtkDataArray* array, double from, double to, vtkIdType& builds, int& result);
 
   bool HasHierarchy() const { return this->Hierarchy.has_value(); }
   const bridge::Hierarchy& GetHierarchy() const { return **this->Hierarchy; }
@@ -95,6 +88,18 @@ public:
   void Release();
 
 private:
+  enum class Status
+  {
+    Kept,    // the cached hierarchy matches the array and geometry
+    Built,   // a new hierarchy was built
+    Aborted, // the build was aborted (AbortExecute): no hierarchy
+    Failed   // an error was reported on the filter: no hierarchy
+  };
+
+  // Prepare's work without the bookkeeping.
+  Status Update(vtkAlgorithm* filter, const FilterText& text, vtkImageData* input,
+    vtkDataArray* array, double from, double to);
+
   Use Purpose;
   std::optional<rust::Box<bridge::Hierarchy>> Hierarchy;
   std::optional<rust::Box<bridge::IsoState>> IsoState;

@@ -91,6 +91,15 @@ void WholeBounds(vtkInformationVector** inputVector, vtkImageData* input, double
 }
 
 //------------------------------------------------------------------------------
+double WholeDiagonal(vtkInformationVector** inputVector, vtkImageData* input)
+{
+  double bounds[6];
+  WholeBounds(inputVector, input, bounds);
+  return std::sqrt(std::pow(bounds[1] - bounds[0], 2) + std::pow(bounds[3] - bounds[2], 2) +
+    std::pow(bounds[5] - bounds[4], 2));
+}
+
+//------------------------------------------------------------------------------
 bool CheckRegionOfInterest(vtkAlgorithm* filter, const double roi[6],
   vtkInformationVector** inputVector, vtkImageData* input, bool& touchesPiece)
 {

@@ -37,6 +37,9 @@ bool CheckAxisAligned(vtkAlgorithm* filter, const FilterText& text, vtkImageData
 // extent): regions of interest and relative tolerances refer to the whole data set, not a piece.
 void WholeBounds(vtkInformationVector** inputVector, vtkImageData* input, double bounds[6]);
 
+// Length of the whole image's diagonal (WholeBounds): what relative tolerances are relative to.
+double WholeDiagonal(vtkInformationVector** inputVector, vtkImageData* input);
+
 // Checks `roi` (finite, min <= max, touching the whole image); reports an error on `filter` and
 // returns false otherwise. `touchesPiece` tells whether it touches this process's piece.
 bool CheckRegionOfInterest(vtkAlgorithm* filter, const double roi[6],

@@ -166,40 +166,17 @@ int vtkViewDependentTetrahedra::RequestData(
     return 0;
   }
 
-  // ---- Input.
-  if (input->GetNumberOfPoints() == 0)
-  {
-    vtkDebugMacro(<< "The input image is empty; the output is empty.");
-    return 1;
-  }
-  if (!vtkDiamonds::CheckAxisAligned(this, Text, input))
-  {
-    return 0;
-  }
+  // ---- Input, hierarchy (built when the array or the geometry changed) and the view state.
   int association = vtkDataObject::FIELD_ASSOCIATION_POINTS;
   vtkDataArray* selected = this->GetInputArrayToProcess(0, inputVector, association);
-  vtkDataArray* array = vtkDiamonds::SelectPointArray(this, Text, input, selected, association);
-  if (!array)
+  int result = 0;
+  vtkDataArray* array =
+    vtkDiamonds::ImageArrayToProcess(this, Text, input, selected, association, result);
+  if (!array ||
+    !this->Internals->Cache.Prepare(
+      this, Text, input, array, 0.0, 0.6, this->NumberOfHierarchyBuilds, result))
   {
-    return 0;
-  }
-
-  // ---- Hierarchy (built when the array or the geometry changed) and the view state.
-  switch (this->Internals->Cache.Update(this, Text, input, array, 0.0, 0.6))
-  {
-    case vtkDiamonds::HierarchyCache::Status::Built:
-      ++this->NumberOfHierarchyBuilds;
-      break;
-    case vtkDiamonds::HierarchyCache::Status::Kept:
-      break;
-    case vtkDiamonds::HierarchyCache::Status::Aborted:
-      return 1;
-    case vtkDiamonds::HierarchyCache::Status::Failed:
-      return 0;
-  }
-  if (this->CheckAbort())
-  {
-    return 1;
+    return result;
   }
   const bridge::Hierarchy& hierarchy = this->Internals->Cache.GetHierarchy();
   auto& view = this->Internals->View;
