@@ -126,8 +126,10 @@ pub struct IntervalTree {
     /// Per node (rank), `(lo << 32) | tet` ascending, and `((!hi) << 32) | tet` ascending.
     by_lo: Vec<BTreeSet<u64>>,
     by_hi: Vec<BTreeSet<u64>>,
-    /// Per tetrahedron in the tree, its node and interval (as ranks).
-    at: FxHashMap<u32, (u32, u32, u32)>,
+    /// Per tetrahedron (indexed by it, grown on demand), its node and interval (as ranks) while it
+    /// is in the tree.
+    at: Vec<Option<(u32, u32, u32)>>,
+    len: usize,
 }
 
 impl IntervalTree {
@@ -146,7 +148,8 @@ impl IntervalTree {
             rank,
             by_lo: vec![BTreeSet::new(); n],
             by_hi: vec![BTreeSet::new(); n],
-            at: FxHashMap::default(),
+            at: Vec::new(),
+            len: 0,
         }
     }
 
@@ -167,31 +170,39 @@ impl IntervalTree {
 
     /// Inserts the tetrahedron `tet` with corners `corners` (replacing its previous interval).
     pub fn insert(&mut self, tet: u32, corners: [u32; 4]) {
-        self.remove(tet);
         let r = corners.map(|c| self.rank[c as usize]);
         let (lo, hi) = (*r.iter().min().expect("4"), *r.iter().max().expect("4"));
         let m = self.node(lo, hi);
+        if self.at.get(tet as usize) == Some(&Some((m, lo, hi))) {
+            return; // the same interval (a moved tetrahedron often keeps its)
+        }
+        self.remove(tet);
+        if self.at.len() <= tet as usize {
+            self.at.resize(tet as usize + 1, None);
+        }
         self.by_lo[m as usize].insert(((lo as u64) << 32) | tet as u64);
         self.by_hi[m as usize].insert(((!hi as u64) << 32) | tet as u64);
-        self.at.insert(tet, (m, lo, hi));
+        self.at[tet as usize] = Some((m, lo, hi));
+        self.len += 1;
     }
 
     /// Removes the tetrahedron `tet` (nothing if absent).
     pub fn remove(&mut self, tet: u32) {
-        if let Some((m, lo, hi)) = self.at.remove(&tet) {
+        if let Some((m, lo, hi)) = self.at.get_mut(tet as usize).and_then(Option::take) {
             self.by_lo[m as usize].remove(&(((lo as u64) << 32) | tet as u64));
             self.by_hi[m as usize].remove(&(((!hi as u64) << 32) | tet as u64));
+            self.len -= 1;
         }
     }
 
     /// The number of tetrahedra in the tree.
     pub fn len(&self) -> usize {
-        self.at.len()
+        self.len
     }
 
     /// Is the tree empty?
     pub fn is_empty(&self) -> bool {
-        self.at.is_empty()
+        self.len == 0
     }
 
     /// The tetrahedra whose interval the isovalue `v` crosses (`min < v ≤ max`), in no set order.
@@ -242,6 +253,8 @@ pub struct ProgressiveIsosurface {
     tree: IntervalTree,
     /// The triangles of each live tetrahedron the surface crosses.
     triangles: FxHashMap<u32, Vec<EdgeTriangle>>,
+    /// Per original tetrahedron, whether the level change under way has touched it (reset after).
+    touched: Vec<bool>,
 }
 
 impl ProgressiveIsosurface {
@@ -256,6 +269,7 @@ impl ProgressiveIsosurface {
             isovalues: Vec::new(),
             tree,
             triangles: FxHashMap::default(),
+            touched: vec![false; pm.tets.len()],
         };
         s.set_isovalues(pm, replay, isovalues, true)?;
         Ok(s)
@@ -325,18 +339,28 @@ impl ProgressiveIsosurface {
     }
 
     /// Moves `replay` to `level` by splits or collapses, updating the interval tree and the surface
-    /// under each one for its tetrahedra only (T_new and T_moved, §4.3); returns the steps replayed.
+    /// for the tetrahedra of those splits only (T_new and T_moved, §4.3); returns the steps
+    /// replayed. A tetrahedron several splits touch is updated once, at the level reached.
     pub fn set_level(&mut self, pm: &ProgressiveMesh, replay: &mut Replay, level: usize) -> usize {
-        replay.set_level_with(pm, level, &mut |r, s| {
+        let mut changed = Vec::new();
+        let touched = &mut self.touched;
+        let steps = replay.set_level_with(pm, level, &mut |_, s| {
             for &t in s.removed.iter().chain(&s.moved) {
-                if r.is_live(t) {
-                    self.tree.insert(t, r.corners(t));
-                } else {
-                    self.tree.remove(t);
+                if !std::mem::replace(&mut touched[t as usize], true) {
+                    changed.push(t);
                 }
-                self.remarch(pm, r, t);
             }
-        })
+        });
+        for t in changed {
+            self.touched[t as usize] = false;
+            if replay.is_live(t) {
+                self.tree.insert(t, replay.corners(t));
+            } else {
+                self.tree.remove(t);
+            }
+            self.remarch(pm, replay, t);
+        }
+        steps
     }
 
     /// Every triangle of the current surfaces, sorted (compare with [`march_level`]).

@@ -28,8 +28,8 @@ use crate::{Error, Result};
 use glam::DVec3;
 use priority_queue::PriorityQueue;
 use rayon::prelude::*;
+use rustc_hash::FxBuildHasher;
 use std::cmp::Ordering;
-use std::collections::BTreeMap;
 
 /// A collapse cost in the queue: the lowest comes first.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -72,33 +72,46 @@ enum Kind {
     Corner,
 }
 
-/// A multiset of non-negative errors with its maximum and sum of squares.
-#[derive(Default)]
-struct ErrorSet {
-    counts: BTreeMap<u64, u32>,
+/// The non-negative errors of the removed vertices, one leaf per original vertex (0 while it is not
+/// removed) of a flat max tree, with their sum of squares: setting one is `O(log n)` with no
+/// allocation (collapses at coarse levels re-place hundreds of carried vertices each).
+struct ErrorTree {
+    /// Leaves at `leaves..2 * leaves`, node `k`'s children at `2k` and `2k + 1`.
+    node: Vec<f64>,
+    leaves: usize,
     sum_squares: f64,
 }
 
-impl ErrorSet {
-    fn insert(&mut self, e: f64) {
-        *self.counts.entry(e.to_bits()).or_insert(0) += 1;
-        self.sum_squares += e * e;
+impl ErrorTree {
+    fn new(n: usize) -> Self {
+        let leaves = n.max(1).next_power_of_two();
+        Self {
+            node: vec![0.0; 2 * leaves],
+            leaves,
+            sum_squares: 0.0,
+        }
     }
 
-    fn remove(&mut self, e: f64) {
-        if let Some(c) = self.counts.get_mut(&e.to_bits()) {
-            *c -= 1;
-            if *c == 0 {
-                self.counts.remove(&e.to_bits());
+    /// Sets the error of `v` to `e`; `old` is its error if it was already counted.
+    fn set(&mut self, v: u32, old: Option<f64>, e: f64) {
+        if let Some(o) = old {
+            self.sum_squares -= o * o;
+        }
+        self.sum_squares += e * e;
+        let mut k = self.leaves + v as usize;
+        self.node[k] = e;
+        while k > 1 {
+            k /= 2;
+            let m = self.node[2 * k].max(self.node[2 * k + 1]);
+            if self.node[k] == m {
+                break;
             }
-            self.sum_squares -= e * e;
+            self.node[k] = m;
         }
     }
 
     fn max(&self) -> f64 {
-        self.counts
-            .last_key_value()
-            .map_or(0.0, |(&b, _)| f64::from_bits(b))
+        self.node[1]
     }
 
     fn rms(&self, n: usize) -> f64 {
@@ -166,21 +179,23 @@ impl Around {
         }
     }
 
-    /// With `i` moved to `pj`: the barycentric coordinates of `pi` and the corners' positions, or
-    /// `None` unless the tetrahedron is proper: positively oriented, six times its volume above a
-    /// millionth of a millionth of the cube of its longest edge (§3.2, no flipped or degenerate
-    /// tetrahedra).
+    /// Is the tetrahedron with `i` moved to `pj` proper: positively oriented, six times its volume
+    /// above a millionth of a millionth of the cube of its longest edge (§3.2, no flipped or
+    /// degenerate tetrahedra)?
     #[inline]
-    fn moved_to(&self, pj: DVec3, pi: DVec3) -> Option<([f64; 4], [DVec3; 4])> {
+    fn proper_at(&self, pj: DVec3) -> bool {
         let v = (pj - self.o).dot(self.n);
         let mut l2 = self.fixed2;
         for d in 1..4 {
             l2 = l2.max(pj.distance_squared(self.x[(self.slot + d) % 4]));
         }
-        let proper = v > 1e-12 * l2 * l2.sqrt();
-        if !proper {
-            return None;
-        }
+        v > 1e-12 * l2 * l2.sqrt()
+    }
+
+    /// With `i` moved to `pj` (a proper place, [`Self::proper_at`]): the barycentric coordinates
+    /// of `pi` and the corners' positions (`None` if the volume still rounds to 0).
+    #[inline]
+    fn moved_to(&self, pj: DVec3, pi: DVec3) -> Option<([f64; 4], [DVec3; 4])> {
         let mut x = self.x;
         x[self.slot] = pj;
         Some((Frame::of(&x)?.0.barycentric(pi), x))
@@ -207,12 +222,12 @@ struct Simplifier<'a> {
     tet_max: Vec<f64>,
     field_error: Vec<f64>,
     boundary_distance: Vec<f64>,
-    field_set: ErrorSet,
-    boundary_set: ErrorSet,
+    field_set: ErrorTree,
+    boundary_set: ErrorTree,
     /// Normalisations of Eq. 2's terms: squared diagonal and squared value range.
     diagonal2: f64,
     range2: f64,
-    queue: PriorityQueue<u32, Cost>,
+    queue: PriorityQueue<u32, Cost, FxBuildHasher>,
     offer: Vec<Option<Candidate>>,
     /// Vertices whose star changed since their offer: re-evaluated when they come out of the queue
     /// (lazy updates: a vertex's star usually changes several times before its turn).
@@ -365,11 +380,11 @@ impl<'a> Simplifier<'a> {
             tet_max: vec![0.0; m],
             field_error: vec![0.0; n],
             boundary_distance: vec![0.0; n],
-            field_set: ErrorSet::default(),
-            boundary_set: ErrorSet::default(),
+            field_set: ErrorTree::new(n),
+            boundary_set: ErrorTree::new(n),
             diagonal2: (hi - lo).length_squared().max(f64::MIN_POSITIVE),
             range2: ((fmax - fmin) * (fmax - fmin)).max(f64::MIN_POSITIVE),
-            queue: PriorityQueue::with_capacity(n),
+            queue: PriorityQueue::with_capacity_and_hasher(n, FxBuildHasher),
             offer: vec![None; n],
             dirty: vec![false; n],
             made: 0,
@@ -393,11 +408,11 @@ impl<'a> Simplifier<'a> {
         self.removed_count += 1;
         self.kind[v as usize] = self.kind[kept as usize];
         self.field_error[v as usize] = e;
-        self.field_set.insert(e);
+        self.field_set.set(v, None, e);
         self.field_bins[t as usize].push(v);
         self.tet_max[t as usize] = self.tet_max[t as usize].max(e);
         if self.params.preserve_boundary && self.kind[v as usize] != Kind::Interior {
-            self.boundary_set.insert(0.0);
+            self.boundary_set.set(v, None, 0.0);
             self.boundary_bins[t as usize].push(v);
         }
     }
@@ -484,6 +499,13 @@ impl<'a> Simplifier<'a> {
             let (mut shape, mut n) = (0.0, 0usize);
             let (mut inside, mut value) = (f64::NEG_INFINITY, 0.0);
             let pj = self.pos[j as usize];
+            // The cheap orientation tests first: most refused targets fail one.
+            if !ring
+                .iter()
+                .all(|r| r.corners.contains(&j) || r.proper_at(pj))
+            {
+                continue;
+            }
             for r in &ring {
                 if r.corners.contains(&j) {
                     continue;
@@ -726,22 +748,17 @@ impl<'a> Simplifier<'a> {
         self.quadric[j as usize].add(&qi);
         self.live -= removed.len();
         for p in field {
-            if p.vertex != i {
-                self.field_set.remove(self.field_error[p.vertex as usize]);
-            }
+            let old = (p.vertex != i).then(|| self.field_error[p.vertex as usize]);
+            self.field_set.set(p.vertex, old, p.error);
             self.field_error[p.vertex as usize] = p.error;
-            self.field_set.insert(p.error);
             self.field_bins[p.tet as usize].push(p.vertex);
             let m = &mut self.tet_max[p.tet as usize];
             *m = m.max(p.error);
         }
         for p in boundary {
-            if p.vertex != i {
-                self.boundary_set
-                    .remove(self.boundary_distance[p.vertex as usize]);
-            }
+            let old = (p.vertex != i).then(|| self.boundary_distance[p.vertex as usize]);
+            self.boundary_set.set(p.vertex, old, p.error);
             self.boundary_distance[p.vertex as usize] = p.error;
-            self.boundary_set.insert(p.error);
             self.boundary_bins[p.tet as usize].push(p.vertex);
         }
         self.queue.remove(&i);

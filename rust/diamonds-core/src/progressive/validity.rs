@@ -2,7 +2,7 @@
 //! vertex moves only along a boundary edge), the link condition (the mesh stays a manifold
 //! tetrahedralisation: Dey et al.'s `Lk(i) ∩ Lk(j) = Lk(ij)`, with the boundary closed by a vertex at
 //! infinity) and feature edges. Flipped or degenerate tetrahedra are tested where the cost is
-//! computed (`Around::moved_to` in [`super::simplify`]).
+//! computed (`Around::proper_at` in [`super::simplify`]).
 
 use glam::DVec3;
 
@@ -60,8 +60,12 @@ impl Link {
         }
         link.verts.sort_unstable();
         link.verts.dedup();
-        link.tris.sort_unstable();
-        faces.sort_unstable();
+        // Packed keys sort faster than arrays; the fourth corners' order within a pair is never
+        // read (only pairs seen once keep theirs).
+        link.tris.sort_unstable_by_key(|t| {
+            (u128::from(t[0]) << 64) | (u128::from(t[1]) << 32) | u128::from(t[2])
+        });
+        faces.sort_unstable_by_key(|&([a, b], _)| (u64::from(a) << 32) | u64::from(b));
         for group in faces.chunk_by(|x, y| x.0 == y.0) {
             link.edges.push(group[0].0);
             if group.len() == 1 {
