@@ -1,20 +1,30 @@
 //! Progressive transmission (§4): a [`ProgressiveMesh`] as a byte stream, the base mesh first, then
 //! one record per vertex split from level 0 up, so that any prefix decodes to a valid level (the last
 //! complete split's). Points and tetrahedra are numbered in stream order (the base mesh's, then one
-//! new point and the split's new tetrahedra per split); a split names its target point, the
-//! tetrahedra that move to the new point (T_moved) and the corners of the new ones (T_new).
+//! new point and the split's new tetrahedra per split); a split names its target point `j`, the
+//! tetrahedra that move to the new point `i` (T_moved) and the corners of the new ones (T_new).
 //!
-//! Layout, little-endian, integers as LEB128 varints: the magic `DPM1`; the numbers of original points
+//! Both ends keep the tetrahedra around each point ([`Stars`]), so a split names its tetrahedra and
+//! points relative to `j`: T_moved as a bit mask over the tetrahedra around `j` (ascending), each
+//! tetrahedron of T_new (around the edge `ij`) as the slots of `i` and `j` in its corners and its two
+//! other corners as indices among `j`'s neighbours (ascending) — one byte each where absolute
+//! numbers took three. Nothing about the mesh is quantised; only the per-level RMS error is stored as
+//! `f32` (the maximum is exact, written only when it changes).
+//!
+//! Layout, little-endian, integers as LEB128 varints: the magic `DPM2`; the numbers of original points
 //! and tetrahedra and of splits; the point arrays (name, components, caller's type tag, 4 or 8 bytes
 //! per value: 4 when every value is exact as `f32`) and the width of the coordinates (likewise); then
-//! the base mesh (its errors, points with their values, tetrahedra) and the splits (target, the new
-//! point with its values, moved tetrahedra, new tetrahedra, the errors of the level it reaches).
+//! the base mesh (its errors as two `f64`, points with their values, tetrahedra as point numbers) and
+//! the splits: target `j`, the new point with its values, the T_moved mask (`⌈|star(j)| / 8⌉` bytes),
+//! the number of new tetrahedra and for each a byte `slot(i) | slot(j) << 2` and the two neighbour
+//! indices, then a byte (1 if the maximum error changed, followed by it as `f64`) and the RMS error
+//! as `f32`.
 
 use super::record::{ProgressiveMesh, Replay};
 use crate::{Error, Result};
 use std::io::{ErrorKind, Read, Write};
 
-const MAGIC: &[u8; 4] = b"DPM1";
+const MAGIC: &[u8; 4] = b"DPM2";
 
 /// A point array carried through the stream: `components` values per point, as `f64` (exact for every
 /// type up to 32 bits), and the caller's tag of its value type, kept as is.
@@ -59,6 +69,56 @@ fn put_varint(out: &mut Vec<u8>, mut v: u64) {
             return;
         }
         out.push(byte | 0x80);
+    }
+}
+
+/// The tetrahedra of a level in stream numbering with the tetrahedra around each point, kept alike
+/// by the encoder and the decoder (a split's record is relative to its target's star).
+#[derive(Default)]
+struct Stars {
+    tets: Vec<[u32; 4]>,
+    star: Vec<Vec<u32>>,
+}
+
+impl Stars {
+    fn add_point(&mut self) {
+        self.star.push(Vec::new());
+    }
+
+    fn add_tet(&mut self, c: [u32; 4]) {
+        let t = self.tets.len() as u32;
+        for v in c {
+            self.star[v as usize].push(t);
+        }
+        self.tets.push(c);
+    }
+
+    /// The tetrahedra around `j`, ascending.
+    fn sorted_star(&self, j: u32) -> Vec<u32> {
+        let mut s = self.star[j as usize].clone();
+        s.sort_unstable();
+        s
+    }
+
+    /// The points adjacent to `j`, ascending.
+    fn neighbours(&self, j: u32) -> Vec<u32> {
+        let mut n: Vec<u32> = self.star[j as usize]
+            .iter()
+            .flat_map(|&t| self.tets[t as usize])
+            .filter(|&v| v != j)
+            .collect();
+        n.sort_unstable();
+        n.dedup();
+        n
+    }
+
+    /// Moves the tetrahedron `t` from its corner `j` to the point `i`.
+    fn move_tet(&mut self, t: u32, j: u32, i: u32) {
+        if let Some(c) = self.tets[t as usize].iter_mut().find(|c| **c == j) {
+            *c = i;
+        }
+        self.star[j as usize].retain(|&o| o != t);
+        self.star[i as usize].push(t);
     }
 }
 
@@ -119,51 +179,88 @@ pub fn encode(pm: &ProgressiveMesh, arrays: &[PointArray], out: &mut impl Write)
     };
     let mut point_id = vec![u32::MAX; n_points];
     let mut tet_id = vec![u32::MAX; pm.tets.len()];
-    let (mut next_point, mut next_tet) = (0u32, 0u32);
-    let put_errors = |buf: &mut Vec<u8>, level: usize| {
-        let e = pm.error(level);
-        buf.extend_from_slice(&e.max_field_error.to_le_bytes());
-        buf.extend_from_slice(&e.rms_field_error.to_le_bytes());
-    };
+    let mut stars = Stars::default();
     let mut replay = Replay::new(pm);
     replay.set_level(pm, 0);
     let base = replay.mesh(n_points);
-    put_errors(&mut buf, 0);
+    let e = pm.error(0);
+    buf.extend_from_slice(&e.max_field_error.to_le_bytes());
+    buf.extend_from_slice(&e.rms_field_error.to_le_bytes());
+    let mut last_max = e.max_field_error;
     put_varint(&mut buf, base.point_ids.len() as u64);
     for &v in &base.point_ids {
-        point_id[v as usize] = next_point;
-        next_point += 1;
+        point_id[v as usize] = stars.star.len() as u32;
+        stars.add_point();
         put_point(&mut buf, v);
     }
     put_varint(&mut buf, base.tets.len() as u64);
     for (t, c) in replay.live_tets() {
-        tet_id[t as usize] = next_tet;
-        next_tet += 1;
+        tet_id[t as usize] = stars.tets.len() as u32;
+        let c = c.map(|v| point_id[v as usize]);
         for v in c {
-            put_varint(&mut buf, point_id[v as usize] as u64);
+            put_varint(&mut buf, v as u64);
         }
+        stars.add_tet(c);
     }
+    let inconsistent = |level: usize| {
+        Error::Stream(format!(
+            "split {level} does not match the mesh it applies to"
+        ))
+    };
     let mut written = 0u64;
     for level in 0..pm.levels() {
         let s = pm.split(level);
-        put_varint(&mut buf, point_id[s.target as usize] as u64);
-        point_id[s.vertex as usize] = next_point;
-        next_point += 1;
+        let j = point_id[s.target as usize];
+        put_varint(&mut buf, j as u64);
+        let i = stars.star.len() as u32;
+        point_id[s.vertex as usize] = i;
+        stars.add_point();
         put_point(&mut buf, s.vertex);
-        put_varint(&mut buf, s.moved.len() as u64);
+        // T_moved as a mask over the star of j.
+        let star = stars.sorted_star(j);
+        let mut mask = vec![0u8; star.len().div_ceil(8)];
         for &t in &s.moved {
-            put_varint(&mut buf, tet_id[t as usize] as u64);
+            let k = star
+                .binary_search(&tet_id[t as usize])
+                .map_err(|_| inconsistent(level))?;
+            mask[k / 8] |= 1 << (k % 8);
+        }
+        buf.extend_from_slice(&mask);
+        let neighbours = stars.neighbours(j);
+        for &t in &s.moved {
+            stars.move_tet(tet_id[t as usize], j, i);
         }
         replay.set_level(pm, level + 1);
         put_varint(&mut buf, s.removed.len() as u64);
         for &t in &s.removed {
-            tet_id[t as usize] = next_tet;
-            next_tet += 1;
-            for v in replay.corners(t) {
-                put_varint(&mut buf, point_id[v as usize] as u64);
+            tet_id[t as usize] = stars.tets.len() as u32;
+            let c = replay.corners(t).map(|v| point_id[v as usize]);
+            let (Some(si), Some(sj)) = (
+                c.iter().position(|&v| v == i),
+                c.iter().position(|&v| v == j),
+            ) else {
+                return Err(inconsistent(level));
+            };
+            buf.push((si | sj << 2) as u8);
+            for (k, &v) in c.iter().enumerate() {
+                if k != si && k != sj {
+                    let n = neighbours
+                        .binary_search(&v)
+                        .map_err(|_| inconsistent(level))?;
+                    put_varint(&mut buf, n as u64);
+                }
             }
+            stars.add_tet(c);
         }
-        put_errors(&mut buf, level + 1);
+        let e = pm.error(level + 1);
+        if e.max_field_error.to_bits() == last_max.to_bits() {
+            buf.push(0);
+        } else {
+            buf.push(1);
+            buf.extend_from_slice(&e.max_field_error.to_le_bytes());
+            last_max = e.max_field_error;
+        }
+        buf.extend_from_slice(&(e.rms_field_error as f32).to_le_bytes());
         if buf.len() > 1 << 20 {
             out.write_all(&buf).map_err(io_error)?;
             written += buf.len() as u64;
@@ -250,6 +347,8 @@ struct Decoder {
     out: Decoded,
     wide: Vec<bool>,
     wide_points: bool,
+    /// The current level's tetrahedra and stars (`out.tets` is filled from it at the end).
+    stars: Stars,
 }
 
 impl Decoder {
@@ -270,6 +369,7 @@ impl Decoder {
             k += a.components;
         }
         self.out.points.push(p);
+        self.stars.add_point();
         Ok(Some((self.out.points.len() - 1) as u32))
     }
 
@@ -309,14 +409,16 @@ impl Decoder {
         for _ in 0..tets {
             all.push(next!(self.tet(r)));
         }
-        self.out.tets = all;
+        for c in all {
+            self.stars.add_tet(c);
+        }
         (self.out.max_field_error, self.out.rms_field_error) = (max, rms);
         Ok(Some(()))
     }
 
     /// Reads and applies one split; `None` (nothing applied) if the stream ends inside it.
     fn split<R: Read>(&mut self, r: &mut Reader<R>) -> Step<()> {
-        let target = index(next!(r.varint()), self.out.points.len(), "split target")?;
+        let j = index(next!(r.varint()), self.out.points.len(), "split target")?;
         let mark = (
             self.out.points.len(),
             self.out
@@ -327,53 +429,84 @@ impl Decoder {
         );
         let undo = |d: &mut Decoder| {
             d.out.points.truncate(mark.0);
+            d.stars.star.truncate(mark.0);
             for (a, &n) in d.out.arrays.iter_mut().zip(&mark.1) {
                 a.values.truncate(n);
             }
         };
+        let level = self.out.level;
+        let bad = move |what: &str| Error::Stream(format!("split {level}: {what}"));
         let read = |d: &mut Decoder, r: &mut Reader<R>| -> Step<SplitRecord> {
             let vertex = next!(d.point(r));
-            let moved_count = next!(r.varint());
+            let star = d.stars.sorted_star(j);
             let mut moved = Vec::new();
-            for _ in 0..moved_count {
-                moved.push(index(next!(r.varint()), d.out.tets.len(), "tetrahedron")?);
+            for byte in 0..star.len().div_ceil(8) {
+                let [b] = next!(r.bytes::<1>());
+                for bit in 0..8 {
+                    if b & (1 << bit) != 0 {
+                        let t = star
+                            .get(8 * byte + bit)
+                            .ok_or_else(|| bad("the moved tetrahedra's mask is too long"))?;
+                        moved.push(*t);
+                    }
+                }
             }
+            let neighbours = d.stars.neighbours(j);
             let new_count = next!(r.varint());
             let mut new = Vec::new();
             for _ in 0..new_count {
-                new.push(next!(d.tet(r)));
+                let [slots] = next!(r.bytes::<1>());
+                let (si, sj) = ((slots & 3) as usize, ((slots >> 2) & 3) as usize);
+                if si == sj || slots >> 4 != 0 {
+                    return Err(bad("a new tetrahedron's slots are invalid"));
+                }
+                let mut c = [vertex, vertex, vertex, vertex];
+                c[sj] = j;
+                for (k, corner) in c.iter_mut().enumerate() {
+                    if k != si && k != sj {
+                        let n = next!(r.varint());
+                        *corner = *usize::try_from(n)
+                            .ok()
+                            .and_then(|n| neighbours.get(n))
+                            .ok_or_else(|| bad("a corner is not a neighbour of the target"))?;
+                    }
+                }
+                new.push(c);
             }
-            let errors = next!(Self::errors(r));
+            let [changed] = next!(r.bytes::<1>());
+            let max = if changed == 1 {
+                f64::from_le_bytes(next!(r.bytes::<8>()))
+            } else {
+                d.out.max_field_error
+            };
+            let rms = f32::from_le_bytes(next!(r.bytes::<4>())) as f64;
             Ok(Some(SplitRecord {
                 vertex,
                 moved,
                 new,
-                errors,
+                errors: (max, rms),
             }))
         };
-        let Some(SplitRecord {
+        let record = match read(self, r) {
+            Ok(Some(record)) => record,
+            Ok(None) => {
+                undo(self);
+                return Ok(None);
+            }
+            Err(e) => return Err(e),
+        };
+        let SplitRecord {
             vertex,
             moved,
             new,
             errors: (max, rms),
-        }) = read(self, r)?
-        else {
-            undo(self);
-            return Ok(None);
-        };
+        } = record;
         for t in moved {
-            let c = &mut self.out.tets[t as usize];
-            match c.iter_mut().find(|v| **v == target) {
-                Some(v) => *v = vertex,
-                None => {
-                    return Err(Error::Stream(format!(
-                        "split {} moves tetrahedron {t}, which does not have its target point",
-                        self.out.level
-                    )))
-                }
-            }
+            self.stars.move_tet(t, j, vertex);
         }
-        self.out.tets.extend(new);
+        for c in new {
+            self.stars.add_tet(c);
+        }
         self.out.level += 1;
         (self.out.max_field_error, self.out.rms_field_error) = (max, rms);
         Ok(Some(()))
@@ -389,7 +522,7 @@ pub fn decode(input: impl Read, level: usize) -> Result<Decoded> {
     let magic = r.bytes::<4>()?.ok_or_else(truncated)?;
     if &magic != MAGIC {
         return Err(Error::Stream(
-            "not a progressive mesh stream (no DPM1 header)".into(),
+            "not a progressive mesh stream (no DPM2 header)".into(),
         ));
     }
     let mut counts = [0usize; 4];
@@ -438,6 +571,7 @@ pub fn decode(input: impl Read, level: usize) -> Result<Decoded> {
         },
         wide,
         wide_points: width == 8,
+        stars: Stars::default(),
     };
     d.base(&mut r)?.ok_or_else(truncated)?;
     while d.out.level < level.min(levels) {
@@ -445,5 +579,6 @@ pub fn decode(input: impl Read, level: usize) -> Result<Decoded> {
             break;
         }
     }
+    d.out.tets = std::mem::take(&mut d.stars.tets);
     Ok(d.out)
 }
