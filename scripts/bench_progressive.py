@@ -199,6 +199,20 @@ def probe(path, array, isovalue):
     return json.loads(out)
 
 
+def stream(path, array):
+    """`diamonds progressive encode` (TargetReduction 0.9): the .dpm's size against the .vtu's."""
+    import re
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        dpm = os.path.join(tmp, "case.dpm")
+        out = subprocess.run([os.path.join(ROOT, "target", "release", "diamonds"), "progressive", "encode", path,
+                              dpm, "--array", array], check=True, capture_output=True, text=True).stdout
+        size = os.path.getsize(dpm)
+    m = re.search(r"\(([0-9.]+) % of the \.vtu's ([0-9]+) bytes\)", out)
+    return {"dpm": size, "vtu": int(m.group(2)), "percent": float(m.group(1))}
+
+
 def ensure_bonsai():
     if os.path.exists(BONSAI_TETS):
         return True
@@ -231,7 +245,7 @@ def report(cases):
              "removed vertices in field data (in brackets). Hausdorff: boundary "
              "surfaces, both ways, world units. Measured on the shared 2-core machine under the other sessions' "
              "builds (load 6-11): seconds are upper bounds and their ratios noisy.", ""]
-    for name, runs, probed in cases:
+    for name, runs, probed, streamed in cases:
         ours = runs["ours"]
         vtk = runs["vtk"]
         lines += [f"### {name}, {probed['tets']:,} tetrahedra", "",
@@ -258,6 +272,9 @@ def report(cases):
                   f"{o90['inverted']} vs {v90['inverted']} (goal 0). Filter level changes (TargetReduction 0.5 → 0.99 "
                   f"→ 0.9 → 0.5, output built): {', '.join(f'{1000 * s:.0f}' for s in extra['level_changes'])} ms; "
                   f"simplifications: {extra['simplifications']}.", ""]
+        lines += [f"Progressive stream (`diamonds progressive encode`, zlib over DPM2, every level): "
+                  f"{streamed['dpm']:,} bytes, {streamed['percent']:.1f} % of the .vtu's {streamed['vtu']:,} (goal < 100 %).",
+                  ""]
         if probed:
             lines += [f"Rust side (`progressive_probe`, simplification {probed['simplify_s']:.2f} s): level change "
                       "(replay + the level as arrays), the same carrying the progressive isosurface (T_new and "
@@ -275,8 +292,8 @@ def report(cases):
 
 
 def main():
-    subprocess.run(["cargo", "build", "--release", "-p", "diamonds-cli", "--example", "progressive_probe"],
-                   cwd=ROOT, check=True)
+    subprocess.run(["cargo", "build", "--release", "-p", "diamonds-cli", "--bin", "diamonds", "--example",
+                    "progressive_probe"], cwd=ROOT, check=True)
     only = sys.argv[1:]
     cases = []
     for name, path, array, isovalue, repeats in CASES:
@@ -295,7 +312,9 @@ def main():
                 print(name, method, runs[method][-1], flush=True)
         probed = probe(path, array, isovalue)
         print(name, probed, flush=True)
-        cases.append((name, runs, probed))
+        streamed = stream(path, array)
+        print(name, streamed, flush=True)
+        cases.append((name, runs, probed, streamed))
         # Written after each case: the largest takes minutes.
         replace_section(HEADING, report(cases))
     print("\n".join(report(cases)))
