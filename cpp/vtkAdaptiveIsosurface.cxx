@@ -26,13 +26,18 @@
 #include "vtkDiamondsHierarchyCache.h"
 #include "vtkDiamondsImageGeometry.h"
 #include "vtkDiamondsOutput.h"
+#include "vtkDiamondsPieces.h"
 
 #include <algorithm>
+#include <array>
+#include <chrono>
 #include <cmath>
 #include <cstddef>
 #include <optional>
 #include <string>
 #include <vector>
+
+#include <sys/resource.h>
 
 vtkStandardNewMacro(vtkAdaptiveIsosurface);
 
@@ -58,7 +63,31 @@ public:
   // The surface as points, triangles and, when asked for, normals and scalars (of `array`'s type).
   void FillSurface(vtkAdaptiveIsosurface* self, const bridge::Surface& surface,
     vtkDataArray* array, vtkPolyData* output);
+  // The extraction's parameters (tolerance, budget, outputs; not the region of interest).
+  bridge::IsoSpec Spec(vtkAdaptiveIsosurface* self) const;
+
+  // On more than one rank: the whole image this rank put together (none on an empty piece), and
+  // what it was put together from (every rank fetches again when any rank's key changed).
+  struct WholeKey
+  {
+    vtkDiamonds::InputKey Input;
+    std::vector<std::int64_t> Extents;
+    bool operator==(const WholeKey& o) const { return Input == o.Input && Extents == o.Extents; }
+  };
+  vtkSmartPointer<vtkImageData> Whole;
+  WholeKey WholeBuilt;
 };
+
+//------------------------------------------------------------------------------
+bridge::IsoSpec vtkAdaptiveIsosurface::vtkInternals::Spec(vtkAdaptiveIsosurface* self) const
+{
+  bridge::IsoSpec spec;
+  spec.tolerance = self->Tolerance;
+  spec.max_triangles = static_cast<std::size_t>(self->MaximumNumberOfTriangles);
+  spec.compute_normals = self->ComputeNormals != 0;
+  spec.carrier_tetrahedra = self->GenerateCarrierTetrahedra != 0;
+  return spec;
+}
 
 //------------------------------------------------------------------------------
 vtkAdaptiveIsosurface::vtkAdaptiveIsosurface()
@@ -256,6 +285,10 @@ int vtkAdaptiveIsosurface::RequestData(
   output->Initialize();
   carrier->Initialize();
   this->RelativeTolerance = 0.0;
+  if (vtkMultiProcessController* controller = vtkDiamonds::Pieces::DistributedController())
+  {
+    return this->RequestDistributed(controller, inputVector, input, output, carrier);
+  }
 
   // ---- Parameters, geometry, the array to contour.
   const std::optional<std::vector<double>> isovalues = this->Internals->CheckParameters(this);
@@ -285,11 +318,7 @@ int vtkAdaptiveIsosurface::RequestData(
   // ---- Extraction. The cache's isosurface state belongs to its hierarchy (recreated with every
   // build): the adaptive mesh of the previous execution is reused when only ComputeNormals,
   // ComputeScalars or GenerateCarrierTetrahedra changed; otherwise it is refined from the root.
-  bridge::IsoSpec spec;
-  spec.tolerance = this->Tolerance;
-  spec.max_triangles = static_cast<std::size_t>(this->MaximumNumberOfTriangles);
-  spec.compute_normals = this->ComputeNormals != 0;
-  spec.carrier_tetrahedra = this->GenerateCarrierTetrahedra != 0;
+  bridge::IsoSpec spec = this->Internals->Spec(this);
   if (!vtkDiamonds::SetRegionOfInterest(
         this, this->UseRegionOfInterest, this->RegionOfInterest, inputVector, input, spec))
   {
@@ -360,6 +389,195 @@ int vtkAdaptiveIsosurface::RequestData(
     carrier->GetFieldData()->AddArray(OneValue<vtkDoubleArray>("MaximumError", (*mesh)->max_error()));
   }
 
+  this->UpdateProgress(1.0);
+  return 1;
+}
+
+//------------------------------------------------------------------------------
+int vtkAdaptiveIsosurface::RequestDistributed(vtkMultiProcessController* controller,
+  vtkInformationVector** inputVector, vtkImageData* input, vtkPolyData* output,
+  vtkUnstructuredGrid* carrier)
+{
+  const auto started = std::chrono::steady_clock::now();
+  const bool empty = input->GetNumberOfPoints() == 0;
+  // Every rank takes part in every collective step below; a failure on one rank is agreed on
+  // before the next one.
+  vtkDiamonds::Pieces pieces(controller, inputVector[0]->GetInformationObject(0), input);
+  const auto agree = [&](bool mine, const char* what) {
+    if (pieces.AllOk(mine))
+    {
+      return true;
+    }
+    if (mine)
+    {
+      vtkErrorMacro(<< "Adaptive Isosurface stopped: " << what
+                    << " failed on another rank (see its error).");
+    }
+    output->Initialize();
+    carrier->Initialize();
+    return false;
+  };
+
+  // ---- Parameters and this piece's samples (an empty piece reads no array).
+  const std::optional<std::vector<double>> isovalues = this->Internals->CheckParameters(this);
+  bridge::IsoSpec spec = this->Internals->Spec(this);
+  spec.use_region_of_interest = this->UseRegionOfInterest != 0;
+  std::copy(this->RegionOfInterest, this->RegionOfInterest + 6, spec.region_of_interest.begin());
+  vtkDataArray* array = nullptr;
+  vtkSmartPointer<vtkDataArray> samples;
+  bridge::ScalarType type = bridge::ScalarType::F64;
+  bool ok = isovalues.has_value();
+  if (ok && !empty)
+  {
+    int association = vtkDataObject::FIELD_ASSOCIATION_POINTS;
+    vtkDataArray* selected = this->GetInputArrayToProcess(0, inputVector, association);
+    ok = vtkDiamonds::CheckAxisAligned(this, Text, input) &&
+      (array = vtkDiamonds::SelectPointArray(this, Text, input, selected, association)) &&
+      vtkDiamonds::CoreSamples(this, Text, array, samples, type);
+  }
+  if (!agree(ok, "reading the input"))
+  {
+    return 0;
+  }
+
+  // ---- The whole image on every rank with a piece, fetched again when any rank's input changed.
+  vtkInternals::WholeKey key;
+  key.Input = vtkDiamonds::InputKey(input, array);
+  key.Extents.assign(pieces.Extents().begin(), pieces.Extents().end());
+  const bool stale = !(this->Internals->WholeBuilt == key);
+  if (pieces.Sum(stale ? 1 : 0) > 0)
+  {
+    this->Internals->Cache.Release();
+    this->Internals->WholeBuilt = vtkInternals::WholeKey();
+    std::string error;
+    ok = pieces.GatherWhole(samples, this->Internals->Whole, error);
+    if (!ok)
+    {
+      vtkErrorMacro(<< "Adaptive Isosurface could not fetch the image from the other ranks: "
+                    << error);
+    }
+    if (!agree(ok, "fetching the image"))
+    {
+      this->Internals->Whole = nullptr;
+      return 0;
+    }
+    this->Internals->WholeBuilt = key;
+  }
+  this->UpdateProgress(0.1);
+
+  // ---- This rank's share of the surface of the whole image.
+  vtkImageData* whole = this->Internals->Whole;
+  vtkDiamonds::HierarchyCache& cache = this->Internals->Cache;
+  std::optional<rust::Box<bridge::Surface>> surface;
+  if (whole)
+  {
+    int result = 0; // the agreement below decides what to return
+    ok = cache.Prepare(this, Text, whole, whole->GetPointData()->GetScalars(), 0.1, 0.7,
+      this->NumberOfHierarchyBuilds, result);
+    if (ok)
+    {
+      try
+      {
+        surface.emplace(cache.GetHierarchy().isosurface_piece(cache.GetIsoState(),
+          cache.GetSampleType(), cache.GetSamples(),
+          rust::Slice<const double>(isovalues->data(), isovalues->size()), spec, pieces.Extents(),
+          static_cast<std::size_t>(pieces.Rank())));
+        for (const rust::String& warning : (*surface)->warnings())
+        {
+          vtkWarningMacro(<< "Adaptive Isosurface, array \"" << array->GetName()
+                          << "\": " << std::string(warning));
+        }
+      }
+      catch (const rust::Error& e)
+      {
+        vtkErrorMacro(<< "Adaptive Isosurface extraction failed for array \"" << array->GetName()
+                      << "\": " << e.what());
+        surface.reset();
+        ok = false;
+      }
+    }
+  }
+  if (!agree(ok && !this->CheckAbort(), "the extraction"))
+  {
+    return this->GetAbortExecute() ? 1 : 0;
+  }
+  if (surface && cache.GetIsoState().reused())
+  {
+    ++this->NumberOfReusedMeshes;
+  }
+  this->UpdateProgress(0.9);
+
+  // ---- Output: this rank's triangles with global point ids, and its carrier tetrahedra.
+  std::vector<double> errorBound{ 0.0 };
+  if (surface)
+  {
+    this->Internals->FillSurface(this, **surface, array, output);
+    const rust::Slice<const std::uint64_t> ids = (*surface)->global_point_ids();
+    vtkNew<vtkIdTypeArray> globalIds;
+    globalIds->SetName("GlobalPointIds");
+    globalIds->SetNumberOfValues(static_cast<vtkIdType>(ids.size()));
+    std::copy(ids.begin(), ids.end(), globalIds->GetPointer(0));
+    output->GetPointData()->SetGlobalIds(globalIds);
+    errorBound[0] = (*surface)->error_bound();
+  }
+  if (surface && this->GenerateCarrierTetrahedra)
+  {
+    try
+    {
+      rust::Box<bridge::Mesh> mesh = (*surface)->take_carrier();
+      vtkDiamonds::MeshToUnstructuredGrid(*mesh, whole, "IsosurfaceError", carrier);
+      carrier->GetFieldData()->AddArray(
+        OneValue<vtkIdTypeArray>("NumberOfTetrahedra", carrier->GetNumberOfCells()));
+      carrier->GetFieldData()->AddArray(OneValue<vtkDoubleArray>("MaximumError", mesh->max_error()));
+    }
+    catch (const rust::Error& e)
+    {
+      vtkErrorMacro(<< e.what());
+      ok = false;
+    }
+  }
+  if (!agree(ok, "the output"))
+  {
+    return 0;
+  }
+  const vtkIdType numTriangles = output->GetNumberOfCells();
+  pieces.MaxInPlace(errorBound);
+  const vtkIdType total = pieces.Sum(numTriangles);
+  const double seconds =
+    std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  const std::vector<double> trianglesPerRank = pieces.PerRank(static_cast<double>(numTriangles));
+  const std::vector<double> secondsPerRank = pieces.PerRank(seconds);
+  const std::vector<double> bytesPerRank = pieces.PerRank(pieces.BytesSent());
+  const std::vector<double> exchangePerRank = pieces.PerRank(pieces.ExchangeSeconds());
+  struct rusage usage;
+  getrusage(RUSAGE_SELF, &usage);
+  const std::vector<double> peakPerRank = pieces.PerRank(usage.ru_maxrss * 1024.0);
+  const bridge::GridSpec& grid = pieces.Whole();
+  double diagonal2 = 0.0;
+  for (int axis = 0; axis < 3; ++axis)
+  {
+    diagonal2 += std::pow((static_cast<double>(grid.dims[axis]) - 1.0) * grid.spacing[axis], 2);
+  }
+  const double relativeTolerance = diagonal2 > 0.0 ? this->Tolerance / std::sqrt(diagonal2) : 0.0;
+  this->RelativeTolerance = relativeTolerance;
+  vtkFieldData* fieldData = output->GetFieldData();
+  if (!empty)
+  {
+    fieldData->PassData(input->GetFieldData());
+  }
+  fieldData->AddArray(OneValue<vtkDoubleArray>("ErrorBound", errorBound[0]));
+  fieldData->AddArray(OneValue<vtkIdTypeArray>("NumberOfTriangles", total));
+  fieldData->AddArray(OneValue<vtkDoubleArray>("Tolerance", this->Tolerance));
+  fieldData->AddArray(OneValue<vtkDoubleArray>("RelativeTolerance", relativeTolerance));
+  for (const auto& [name, values] : { std::make_pair("TrianglesPerRank", &trianglesPerRank),
+         std::make_pair("SecondsPerRank", &secondsPerRank),
+         std::make_pair("BytesSentPerRank", &bytesPerRank),
+         std::make_pair("ExchangeSecondsPerRank", &exchangePerRank),
+         std::make_pair("PeakMemoryPerRank", &peakPerRank) })
+  {
+    fieldData->AddArray(
+      NamedArray<vtkDoubleArray>(name, static_cast<vtkIdType>(values->size()), values->data()));
+  }
   this->UpdateProgress(1.0);
   return 1;
 }

@@ -98,13 +98,19 @@
  * to the processed input array while the hierarchy is cached (no copy, except for 64-bit integer
  * or non-contiguous arrays, which are converted once); ReleaseHierarchy() drops both.
  *
- * Distributed data (MPI): every process extracts the surface of its own piece of the image with
- * its own hierarchy (pieces share their boundary plane of points; the filter asks for no ghost
- * levels). Each piece's surface is crack-free and within Tolerance, but two pieces refine their
- * shared plane independently, so the surfaces of neighbouring pieces may not match exactly along
- * it (small cracks or overlaps there, within the tolerance). The region of
- * interest and RelativeTolerance refer to the whole data set; a piece the region does not touch
- * gets its coarsest surface. An empty piece gives an empty output without an error.
+ * Distributed data (MPI: pvbatch, pvserver): when the global vtkMultiProcessController has more
+ * than one process, the union of the ranks' outputs is exactly the surface one process extracts
+ * from the whole image (same triangles, points, normals and scalars, up to order and point ids),
+ * each triangle on exactly one rank (the one whose piece holds the centroid of the tetrahedron
+ * carrying it, cells half-open), watertight across pieces. Every rank with a piece fetches the
+ * points it does not hold from the ranks that do (the whole image; memory per rank is that of the
+ * whole image, the fetch is repeated only when some rank's input changed) and runs the serial
+ * extraction, then writes its share. The output carries the point array "GlobalPointIds" (the
+ * point's index in the whole surface, the same on every rank; set as the global ids) and field
+ * data "TrianglesPerRank", "SecondsPerRank", "BytesSentPerRank", "ExchangeSecondsPerRank" and
+ * "PeakMemoryPerRank" (one value per rank each); "NumberOfTriangles" is the total over the ranks.
+ * The carrier tetrahedra on port 1 are split between the ranks the same way (point data: the
+ * processed array only). An empty piece takes part and outputs nothing.
  *
  * Errors (vtkErrorMacro, empty outputs, no crash): no contour value, or a NaN/Inf one; negative or
  * non-finite Tolerance; negative MaximumNumberOfTriangles; fewer than 2 points along an axis (2-D
@@ -134,6 +140,9 @@
 #include "vtkPolyDataAlgorithm.h"
 
 class vtkContourValues;
+class vtkImageData;
+class vtkMultiProcessController;
+class vtkUnstructuredGrid;
 
 class VTKDIAMONDS_EXPORT vtkAdaptiveIsosurface : public vtkPolyDataAlgorithm
 {
@@ -274,6 +283,9 @@ protected:
   int FillOutputPortInformation(int port, vtkInformation* info) override;
   int RequestUpdateExtent(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
   int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
+  // RequestData on more than one rank: every rank's share of the serial surface.
+  int RequestDistributed(vtkMultiProcessController* controller, vtkInformationVector** inputVector,
+    vtkImageData* input, vtkPolyData* output, vtkUnstructuredGrid* carrier);
 
   vtkContourValues* ContourValues;
   double Tolerance;

@@ -221,23 +221,7 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
 
   // ---- The whole image and every rank's piece (all ranks take part in every step below; a
   // failure on one rank is agreed on before the next collective step).
-  int whole[6];
-  int extent[6] = { 0, -1, 0, -1, 0, -1 };
-  inInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
-  if (!empty)
-  {
-    input->GetExtent(extent);
-  }
-  double origin[3];
-  double spacing[3];
-  input->GetOrigin(origin);
-  input->GetSpacing(spacing);
-  if (inInfo->Has(vtkDataObject::ORIGIN()) && inInfo->Has(vtkDataObject::SPACING()))
-  {
-    inInfo->Get(vtkDataObject::ORIGIN(), origin);
-    inInfo->Get(vtkDataObject::SPACING(), spacing);
-  }
-  vtkDiamonds::Pieces pieces(controller, whole, extent, origin, spacing);
+  vtkDiamonds::Pieces pieces(controller, inInfo, input);
 
   // ---- This piece's samples (an empty piece has none and reads no array).
   vtkDataArray* array = nullptr;

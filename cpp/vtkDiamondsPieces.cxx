@@ -3,7 +3,11 @@
 #include "vtkCommunicator.h"
 #include "vtkDataArray.h"
 #include "vtkIdList.h"
+#include "vtkImageData.h"
+#include "vtkInformation.h"
 #include "vtkMultiProcessController.h"
+#include "vtkPointData.h"
+#include "vtkStreamingDemandDrivenPipeline.h"
 #include "vtkNew.h"
 #include "vtkTypeInt64Array.h"
 #include "vtkTypeUInt64Array.h"
@@ -74,6 +78,8 @@ Pieces::Pieces(vtkMultiProcessController* controller, const int wholeExtent[6],
   , Me(controller->GetLocalProcessId())
   , Ranks(controller->GetNumberOfProcesses())
 {
+  std::copy(wholeExtent, wholeExtent + 6, this->WholeExtent);
+  std::copy(origin, origin + 3, this->Origin);
   for (int axis = 0; axis < 3; ++axis)
   {
     this->WholeLo[axis] = wholeExtent[2 * axis];
@@ -91,6 +97,96 @@ Pieces::Pieces(vtkMultiProcessController* controller, const int wholeExtent[6],
   this->Controller->AllGather(own, all.data(), 6);
   this->Sent += 6 * sizeof(vtkIdType);
   this->All.assign(all.begin(), all.end());
+}
+
+//------------------------------------------------------------------------------
+// What Pieces takes from a filter's input image and its pipeline information.
+struct Pieces::InputGeometry
+{
+  int Whole[6];
+  int Extent[6] = { 0, -1, 0, -1, 0, -1 };
+  double Origin[3];
+  double Spacing[3];
+  InputGeometry(vtkInformation* inInfo, vtkImageData* input)
+  {
+    inInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), this->Whole);
+    if (input->GetNumberOfPoints() > 0)
+    {
+      input->GetExtent(this->Extent);
+    }
+    input->GetOrigin(this->Origin);
+    input->GetSpacing(this->Spacing);
+    if (inInfo->Has(vtkDataObject::ORIGIN()) && inInfo->Has(vtkDataObject::SPACING()))
+    {
+      inInfo->Get(vtkDataObject::ORIGIN(), this->Origin);
+      inInfo->Get(vtkDataObject::SPACING(), this->Spacing);
+    }
+  }
+};
+
+Pieces::Pieces(vtkMultiProcessController* controller, vtkInformation* inInfo, vtkImageData* input)
+  : Pieces(controller, InputGeometry(inInfo, input))
+{
+}
+
+Pieces::Pieces(vtkMultiProcessController* controller, const InputGeometry& g)
+  : Pieces(controller, g.Whole, g.Extent, g.Origin, g.Spacing)
+{
+}
+
+//------------------------------------------------------------------------------
+bool Pieces::GatherWhole(
+  vtkDataArray* samples, vtkSmartPointer<vtkImageData>& whole, std::string& error)
+{
+  whole = nullptr;
+  std::vector<vtkDataArray*> arrays;
+  if (samples)
+  {
+    arrays.push_back(samples);
+  }
+  rust::Vec<std::uint64_t> others;
+  bool ok = true;
+  try
+  {
+    others = bridge::piece_other_points(this->WholeGrid, this->OwnExtent());
+  }
+  catch (const rust::Error& e)
+  {
+    error = e.what();
+    ok = false;
+  }
+  std::vector<vtkSmartPointer<vtkDataArray>> fetched;
+  ok = this->Fetch({ others.data(), others.size() }, arrays, fetched, error) && ok;
+  if (!ok || !samples)
+  {
+    return ok;
+  }
+  const std::size_t* dims = this->WholeGrid.dims.data();
+  const vtkIdType nx = static_cast<vtkIdType>(dims[0]);
+  const vtkIdType ny = static_cast<vtkIdType>(dims[1]);
+  vtkSmartPointer<vtkDataArray> all = SameKind(samples, nx * ny * static_cast<vtkIdType>(dims[2]));
+  // This rank's rows, then the fetched points (listed in `others` order).
+  const std::int64_t* e = this->All.data() + 6 * this->Me;
+  const vtkIdType rowLength = e[1] - e[0] + 1;
+  vtkIdType source = 0;
+  for (std::int64_t z = e[4]; z <= e[5]; ++z)
+  {
+    for (std::int64_t y = e[2]; y <= e[3]; ++y, source += rowLength)
+    {
+      all->InsertTuples(e[0] + nx * (y + ny * z), rowLength, source, samples);
+    }
+  }
+  for (std::size_t k = 0; k < others.size(); ++k)
+  {
+    all->SetTuple(static_cast<vtkIdType>(others[k]), static_cast<vtkIdType>(k), fetched[0]);
+  }
+  // The input's geometry (origin, whole extent), so that positions are computed as for the input.
+  whole = vtkSmartPointer<vtkImageData>::New();
+  whole->SetExtent(this->WholeExtent);
+  whole->SetOrigin(this->Origin);
+  whole->SetSpacing(this->WholeGrid.spacing.data());
+  whole->GetPointData()->SetScalars(all);
+  return true;
 }
 
 //------------------------------------------------------------------------------

@@ -20,6 +20,8 @@
 
 class vtkDataArray;
 class vtkIdList;
+class vtkImageData;
+class vtkInformation;
 class vtkMultiProcessController;
 
 namespace vtkDiamonds
@@ -38,6 +40,9 @@ public:
   // whole image (the same on every rank); `extent` is this rank's piece (empty: any max < min).
   Pieces(vtkMultiProcessController* controller, const int wholeExtent[6], const int extent[6],
     const double origin[3], const double spacing[3]);
+  // Collective: the same for a filter's input image `input` (its piece; empty when it has no
+  // points) and its pipeline information `inInfo` (whole extent, and origin and spacing when given).
+  Pieces(vtkMultiProcessController* controller, vtkInformation* inInfo, vtkImageData* input);
 
   int Rank() const { return this->Me; }
   int Size() const { return this->Ranks; }
@@ -65,16 +70,28 @@ public:
   bool Fetch(rust::Slice<const std::uint64_t> ids, const std::vector<vtkDataArray*>& arrays,
     std::vector<vtkSmartPointer<vtkDataArray>>& fetched, std::string& error);
 
+  // Collective: the whole image on this rank, for filters that need all of it (Adaptive
+  // Isosurface): `samples` (this rank's point array over its extent, null on an empty piece) with
+  // every other point's tuple fetched from the rank holding it, as a point array of the same kind
+  // on an image of the whole extent. An empty piece fetches nothing and gets no image. Returns
+  // false with `error` set when a fetch fails.
+  bool GatherWhole(vtkDataArray* samples, vtkSmartPointer<vtkImageData>& whole, std::string& error);
+
   // Bytes this rank sent so far (point-to-point and collective contributions), and seconds spent
   // in the steps above (exchanging and waiting for the other ranks).
   double BytesSent() const { return this->Sent; }
   double ExchangeSeconds() const { return this->Seconds; }
 
 private:
+  struct InputGeometry;
+  Pieces(vtkMultiProcessController* controller, const InputGeometry& geometry);
+
   vtkMultiProcessController* Controller;
   int Me = 0;
   int Ranks = 1;
   int WholeLo[3] = { 0, 0, 0 };
+  int WholeExtent[6] = { 0, -1, 0, -1, 0, -1 };
+  double Origin[3] = { 0.0, 0.0, 0.0 };
   bridge::GridSpec WholeGrid{};
   std::vector<std::int64_t> All;
   double Sent = 0.0;

@@ -12,7 +12,8 @@
 #    (test_material.py writes its impact case with target/release/diamonds, brought up to date
 #    with cargo).
 # 3. tests/pvpython/mpi_pieces.py, mpi_isosurface.py and mpi_material.py under `mpiexec -n 2 pvbatch`,
-#    and mpi_pieces.py again under `mpiexec -n 3 pvbatch` and as a pvpython client of `mpiexec -n 2 pvserver`.
+#    mpi_pieces.py and mpi_isosurface.py again under `mpiexec -n 3 pvbatch`, and mpi_pieces.py as a pvpython
+#    client of `mpiexec -n 2 pvserver`.
 # 4. scripts/demo.py under `xvfb-run -a pvbatch`, into build/test-demo, and
 #    tests/pvpython/render_visibility_sort.py and render_adaptive_volume.py under `xvfb-run -a`
 #    (the steps that render).
@@ -89,6 +90,8 @@ for t in tests/pvpython/mpi_pieces.py tests/pvpython/mpi_isosurface.py tests/pvp
 done
 step "mpiexec -n 3 pvbatch tests/pvpython/mpi_pieces.py" env DIAMONDS_EXPECTED_RANKS=3 \
   mpiexec --allow-run-as-root --oversubscribe -n 3 pvbatch tests/pvpython/mpi_pieces.py
+step "mpiexec -n 3 pvbatch tests/pvpython/mpi_isosurface.py" env DIAMONDS_EXPECTED_RANKS=3 \
+  mpiexec --allow-run-as-root --oversubscribe -n 3 pvbatch tests/pvpython/mpi_isosurface.py
 step "pvpython tests/pvpython/mpi_pieces.py --client-server (mpiexec -n 2 pvserver)" \
   timeout 1200 pvpython tests/pvpython/mpi_pieces.py --client-server
 step "xvfb-run -a pvbatch scripts/demo.py" demo_render

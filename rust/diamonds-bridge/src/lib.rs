@@ -38,6 +38,7 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::pin::Pin;
 use std::sync::atomic::{AtomicU64, Ordering};
 
+use diamonds::hierarchy::piece::PointBox;
 use diamonds::validate::{check_isosurface_arrays, check_mesh_arrays};
 use diamonds::{Grid, IsoQuery, IsoSurface, Query, ScalarSlice, TetMesh};
 
@@ -347,6 +348,26 @@ mod ffi {
             pieces: &[i64],
             rank: usize,
         ) -> Result<Box<Mesh>>;
+        /// Whole-grid point indices (x fastest), ascending, of every point the piece of extent
+        /// `owned` does not hold: what a rank fetches to hold the whole image (Adaptive
+        /// Isosurface); none for an empty piece.
+        fn piece_other_points(whole: &GridSpec, owned: &[i64]) -> Result<Vec<u64>>;
+        /// `isosurface` on a rank that holds the whole image (this hierarchy and `samples` are
+        /// the whole image's): the part of the surface the rank at `rank` of `pieces` (every
+        /// rank's extent) owns — the triangles of the carrier tetrahedra whose centroid its cells
+        /// hold, and those tetrahedra — with `global_point_ids`. Over all ranks, the serial
+        /// surface, each triangle once.
+        #[allow(clippy::too_many_arguments)]
+        fn isosurface_piece(
+            self: &Hierarchy,
+            state: &mut IsoState,
+            scalar_type: ScalarType,
+            samples: &[u8],
+            isovalues: &[f64],
+            spec: &IsoSpec,
+            pieces: &[i64],
+            rank: usize,
+        ) -> Result<Box<Surface>>;
 
         /// Refines for `query` and counts the mesh; cheap compared with the build.
         fn plan_mesh(self: &Hierarchy, query: &QuerySpec) -> Result<Box<MeshPlan>>;
@@ -443,6 +464,9 @@ mod ffi {
         fn warnings(self: &Surface) -> Result<Vec<String>>;
         /// Whether the carrier tetrahedra are there to take (asked for and not taken yet).
         fn has_carrier(self: &Surface) -> bool;
+        /// For a piece's part (`isosurface_piece`): each point's id in the whole surface, the same
+        /// on every rank; empty for a whole surface.
+        fn global_point_ids(self: &Surface) -> &[u64];
         /// Moves the tetrahedra carrying the surface out (their `errors`: the isosurface error of
         /// each tetrahedron's diamond, world units); an error unless `carrier_tetrahedra` was
         /// asked for, or when already taken.
@@ -712,8 +736,8 @@ pub use material::{
 };
 pub mod view;
 pub use piece::{
-    build_piece_hierarchy, piece_local_ids, piece_needed_points, piece_point_owners,
-    PieceHierarchy, PieceRefinement,
+    build_piece_hierarchy, piece_local_ids, piece_needed_points, piece_other_points,
+    piece_point_owners, PieceHierarchy, PieceRefinement,
 };
 pub use view::{new_path_order, new_view_mesh, PathOrder, ViewMesh};
 
@@ -975,6 +999,20 @@ impl Hierarchy {
         isovalues: &[f64],
         spec: &IsoSpec,
     ) -> Result<Box<Surface>, String> {
+        self.isosurface_of(state, scalar_type, samples, isovalues, spec, None)
+    }
+
+    /// [`Hierarchy::isosurface`], or with `piece` (every piece's point box and this piece's
+    /// position) the part of it that piece owns ([`diamonds::IsoState::extract_piece`]).
+    pub(crate) fn isosurface_of(
+        &self,
+        state: &mut IsoState,
+        scalar_type: ScalarType,
+        samples: &[u8],
+        isovalues: &[f64],
+        spec: &IsoSpec,
+        piece: Option<(&[PointBox], usize)>,
+    ) -> Result<Box<Surface>, String> {
         let what = "extracting the isosurface";
         self.with_iso_state(
             state,
@@ -992,9 +1030,13 @@ impl Hierarchy {
                     compute_normals: spec.compute_normals,
                     carrier_tetrahedra: spec.carrier_tetrahedra,
                 };
-                let mut surface = state
-                    .extract(&self.hierarchy, scalars, &query)
-                    .map_err(|e| e.to_string())?;
+                let mut surface = match piece {
+                    None => state.extract(&self.hierarchy, scalars, &query),
+                    Some((pieces, me)) => {
+                        state.extract_piece(&self.hierarchy, scalars, &query, pieces, me)
+                    }
+                }
+                .map_err(|e| e.to_string())?;
                 check_core(check_isosurface_arrays(&surface, &query))?;
                 let carrier = surface.carrier.take();
                 if let Some(mesh) = &carrier {
@@ -1160,6 +1202,10 @@ impl Surface {
 
     fn has_carrier(&self) -> bool {
         self.carrier.is_some()
+    }
+
+    fn global_point_ids(&self) -> &[u64] {
+        &self.surface.point_ids
     }
 
     fn warnings(&self) -> Result<Vec<String>, String> {

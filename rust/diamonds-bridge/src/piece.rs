@@ -16,7 +16,7 @@ use diamonds::lattice::Lattice;
 use diamonds::validate::check_mesh_arrays;
 use glam::IVec3;
 
-use crate::ffi::{self, GridSpec, QuerySpec, ScalarType};
+use crate::ffi::{self, GridSpec, IsoSpec, QuerySpec, ScalarType};
 use crate::{check_core, core_grid, core_query, guard, typed_slice, Mesh};
 
 /// Opaque handle on a [`piece::PieceHierarchy`] for C++.
@@ -61,6 +61,39 @@ pub fn piece_needed_points(whole: &GridSpec, owned: &[i64]) -> Result<Vec<u64>, 
     guard("listing the samples a piece needs", || {
         Ok(layout(whole, owned)?.needed_points())
     })
+}
+
+/// Whole-grid indices of every point the piece `owned` does not hold, ascending.
+pub fn piece_other_points(whole: &GridSpec, owned: &[i64]) -> Result<Vec<u64>, String> {
+    guard("listing the points a piece does not hold", || {
+        Ok(layout(whole, owned)?.other_points())
+    })
+}
+
+impl crate::Hierarchy {
+    /// The part of the isosurface the piece at `rank` of `pieces` owns, on a rank holding the
+    /// whole image ([`diamonds::IsoState::extract_piece`]).
+    #[allow(clippy::too_many_arguments)]
+    pub fn isosurface_piece(
+        &self,
+        state: &mut crate::IsoState,
+        scalar_type: ScalarType,
+        samples: &[u8],
+        isovalues: &[f64],
+        spec: &IsoSpec,
+        pieces: &[i64],
+        rank: usize,
+    ) -> Result<Box<crate::Surface>, String> {
+        let pieces = guard("reading the pieces' extents", || boxes(pieces))?;
+        self.isosurface_of(
+            state,
+            scalar_type,
+            samples,
+            isovalues,
+            spec,
+            Some((&pieces, rank)),
+        )
+    }
 }
 
 /// For each whole-grid index of `ids`, the first of `pieces` holding it (`pieces.len()` if none).

@@ -221,6 +221,19 @@ impl PieceLayout {
         out
     }
 
+    /// Whole-grid indices (x fastest), ascending, of every point this piece does not hold: what a
+    /// piece fetches to hold the whole image (Adaptive Isosurface, see "Across MPI pieces" in
+    /// [`crate::isosurface`]). None for an empty piece, which computes nothing.
+    pub fn other_points(&self) -> Vec<u64> {
+        if self.owned.is_empty() {
+            return Vec::new();
+        }
+        (0..self.grid.len() as u64)
+            .into_par_iter()
+            .filter(|&i| !self.owned.contains(self.lattice.point(i as usize)))
+            .collect()
+    }
+
     /// For each whole-grid index of `ids`, the index (x fastest) of that point among the points this
     /// piece holds, or −1 when it holds no such point: where a pass-through array finds the point.
     pub fn local_ids(&self, ids: &[u64]) -> Vec<i64> {
@@ -659,15 +672,7 @@ impl PieceHierarchy {
             return Ok(TetMesh::default());
         }
         let lattice = &self.layout.lattice;
-        let cells4 = |b: &PointBox| (b.lo * 4, b.hi * 4);
-        let earlier: Vec<(IVec3, IVec3)> = pieces[..me]
-            .iter()
-            .filter(|b| !b.is_empty())
-            .map(cells4)
-            .collect();
-        let (lo4, hi4) = cells4(&owned);
-        let holds =
-            |(lo4, hi4): (IVec3, IVec3), c4: IVec3| c4.cmpge(lo4).all() && c4.cmplt(hi4).all();
+        let owner = CellOwner::new(pieces, me)?;
         let error = |d: Diamond| self.error(d);
         let leaves = mesh::leaves_where(
             lattice,
@@ -677,11 +682,7 @@ impl PieceHierarchy {
                 let hi = t[0].max(t[1]).max(t[2].max(t[3]));
                 !owned.meets(lo, hi)
             },
-            |t: &Tet| {
-                let c4 = t[0] + t[1] + t[2] + t[3];
-                (holds((lo4, hi4), c4) && !earlier.iter().any(|&b| holds(b, c4)))
-                    .then(|| mesh::output_tet(lattice, t, &error))
-            },
+            |t: &Tet| owner.owns(t).then(|| mesh::output_tet(lattice, t, &error)),
         );
         // The points: a bitset over the whole grid, a point's id its rank there.
         let used: Vec<AtomicU64> = (0..self.layout.grid.len().div_ceil(64))
@@ -715,6 +716,49 @@ impl PieceHierarchy {
     }
 }
 
+/// Which piece owns a cell of the refined mesh (a tetrahedron, or an isosurface's triangles through
+/// the tetrahedron that carries them): the first piece whose half-open cell box `[lo, hi)` holds the
+/// tetrahedron's centroid. Pieces that cut the grid along shared boundary planes own each cell of the
+/// serial mesh exactly once; pieces that overlap (e.g. all holding the whole image) too.
+#[derive(Clone, Debug)]
+pub struct CellOwner {
+    /// This piece's cell box, in four times the lattice coordinates (centroids stay integral).
+    own: (IVec3, IVec3),
+    /// The cell boxes of the non-empty pieces before it.
+    earlier: Vec<(IVec3, IVec3)>,
+}
+
+impl CellOwner {
+    /// Ownership for piece `me` of `pieces` (every piece's owned points, in rank order).
+    pub fn new(pieces: &[PointBox], me: usize) -> Result<Self> {
+        let cells4 = |b: &PointBox| (b.lo * 4, b.hi * 4);
+        let own = pieces
+            .get(me)
+            .ok_or_else(|| Error::Parameter(format!("piece {me} of {} pieces", pieces.len())))?;
+        Ok(Self {
+            own: if own.is_empty() {
+                (IVec3::ZERO, IVec3::ZERO) // holds nothing
+            } else {
+                cells4(own)
+            },
+            earlier: pieces[..me]
+                .iter()
+                .filter(|b| !b.is_empty())
+                .map(cells4)
+                .collect(),
+        })
+    }
+
+    /// Does this piece own the tetrahedron `t` (lattice coordinates)?
+    #[inline]
+    pub fn owns(&self, t: &Tet) -> bool {
+        let holds =
+            |(lo4, hi4): (IVec3, IVec3), c4: IVec3| c4.cmpge(lo4).all() && c4.cmplt(hi4).all();
+        let c4 = t[0] + t[1] + t[2] + t[3];
+        holds(self.own, c4) && !self.earlier.iter().any(|&b| holds(b, c4))
+    }
+}
+
 /// The split set of one query on one piece, grown in rounds with the other pieces
 /// ([`PieceHierarchy::start`], [`PieceHierarchy::outgoing`], [`PieceHierarchy::receive`]).
 #[derive(Debug)]
@@ -729,7 +773,9 @@ pub struct PieceRefinement {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::Hierarchy;
+    use crate::fields::{marschner_lobb, sample, sphere_distance, torus_distance, unit_grid};
+    use crate::validate::check_surface;
+    use crate::{Hierarchy, IsoQuery, IsoState, IsoSurface};
 
     /// The pieces of a `k`-way split of the points along each axis (shared boundary planes, as
     /// VTK's extent translator cuts images).
@@ -978,6 +1024,238 @@ mod tests {
         let serial = Hierarchy::build(grid, ScalarSlice::F32(&samples), &mut |_| true).unwrap();
         let parts: Vec<&TetMesh> = meshes.iter().collect();
         assert_eq!(cells(&parts), cells(&[&serial.query(&query).unwrap()]));
+    }
+
+    /// Every rank's part of the Adaptive Isosurface of `query`, computed as the filter does: the
+    /// rank fetches every point it does not hold, puts the whole image together and extracts the
+    /// part it owns. An empty piece computes nothing.
+    fn iso_pieces(
+        grid: Grid,
+        samples: &[f32],
+        boxes: &[PointBox],
+        query: &IsoQuery,
+    ) -> Vec<IsoSurface> {
+        (boxes.iter().enumerate())
+            .map(|(me, &b)| {
+                let layout = PieceLayout::new(grid, b).unwrap();
+                if b.is_empty() {
+                    assert!(layout.other_points().is_empty());
+                    return IsoSurface::default();
+                }
+                let mut whole = vec![f32::NAN; grid.len()];
+                for z in b.lo.z..=b.hi.z {
+                    for y in b.lo.y..=b.hi.y {
+                        for x in b.lo.x..=b.hi.x {
+                            let i = grid.index(x as usize, y as usize, z as usize);
+                            whole[i] = samples[i];
+                        }
+                    }
+                }
+                let others = layout.other_points();
+                assert_eq!(others.len(), grid.len() - b.len());
+                for i in others {
+                    assert!(whole[i as usize].is_nan(), "point {i} fetched twice");
+                    whole[i as usize] = samples[i as usize];
+                }
+                let h = Hierarchy::build_for_isosurfaces(grid, ScalarSlice::F32(&whole)).unwrap();
+                IsoState::new()
+                    .extract_piece(&h, ScalarSlice::F32(&whole), query, boxes, me)
+                    .unwrap()
+            })
+            .collect()
+    }
+
+    /// A triangle as its corners' coordinate bits, rotated to start at the smallest (orientation
+    /// kept).
+    fn coordinate_triangle(points: &[[f64; 3]], t: &[u32; 3]) -> [[u64; 3]; 3] {
+        let c = t.map(|i| points[i as usize].map(f64::to_bits));
+        let k = (0..3).min_by_key(|&k| c[k]).unwrap();
+        [c[k], c[(k + 1) % 3], c[(k + 2) % 3]]
+    }
+
+    /// Checks the pieces' parts of the surface against the serial surface: the union of their
+    /// triangles is the serial one as a set of coordinate triangles, each once; every point's
+    /// global id names the serial point with the same coordinates, normal and value; merged by
+    /// global ids or by coordinates, the union is watertight and consistently oriented (open only
+    /// on the grid's faces) exactly as the serial surface is. Returns the triangles per piece.
+    fn check_iso_union(serial: &IsoSurface, parts: &[IsoSurface], grid: &Grid) -> Vec<usize> {
+        let mut want: Vec<_> = (serial.triangles.iter())
+            .map(|t| coordinate_triangle(&serial.points, t))
+            .collect();
+        want.sort_unstable();
+        let mut got: Vec<_> = (parts.iter())
+            .flat_map(|s| {
+                s.triangles
+                    .iter()
+                    .map(|t| coordinate_triangle(&s.points, t))
+            })
+            .collect();
+        got.sort_unstable();
+        assert_eq!(got.len(), want.len(), "triangle count");
+        assert!(got == want, "the union differs from the serial surface");
+        let mut merged = Vec::new();
+        for s in parts {
+            assert_eq!(s.point_ids.len(), s.points.len());
+            for (k, &g) in s.point_ids.iter().enumerate() {
+                let g = g as usize;
+                assert_eq!(
+                    s.points[k].map(f64::to_bits),
+                    serial.points[g].map(f64::to_bits)
+                );
+                assert_eq!(s.values[k].to_bits(), serial.values[g].to_bits());
+                assert_eq!(s.normals[k], serial.normals[g]);
+            }
+            merged.extend(
+                s.triangles
+                    .iter()
+                    .map(|t| t.map(|i| s.point_ids[i as usize] as u32)),
+            );
+            if !s.triangles.is_empty() {
+                assert_eq!(s.error_bound.to_bits(), serial.error_bound.to_bits());
+            }
+        }
+        let bounds = Some(grid.bounds());
+        let whole = check_surface(&serial.points, &serial.triangles, bounds).unwrap();
+        let by_id = check_surface(&serial.points, &merged, bounds).unwrap();
+        assert_eq!(by_id, whole);
+        // By coordinates: the points of all pieces, one per distinct position.
+        let mut positions: Vec<[u64; 3]> = (parts.iter())
+            .flat_map(|s| s.points.iter().map(|p| p.map(f64::to_bits)))
+            .collect();
+        positions.sort_unstable();
+        positions.dedup();
+        let id = |p: &[f64; 3]| positions.binary_search(&p.map(f64::to_bits)).unwrap() as u32;
+        let by_position: Vec<[u32; 3]> = (parts.iter())
+            .flat_map(|s| {
+                s.triangles
+                    .iter()
+                    .map(|t| t.map(|i| id(&s.points[i as usize])))
+            })
+            .collect();
+        let points: Vec<[f64; 3]> = positions.iter().map(|p| p.map(f64::from_bits)).collect();
+        let report = check_surface(&points, &by_position, bounds).unwrap();
+        report.passed().unwrap();
+        whole.passed().unwrap();
+        parts.iter().map(|s| s.triangles.len()).collect()
+    }
+
+    #[test]
+    fn isosurface_pieces_together_give_the_serial_surface() {
+        let sphere = sphere_distance(0.6);
+        let torus = torus_distance(0.55, 0.25);
+        /// Name, points per axis, cuts per axis, field, isovalues.
+        type Case<'a> = (
+            &'a str,
+            [usize; 3],
+            [usize; 3],
+            &'a dyn Fn(f64, f64, f64) -> f64,
+            &'a [f64],
+        );
+        let cases: [Case; 4] = [
+            ("sphere", [33, 29, 41], [2, 1, 1], &sphere, &[0.0]),
+            ("torus", [41, 23, 37], [1, 3, 1], &torus, &[0.0, 0.08]),
+            (
+                "marschner-lobb",
+                [37, 33, 29],
+                [3, 1, 1],
+                &marschner_lobb,
+                &[0.5],
+            ),
+            ("sphere", [31, 35, 27], [1, 1, 2], &sphere, &[-0.1]),
+        ];
+        for (name, dims, cuts, f, isovalues) in cases {
+            let grid = unit_grid(dims);
+            let samples = sample(&grid, |x, y, z| f(x, y, z) as f32);
+            let boxes = pieces(dims, cuts);
+            let h = Hierarchy::build_for_isosurfaces(grid, ScalarSlice::F32(&samples)).unwrap();
+            let d = grid.diagonal();
+            let budget = IsoQuery {
+                max_triangles: 1500,
+                ..IsoQuery::new(isovalues[0], 0.001 * d)
+            };
+            for query in [0.0, 0.004 * d, 0.02 * d]
+                .map(|tolerance| IsoQuery {
+                    isovalues: isovalues.to_vec(),
+                    ..IsoQuery::new(0.0, tolerance)
+                })
+                .into_iter()
+                .chain([budget])
+            {
+                let serial = IsoState::new()
+                    .extract(&h, ScalarSlice::F32(&samples), &query)
+                    .unwrap();
+                let parts = iso_pieces(grid, &samples, &boxes, &query);
+                let what = format!("{name} {dims:?} in {cuts:?}, {query:?}");
+                let counts = check_iso_union(&serial, &parts, &grid);
+                assert!(
+                    counts.iter().all(|&n| n > 0),
+                    "{what}: a piece owns no triangle ({counts:?})"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn isosurface_pieces_overlapping_or_empty_own_each_triangle_once() {
+        let dims = [25, 21, 23];
+        let grid = unit_grid(dims);
+        let samples = sample(&grid, |x, y, z| sphere_distance(0.6)(x, y, z) as f32);
+        let h = Hierarchy::build_for_isosurfaces(grid, ScalarSlice::F32(&samples)).unwrap();
+        let query = IsoQuery {
+            carrier_tetrahedra: true,
+            ..IsoQuery::new(0.0, 0.01 * grid.diagonal())
+        };
+        let serial = IsoState::new()
+            .extract(&h, ScalarSlice::F32(&samples), &query)
+            .unwrap();
+        let whole = PointBox {
+            lo: IVec3::ZERO,
+            hi: IVec3::new(24, 20, 22),
+        };
+        let overlapping = vec![
+            PointBox {
+                lo: IVec3::ZERO,
+                hi: IVec3::new(15, 20, 22),
+            },
+            PointBox {
+                lo: IVec3::new(8, 0, 0),
+                hi: IVec3::new(24, 20, 22),
+            },
+        ];
+        let mut with_empty = pieces(dims, [2, 1, 1]);
+        with_empty.insert(1, PointBox::EMPTY);
+        for boxes in [vec![whole; 3], overlapping, with_empty] {
+            let parts = iso_pieces(grid, &samples, &boxes, &query);
+            check_iso_union(&serial, &parts, &grid);
+            // The carrier tetrahedra too: each once.
+            let carriers = |meshes: &[&TetMesh]| {
+                let mut c: Vec<[usize; 4]> = (meshes.iter())
+                    .flat_map(|m| {
+                        m.tets.iter().map(|t| {
+                            let mut ids = t.map(|i| m.point_ids[i as usize]);
+                            ids.sort_unstable();
+                            ids
+                        })
+                    })
+                    .collect();
+                c.sort_unstable();
+                c
+            };
+            let owned: Vec<&TetMesh> = parts.iter().filter_map(|s| s.carrier.as_ref()).collect();
+            assert_eq!(
+                carriers(&owned),
+                carriers(&[serial.carrier.as_ref().unwrap()]),
+                "{boxes:?}"
+            );
+        }
+        let bad = IsoState::new().extract_piece(
+            &h,
+            ScalarSlice::F32(&samples),
+            &query,
+            &pieces(dims, [2, 1, 1]),
+            2,
+        );
+        assert!(bad.is_err());
     }
 
     #[test]

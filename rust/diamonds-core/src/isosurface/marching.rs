@@ -116,6 +116,17 @@ pub fn marching_tetrahedra<T: Sample>(
     isovalues: &[f64],
     compute_normals: bool,
 ) -> Result<IsoSurface> {
+    Ok(marching_with_sources(volume, tets, isovalues, compute_normals)?.0)
+}
+
+/// [`marching_tetrahedra`], and for each triangle the position in `tets` of the tetrahedron that
+/// made it.
+pub(super) fn marching_with_sources<T: Sample>(
+    volume: &Volume<'_, T>,
+    tets: &[Tet],
+    isovalues: &[f64],
+    compute_normals: bool,
+) -> Result<(IsoSurface, Vec<u32>)> {
     let polygons = polygons(volume, tets, isovalues);
     // Every polygon corner with its slot, sorted by edge: equal edges are neighbours.
     let slots: usize = polygons.par_iter().map(|poly| poly.n).sum();
@@ -142,10 +153,10 @@ pub fn marching_tetrahedra<T: Sample>(
         })
     };
     let mut separate = FxHashSet::default();
-    let (points, triangles) = loop {
+    let (points, (triangles, sources)) = loop {
         let points = join_at_samples(&polygons, &slot_ids, keys.len(), &sample_of, &separate)?;
         let triangles = fans(&polygons, &slot_ids, &points.id, slots)?;
-        let pinched = pinched_samples(&triangles, &points.sample);
+        let pinched = pinched_samples(&triangles.0, &points.sample);
         if pinched.is_empty() {
             break (points, triangles);
         }
@@ -189,7 +200,7 @@ pub fn marching_tetrahedra<T: Sample>(
             .normals
             .par_extend(interpolated.par_iter().map(|p| p.2));
     }
-    Ok(surface)
+    Ok((surface, sources))
 }
 
 /// The points of marching tetrahedra: the point id of each distinct edge, and per point its first
@@ -254,10 +265,16 @@ fn join_at_samples(
 }
 
 /// The triangles of the polygons: their distinct points (corners at one sample are neighbours) as
-/// fans. `slots`: the number of corners.
-fn fans(polygons: &[Polygon], slot_ids: &[u32], id: &[u32], slots: usize) -> Result<Vec<[u32; 3]>> {
+/// fans, with the tetrahedron of each. `slots`: the number of corners.
+fn fans(
+    polygons: &[Polygon],
+    slot_ids: &[u32],
+    id: &[u32],
+    slots: usize,
+) -> Result<(Vec<[u32; 3]>, Vec<u32>)> {
     let mut triangles =
         memory::with_capacity(slots - 2 * polygons.len(), "the isosurface triangles")?;
+    let mut sources = memory::with_capacity(triangles.capacity(), "the isosurface triangles")?;
     for (p, poly) in polygons.iter().enumerate() {
         let mut ids = [0u32; 4];
         let mut n = 0;
@@ -273,9 +290,10 @@ fn fans(polygons: &[Polygon], slot_ids: &[u32], id: &[u32], slots: usize) -> Res
         }
         for k in 1..n.saturating_sub(1) {
             triangles.push([ids[0], ids[k], ids[k + 1]]);
+            sources.push(poly.tet);
         }
     }
-    Ok(triangles)
+    Ok((triangles, sources))
 }
 
 /// The samples at both ends of an edge between two sample points that lies in more than two

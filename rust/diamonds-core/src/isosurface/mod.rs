@@ -27,6 +27,12 @@
 //! point is shared by every triangle through its mesh edge, so the surface is crack-free wherever the
 //! full-resolution one is.
 //!
+//! **Across MPI pieces** ([`IsoState::extract_piece`]): a rank that holds the whole image (fetched
+//! from the others) extracts the whole surface, which is the same bit for bit on every rank, and
+//! keeps the triangles of the carrier leaves it owns
+//! ([`crate::hierarchy::piece::CellOwner`]), numbering their points by the whole surface (global
+//! ids). Exact, not scalable: memory and work per rank are the serial ones.
+//!
 //! The stages, one file each, in the order a query runs them:
 //! - this file: the query and result types, the entry point [`extract`], the triangle budget and the
 //!   carrier tetrahedra;
@@ -59,6 +65,7 @@ pub use marching::marching_tetrahedra;
 pub use state::{IsoStart, IsoState, IsoStats};
 
 use crate::diamond::{signed_volume6, Diamond};
+use crate::hierarchy::piece::CellOwner;
 use crate::hierarchy::Hierarchy;
 use crate::lattice::{Lattice, Tet};
 use crate::mesh::TetMesh;
@@ -67,7 +74,7 @@ use crate::volume::{Sample, ScalarSlice, Volume};
 use crate::{Error, Result};
 use cache::IsoCache;
 use glam::{DMat3, DVec3, IVec3};
-use marching::count_triangles;
+use marching::{count_triangles, marching_with_sources};
 
 /// An isosurface query.
 #[derive(Clone, Debug, PartialEq)]
@@ -119,6 +126,9 @@ pub struct IsoSurface {
     /// What the user should know: isovalues outside the data range, a triangle budget that the
     /// coarsest surface exceeds.
     pub warnings: Vec<String>,
+    /// Global point ids, for a piece's part ([`IsoState::extract_piece`]): each point's position
+    /// in the whole surface, the same on every piece holding it. Empty for a whole surface.
+    pub point_ids: Vec<u64>,
 }
 
 /// Extracts the isosurface(s) of `query` from the adaptive mesh of `hierarchy`; `scalars` must be the
@@ -176,8 +186,9 @@ impl<T: Sample> Extraction<'_, '_, T> {
         self.hierarchy.lattice()
     }
 
-    /// The surface of `query` refined from the root, within its triangle budget when it has one.
-    fn isosurface_of(&self, query: &IsoQuery) -> Result<IsoSurface> {
+    /// The surface of `query` refined from the root, within its triangle budget when it has one
+    /// (the part `owner` owns, when given).
+    fn isosurface_of(&self, query: &IsoQuery, owner: Option<&CellOwner>) -> Result<IsoSurface> {
         let volume = self.volume;
         let mut carriers = self.carriers_at(query, query.tolerance)?;
         let mut used = query.tolerance;
@@ -204,7 +215,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
             }
             used = hi;
         }
-        let mut surface = self.surface_of(query, used, &carriers)?;
+        let mut surface = self.surface_of(query, used, &carriers, owner)?;
         let n = surface.triangles.len();
         if query.max_triangles > 0 && n > query.max_triangles {
             surface.warnings.push(format!(
@@ -217,13 +228,30 @@ impl<T: Sample> Extraction<'_, '_, T> {
     }
 
     /// Marching tetrahedra on `carriers` (refined at `tolerance`), with the error bound and, when asked
-    /// for, the carrier mesh.
-    fn surface_of(&self, query: &IsoQuery, tolerance: f64, carriers: &[Tet]) -> Result<IsoSurface> {
+    /// for, the carrier mesh. With an `owner`, the part of the whole surface it owns (the triangles of
+    /// the carriers it owns, points numbered by the whole surface's ids in
+    /// [`IsoSurface::point_ids`]) and of the carrier mesh; the error bound stays the whole one's.
+    fn surface_of(
+        &self,
+        query: &IsoQuery,
+        tolerance: f64,
+        carriers: &[Tet],
+        owner: Option<&CellOwner>,
+    ) -> Result<IsoSurface> {
         let volume = self.volume;
-        let mut surface =
-            marching_tetrahedra(volume, carriers, &query.isovalues, query.compute_normals)?;
+        let (mut surface, sources) =
+            marching_with_sources(volume, carriers, &query.isovalues, query.compute_normals)?;
         let error = self.carrier_error(&query.isovalues, tolerance);
         surface.error_bound = carriers.iter().map(&error).fold(0.0, f64::max);
+        let owned: Vec<Tet>;
+        let carriers = match owner {
+            Some(owner) => {
+                surface = owned_part(surface, &sources, |k| owner.owns(&carriers[k as usize]));
+                owned = carriers.iter().filter(|t| owner.owns(t)).copied().collect();
+                &owned[..]
+            }
+            None => carriers,
+        };
         let (lo, hi) = self.hierarchy.value_range();
         surface.warnings.extend(
             (query.isovalues.iter())
@@ -289,6 +317,42 @@ impl<T: Sample> Extraction<'_, '_, T> {
             return Ok((split, carriers));
         }
         self.certify(query, tolerance, split, criterion)
+    }
+}
+
+/// The triangles of `surface` whose carrier (`sources`: its position among the carriers, per
+/// triangle) `owned` accepts, with their points renumbered in order and each point's id in `surface`
+/// as its [`IsoSurface::point_ids`].
+fn owned_part(surface: IsoSurface, sources: &[u32], owned: impl Fn(u32) -> bool) -> IsoSurface {
+    const NONE: u32 = u32::MAX;
+    let mut id = vec![NONE; surface.points.len()];
+    let mut point_ids = Vec::new();
+    let mut triangles = Vec::new();
+    for (t, &k) in surface.triangles.iter().zip(sources) {
+        if owned(k) {
+            triangles.push(t.map(|p| {
+                if id[p as usize] == NONE {
+                    id[p as usize] = point_ids.len() as u32;
+                    point_ids.push(p as u64);
+                }
+                id[p as usize]
+            }));
+        }
+    }
+    fn pick<T: Copy>(v: &[T], ids: &[u64]) -> Vec<T> {
+        ids.iter().map(|&p| v[p as usize]).collect()
+    }
+    IsoSurface {
+        points: pick(&surface.points, &point_ids),
+        normals: if surface.normals.is_empty() {
+            Vec::new()
+        } else {
+            pick(&surface.normals, &point_ids)
+        },
+        values: pick(&surface.values, &point_ids),
+        triangles,
+        point_ids,
+        ..surface
     }
 }
 

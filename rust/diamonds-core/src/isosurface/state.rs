@@ -18,6 +18,7 @@
 use super::cache::IsoCache;
 use super::{check, refine_query, Extraction, IsoQuery, IsoSurface};
 use crate::diamond::Diamond;
+use crate::hierarchy::piece::{CellOwner, PointBox};
 use crate::hierarchy::Hierarchy;
 use crate::lattice::{Placement, Tet};
 use crate::mesh;
@@ -139,7 +140,32 @@ impl IsoState {
     ) -> Result<IsoSurface> {
         check(hierarchy, scalars, query)?;
         with_volume!(*hierarchy.grid(), scalars, |v| self
-            .extract_volume(hierarchy, &v, query))
+            .extract_volume(hierarchy, &v, query, None))
+    }
+
+    /// The part of [`IsoState::extract`]'s surface that piece `me` of `pieces` owns (every piece's
+    /// points in the whole grid, rank order), for a piece of a distributed image that holds the
+    /// whole image (`hierarchy` and `scalars` are the whole grid's): the triangles of the carrier
+    /// leaves it owns ([`CellOwner`]: centroid in its half-open cell box), their points numbered
+    /// by the whole surface in [`IsoSurface::point_ids`] (the same point, bit for bit, on every
+    /// piece), and the carrier tetrahedra it owns. Over all pieces, each triangle of the whole
+    /// surface once. The error bound and warnings are the whole surface's.
+    pub fn extract_piece(
+        &mut self,
+        hierarchy: &Hierarchy,
+        scalars: ScalarSlice<'_>,
+        query: &IsoQuery,
+        pieces: &[PointBox],
+        me: usize,
+    ) -> Result<IsoSurface> {
+        check(hierarchy, scalars, query)?;
+        let owner = CellOwner::new(pieces, me)?;
+        with_volume!(*hierarchy.grid(), scalars, |v| self.extract_volume(
+            hierarchy,
+            &v,
+            query,
+            Some(&owner)
+        ))
     }
 
     fn extract_volume<T: Sample>(
@@ -147,6 +173,7 @@ impl IsoState {
         hierarchy: &Hierarchy,
         volume: &Volume<'_, T>,
         query: &IsoQuery,
+        owner: Option<&CellOwner>,
     ) -> Result<IsoSurface> {
         self.last = None;
         if self.cache.as_ref().is_some_and(|c| !c.fits(&volume.grid)) {
@@ -160,7 +187,7 @@ impl IsoState {
         };
         if query.max_triangles > 0 {
             self.current = None;
-            return x.isosurface_of(query);
+            return x.isosurface_of(query, owner);
         }
         let t = Instant::now();
         let mut stats = IsoStats::default();
@@ -187,7 +214,7 @@ impl IsoState {
         };
         stats.refine_seconds = t.elapsed().as_secs_f64();
         let t = Instant::now();
-        let surface = x.surface_of(query, query.tolerance, &carriers)?;
+        let surface = x.surface_of(query, query.tolerance, &carriers, owner)?;
         stats.extract_seconds = t.elapsed().as_secs_f64();
         stats.split_diamonds = split.len();
         self.current = Some(Current {

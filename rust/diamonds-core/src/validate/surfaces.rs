@@ -259,6 +259,7 @@ mod tests {
             error_bound: 0.0,
             carrier: None,
             warnings: Vec::new(),
+            point_ids: Vec::new(),
         };
         assert!(check_isosurface_arrays(&good, &query).is_ok());
         let mut bad = good.clone();
