@@ -8,14 +8,16 @@
 //! points relative to `j`: T_moved as a bit mask over the tetrahedra around `j` (ascending), each
 //! tetrahedron of T_new (around the edge `ij`) as the slots of `i` and `j` in its corners and its two
 //! other corners as indices among `j`'s neighbours (ascending) — one byte each where absolute
-//! numbers took three. Nothing about the mesh is quantised; only the per-level RMS error is stored as
-//! `f32` (the maximum is exact, written only when it changes).
+//! numbers took three. A split's new point is written as the bits of its coordinates and values XOR
+//! those of its target (neighbours: the leading bytes cancel, which the compressor then finds).
+//! Nothing about the mesh is quantised; only the per-level RMS error is stored as `f32` (the maximum
+//! is exact, written only when it changes).
 //!
 //! Layout, little-endian, integers as LEB128 varints: the magic `DPM2`; the numbers of original points
 //! and tetrahedra and of splits; the point arrays (name, components, caller's type tag, 4 or 8 bytes
 //! per value: 4 when every value is exact as `f32`) and the width of the coordinates (likewise); then
 //! the base mesh (its errors as two `f64`, points with their values, tetrahedra as point numbers) and
-//! the splits: target `j`, the new point with its values, the T_moved mask (`⌈|star(j)| / 8⌉` bytes),
+//! the splits: target `j`, the new point with its values (XOR `j`'s), the T_moved mask (`⌈|star(j)| / 8⌉` bytes),
 //! the number of new tetrahedra and for each a byte `slot(i) | slot(j) << 2` and the two neighbour
 //! indices, then a byte (1 if the maximum error changed, followed by it as `f64`) and the RMS error
 //! as `f32`.
@@ -127,11 +129,14 @@ fn f32_exact(values: impl IntoIterator<Item = f64>) -> bool {
     values.into_iter().all(|v| (v as f32) as f64 == v)
 }
 
-fn put_value(out: &mut Vec<u8>, v: f64, wide: bool) {
+/// Writes `v` as the bits of its `f64` (`wide`) or `f32` XOR those of the reference `r` (0 for none):
+/// a new point's coordinates and values are close to its target's, so the high bytes, sign, exponent
+/// and leading mantissa, mostly cancel and the compressor finds zeros (lossless either way).
+fn put_value(out: &mut Vec<u8>, v: f64, r: f64, wide: bool) {
     if wide {
-        out.extend_from_slice(&v.to_le_bytes());
+        out.extend_from_slice(&(v.to_bits() ^ r.to_bits()).to_le_bytes());
     } else {
-        out.extend_from_slice(&(v as f32).to_le_bytes());
+        out.extend_from_slice(&((v as f32).to_bits() ^ (r as f32).to_bits()).to_le_bytes());
     }
 }
 
@@ -166,14 +171,21 @@ pub fn encode(pm: &ProgressiveMesh, arrays: &[PointArray], out: &mut impl Write)
     }
     let wide_points = !f32_exact(pm.points.iter().flatten().copied());
     buf.push(if wide_points { 8 } else { 4 });
-    let put_point = |buf: &mut Vec<u8>, v: u32| {
-        for c in pm.points[v as usize] {
-            put_value(buf, c, wide_points);
+    // A point relative to the original point `reference` (a split's target), if any.
+    let put_point = |buf: &mut Vec<u8>, v: u32, reference: Option<u32>| {
+        let at = |p: &[f64; 3], k: usize| reference.map_or(0.0, |_| p[k]);
+        let rp = pm.points[reference.unwrap_or(v) as usize];
+        for (k, c) in pm.points[v as usize].into_iter().enumerate() {
+            put_value(buf, c, at(&rp, k), wide_points);
         }
         for (a, &w) in arrays.iter().zip(&wide) {
-            let k = v as usize * a.components;
-            for &x in &a.values[k..k + a.components] {
-                put_value(buf, x, w);
+            let (k, rk) = (
+                v as usize * a.components,
+                reference.unwrap_or(v) as usize * a.components,
+            );
+            for c in 0..a.components {
+                let r = reference.map_or(0.0, |_| a.values[rk + c]);
+                put_value(buf, a.values[k + c], r, w);
             }
         }
     };
@@ -191,7 +203,7 @@ pub fn encode(pm: &ProgressiveMesh, arrays: &[PointArray], out: &mut impl Write)
     for &v in &base.point_ids {
         point_id[v as usize] = stars.star.len() as u32;
         stars.add_point();
-        put_point(&mut buf, v);
+        put_point(&mut buf, v, None);
     }
     put_varint(&mut buf, base.tets.len() as u64);
     for (t, c) in replay.live_tets() {
@@ -215,7 +227,7 @@ pub fn encode(pm: &ProgressiveMesh, arrays: &[PointArray], out: &mut impl Write)
         let i = stars.star.len() as u32;
         point_id[s.vertex as usize] = i;
         stars.add_point();
-        put_point(&mut buf, s.vertex);
+        put_point(&mut buf, s.vertex, Some(s.target));
         // T_moved as a mask over the star of j.
         let star = stars.sorted_star(j);
         let mut mask = vec![0u8; star.len().div_ceil(8)];
@@ -303,11 +315,14 @@ impl<R: Read> Reader<R> {
         Err(Error::Stream("a number is longer than 64 bits".into()))
     }
 
-    fn value(&mut self, wide: bool) -> Step<f64> {
+    /// A value written by [`put_value`] with the reference `r`.
+    fn value(&mut self, wide: bool, r: f64) -> Step<f64> {
         Ok(if wide {
-            self.bytes::<8>()?.map(f64::from_le_bytes)
+            self.bytes::<8>()?
+                .map(|b| f64::from_bits(u64::from_le_bytes(b) ^ r.to_bits()))
         } else {
-            self.bytes::<4>()?.map(|b| f32::from_le_bytes(b) as f64)
+            self.bytes::<4>()?
+                .map(|b| f32::from_bits(u32::from_le_bytes(b) ^ (r as f32).to_bits()) as f64)
         })
     }
 }
@@ -352,15 +367,18 @@ struct Decoder {
 }
 
 impl Decoder {
-    fn point<R: Read>(&mut self, r: &mut Reader<R>) -> Step<u32> {
+    /// Reads a point written relative to the point `reference` (a split's target), if any.
+    fn point<R: Read>(&mut self, r: &mut Reader<R>, reference: Option<u32>) -> Step<u32> {
         let mut p = [0.0; 3];
-        for c in &mut p {
-            *c = next!(r.value(self.wide_points));
+        for (k, c) in p.iter_mut().enumerate() {
+            let rc = reference.map_or(0.0, |j| self.out.points[j as usize][k]);
+            *c = next!(r.value(self.wide_points, rc));
         }
         let mut values = Vec::new();
         for (a, &w) in self.out.arrays.iter().zip(&self.wide) {
-            for _ in 0..a.components {
-                values.push(next!(r.value(w)));
+            for c in 0..a.components {
+                let rv = reference.map_or(0.0, |j| a.values[j as usize * a.components + c]);
+                values.push(next!(r.value(w, rv)));
             }
         }
         let mut k = 0;
@@ -397,7 +415,7 @@ impl Decoder {
             ));
         }
         for _ in 0..points {
-            next!(self.point(r));
+            next!(self.point(r, None));
         }
         let tets = next!(r.varint());
         if tets > self.out.original_tets as u64 {
@@ -437,7 +455,7 @@ impl Decoder {
         let level = self.out.level;
         let bad = move |what: &str| Error::Stream(format!("split {level}: {what}"));
         let read = |d: &mut Decoder, r: &mut Reader<R>| -> Step<SplitRecord> {
-            let vertex = next!(d.point(r));
+            let vertex = next!(d.point(r, Some(j)));
             let star = d.stars.sorted_star(j);
             let mut moved = Vec::new();
             for byte in 0..star.len().div_ceil(8) {
