@@ -41,8 +41,9 @@ fn is_split(split: &SplitSet, t: &Tet) -> bool {
     Diamond::of_tet(t).is_some_and(|d| split.contains(d))
 }
 
-/// Visits the inside leaves below `t`, depth first, skipping the subtrees of the tetrahedra for
-/// which `prune` holds.
+/// Visits the inside leaves below `t`, depth first, the first child of every bisection first
+/// (ascending bisection paths, [`crate::view::BspTree::paths`]), skipping the subtrees of the
+/// tetrahedra for which `prune` holds.
 #[inline]
 fn walk_pruned(
     lattice: &Lattice,
@@ -57,7 +58,10 @@ fn walk_pruned(
         match lattice.place(&t) {
             Placement::Outside => {}
             _ if prune(&t) => {}
-            _ if is_split(split, &t) => stack.extend(bisect(&t)),
+            _ if is_split(split, &t) => {
+                let [first, second] = bisect(&t);
+                stack.extend([second, first]); // popped first: the first child
+            }
             Placement::Inside => visit(&t),
             Placement::Straddling => unreachable!("straddling diamonds are split in the base mesh"),
         }
@@ -90,23 +94,29 @@ pub(crate) fn output_tet(
 }
 
 /// Subtrees of the split set, in order, enough for parallel work: the tetrahedra of its first levels
-/// (breadth-first) until there are about a thousand; a leaf met on the way is its own subtree.
+/// (breadth-first) until there are about a thousand; a leaf met on the way is its own subtree. In
+/// the order of [`walk`] (a leaf keeps its place among the split tetrahedra around it), so that the
+/// whole mesh is in ascending bisection-path order.
 fn subtrees(lattice: &Lattice, split: &SplitSet) -> Vec<Tet> {
     let mut frontier: Vec<Tet> = Diamond::root(lattice).tets(lattice).to_vec();
-    let mut leaves = Vec::new();
-    while !frontier.is_empty() && frontier.len() < 1024 {
+    loop {
         let mut next = Vec::with_capacity(2 * frontier.len());
-        for t in frontier.drain(..) {
-            match lattice.place(&t) {
+        let mut bisected = false;
+        for t in &frontier {
+            match lattice.place(t) {
                 Placement::Outside => {}
-                _ if is_split(split, &t) => next.extend(bisect(&t)),
-                _ => leaves.push(t),
+                _ if is_split(split, t) => {
+                    next.extend(bisect(t));
+                    bisected = true;
+                }
+                _ => next.push(*t),
             }
         }
         frontier = next;
+        if !bisected || frontier.len() >= 1024 {
+            return frontier;
+        }
     }
-    leaves.append(&mut frontier);
-    leaves
 }
 
 /// What `keep` makes of the inside leaves of the split set (those it keeps), in a deterministic
@@ -308,7 +318,7 @@ impl MeshPlan {
     }
 
     /// The subtrees the tetrahedra are written by, in order, each with the index of its first
-    /// tetrahedron: below each, the tetrahedra follow [`walk`]'s depth-first order (the second
+    /// tetrahedron: below each, the tetrahedra follow [`walk`]'s depth-first order (the first
     /// child of a bisection first).
     pub(crate) fn subtrees(&self) -> impl Iterator<Item = (&Tet, usize)> {
         self.roots

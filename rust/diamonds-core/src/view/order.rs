@@ -59,8 +59,9 @@ fn path_depth(path: u64) -> u32 {
 #[derive(Clone, Debug)]
 pub struct BspTree {
     grid: Grid,
-    /// Depth-first, the second child of a bisection right after its parent: a leaf is `LEAF | mesh
-    /// index`, a node outside the domain `EMPTY`, an inner node the position of its first child.
+    /// Depth-first, the first child of a bisection right after its parent (ascending bisection
+    /// paths, the order of the mesh's tetrahedra): a leaf is `LEAF | mesh index`, a node outside
+    /// the domain `EMPTY`, an inner node the position of its second child.
     nodes: Vec<u32>,
     /// The six root tetrahedra and the position of their nodes.
     roots: Vec<(Tet, u32)>,
@@ -99,7 +100,7 @@ impl BspTree {
         let mut roots = Vec::with_capacity(6);
         let mut subtrees = FxHashMap::default();
         let mut next = 0usize;
-        // (tetrahedron, its depth, the inner node whose first child it is)
+        // (tetrahedron, its depth, the inner node whose second child it is)
         let mut stack: Vec<(Tet, u32, Option<usize>)> = Vec::new();
         for t in Diamond::root(lattice).tets(lattice) {
             roots.push((t, nodes.len() as u32));
@@ -124,9 +125,9 @@ impl BspTree {
                     Placement::Outside => nodes.push(EMPTY),
                     _ if Diamond::of_tet(&t).is_some_and(|d| split.contains(d)) => {
                         let [c0, c1] = bisect(&t);
-                        nodes.push(EMPTY); // patched when its first child is placed
-                        stack.push((c0, depth + 1, Some(at)));
-                        stack.push((c1, depth + 1, None));
+                        nodes.push(EMPTY); // patched when its second child is placed
+                        stack.push((c1, depth + 1, Some(at)));
+                        stack.push((c0, depth + 1, None));
                     }
                     Placement::Inside => {
                         nodes.push(LEAF | next as u32);
@@ -154,8 +155,9 @@ impl BspTree {
     /// mesh was refined on). Any subset of a conforming mesh's tetrahedra can be ordered this way
     /// (e.g. one rank's piece, or cells left by a threshold): branches without tetrahedra are
     /// empty. Paths that are not valid (a root index past the sixth, bits past the depth) or that
-    /// overlap (twice the same tetrahedron, or one inside another) are refused. Sorts the paths
-    /// (`O(n log n)`) and builds the tree in one pass over them.
+    /// overlap (twice the same tetrahedron, or one inside another) are refused. Cells in ascending
+    /// path order (the order meshes are written in, [`MeshPlan::write_tets`]) are taken as they
+    /// are, in one pass over the paths; any other order is sorted first (`O(n log n)`).
     pub fn from_paths(grid: &Grid, paths: &[u64]) -> Result<Self> {
         let lattice = Lattice::new(grid.dims)?;
         let root_tets = Diamond::root(&lattice).tets(&lattice);
@@ -164,77 +166,87 @@ impl BspTree {
                 "the mesh is too large for a visibility order (2^31 tetrahedra)".into(),
             ));
         }
-        for (i, &p) in paths.iter().enumerate() {
+        let invalid = |&p: &u64| {
             let depth = path_depth(p);
             let bits_below = PATH_BITS - depth.min(PATH_BITS);
             let stray = (p >> DEPTH_BITS) & ((1u64 << bits_below) - 1);
-            if depth > PATH_BITS || path_root(p) >= root_tets.len() || stray != 0 {
-                return Err(Error::Parameter(format!(
-                    "cell {i} has no valid bisection path ({p:#x}) for a grid of {:?} points",
-                    grid.dims
-                )));
-            }
-        }
-        let mut sorted: Vec<(u64, u32)> = paths
-            .iter()
-            .enumerate()
-            .map(|(i, &p)| (p, i as u32))
-            .collect();
-        sorted.par_sort_unstable();
-        let mut nodes = Vec::with_capacity(2 * paths.len() + 64);
-        let mut roots = Vec::with_capacity(root_tets.len());
-        let mut subtrees = FxHashMap::default();
-        // (range of `sorted`, depth, the inner node whose first child it is)
-        let mut stack: Vec<(std::ops::Range<usize>, u32, Option<usize>)> = Vec::new();
-        let mut lo = 0;
-        for (r, t) in root_tets.iter().enumerate() {
-            let hi = lo + sorted[lo..].partition_point(|&(p, _)| path_root(p) == r);
-            roots.push((*t, nodes.len() as u32));
-            stack.push((lo..hi, 0, None));
-            lo = hi;
-            while let Some((range, depth, parent)) = stack.pop() {
-                let at = nodes.len();
-                if at >= LEAF as usize {
-                    return Err(Error::Parameter(
-                        "the mesh is too large for a visibility order (2^31 tree nodes)".into(),
-                    ));
-                }
-                if let Some(p) = parent {
-                    nodes[p] = at as u32;
-                }
-                let count = range.len();
-                if count > 0 && (depth == SUBTREE_DEPTH || depth < SUBTREE_DEPTH && count == 1) {
-                    subtrees.insert(at as u32, count);
-                }
-                let Some(&(first, index)) = sorted.get(range.start).filter(|_| count > 0) else {
-                    nodes.push(EMPTY);
-                    continue;
-                };
-                if path_depth(first) == depth {
-                    if count > 1 {
-                        return Err(Error::Parameter(format!(
-                            "cells {index} and {} overlap (bisection paths {first:#x} and {:#x})",
-                            sorted[range.start + 1].1,
-                            sorted[range.start + 1].0
-                        )));
-                    }
-                    nodes.push(LEAF | index);
-                    continue;
-                }
-                let bit = 1u64 << (DEPTH_BITS + PATH_BITS - 1 - depth);
-                let mid =
-                    range.start + sorted[range.clone()].partition_point(|&(p, _)| p & bit == 0);
-                nodes.push(EMPTY); // patched when its first child is placed
-                stack.push((range.start..mid, depth + 1, Some(at)));
-                stack.push((mid..range.end, depth + 1, None));
-            }
-        }
-        if lo != sorted.len() {
+            depth > PATH_BITS || path_root(p) >= root_tets.len() || stray != 0
+        };
+        if let Some(i) = paths.par_iter().position_first(invalid) {
             return Err(Error::Parameter(format!(
-                "cell {} has no valid bisection path",
-                sorted[lo].1
+                "cell {i} has no valid bisection path ({:#x}) for a grid of {:?} points",
+                paths[i], grid.dims
             )));
         }
+        // The paths in ascending order and the cell of each (none: the cells are in that order).
+        let ascending = paths.par_windows(2).all(|w| w[0] < w[1]);
+        let (keys, cells): (Vec<u64>, Option<Vec<u32>>) = if ascending {
+            (Vec::new(), None)
+        } else {
+            let mut pairs: Vec<(u64, u32)> = paths
+                .iter()
+                .enumerate()
+                .map(|(i, &p)| (p, i as u32))
+                .collect();
+            pairs.par_sort_unstable();
+            let (keys, cells) = pairs.into_iter().unzip();
+            (keys, Some(cells))
+        };
+        let sorted: &[u64] = if ascending { paths } else { &keys };
+        let cell = |k: usize| cells.as_ref().map_or(k as u32, |c| c[k]);
+        // One pass over the sorted paths, each leaf placed after its predecessor.
+        let mut build = TreeBuilder::default();
+        build.nodes.reserve(2 * paths.len() + 64);
+        let mut roots: Vec<(Tet, u32)> = Vec::with_capacity(root_tets.len());
+        for (k, &p) in sorted.iter().enumerate() {
+            let (root, depth) = (path_root(p), path_depth(p));
+            let same_root = k > 0 && path_root(sorted[k - 1]) == root;
+            let from = if same_root {
+                // The first bisection where the two paths part: the last leaf took its first
+                // child there, this one takes the second.
+                let q = sorted[k - 1];
+                let x = ((p ^ q) >> DEPTH_BITS) & ((1u64 << PATH_BITS) - 1);
+                let parted = x.leading_zeros() - (64 - PATH_BITS);
+                if parted >= depth.min(path_depth(q)) {
+                    return Err(Error::Parameter(format!(
+                        "cells {} and {} overlap (bisection paths {q:#x} and {p:#x})",
+                        cell(k - 1),
+                        cell(k)
+                    )));
+                }
+                build.close_to(parted as usize + 1);
+                build.start_second();
+                parted + 1
+            } else {
+                build.close_to(0);
+                while roots.len() <= root {
+                    roots.push((root_tets[roots.len()], build.nodes.len() as u32));
+                    if roots.len() <= root {
+                        build.nodes.push(EMPTY); // a root tetrahedron without cells
+                    }
+                }
+                0
+            };
+            for d in from..depth {
+                let second = p >> (DEPTH_BITS + PATH_BITS - 1 - d) & 1 == 1;
+                build.open(d, second);
+            }
+            build.leaf(depth, cell(k));
+        }
+        build.close_to(0);
+        while roots.len() < root_tets.len() {
+            roots.push((root_tets[roots.len()], build.nodes.len() as u32));
+            build.nodes.push(EMPTY);
+        }
+        build.end_subtree();
+        if build.nodes.len() >= LEAF as usize {
+            return Err(Error::Parameter(
+                "the mesh is too large for a visibility order (2^31 tree nodes)".into(),
+            ));
+        }
+        let TreeBuilder {
+            nodes, subtrees, ..
+        } = build;
         Ok(Self {
             grid: *grid,
             nodes,
@@ -269,8 +281,8 @@ impl BspTree {
                     )));
                 }
                 let bit = 1u64 << (DEPTH_BITS + PATH_BITS - 1 - depth);
-                stack.push((v, code, depth + 1));
-                stack.push((node + 1, code | bit, depth + 1));
+                stack.push((node + 1, code, depth + 1));
+                stack.push((v, code | bit, depth + 1));
             }
         }
         Ok(out)
@@ -352,12 +364,12 @@ impl BspTree {
             if !at(node, &t) {
                 continue;
             }
-            let first_child = self.nodes[node as usize];
-            if first_child == EMPTY || first_child & LEAF != 0 {
+            let second_child = self.nodes[node as usize];
+            if second_child == EMPTY || second_child & LEAF != 0 {
                 continue;
             }
             let [c0, c1] = bisect(&t);
-            let (n0, n1) = ((first_child, c0), (node + 1, c1));
+            let (n0, n1) = ((node + 1, c0), (second_child, c1));
             // The first child holds the spine's first end: the side of the eye decides.
             let m = (t[0] + t[1]) / 2;
             let normal = wide(t[2] - m).cross(wide(t[3] - m));
@@ -382,6 +394,84 @@ impl BspTree {
             PLANES.map(|(a, b)| (centroid[a] > centroid[b]) == (eye[a] > eye[b]))
         });
         roots
+    }
+}
+
+/// The nodes of a [`BspTree`] laid out leaf after leaf in ascending path order
+/// ([`BspTree::from_paths`]).
+#[derive(Default)]
+struct TreeBuilder {
+    nodes: Vec<u32>,
+    /// The inner nodes on the path to the last leaf, the one at depth `d` at `open[d]`: position
+    /// and whether its second child was started.
+    open: Vec<(usize, bool)>,
+    /// Work units of [`BspTree::order_into`]: the nodes at [`SUBTREE_DEPTH`] and the leaves above
+    /// it, with their numbers of leaves.
+    subtrees: FxHashMap<u32, usize>,
+    /// The work unit being filled.
+    subtree: Option<(u32, usize)>,
+}
+
+impl TreeBuilder {
+    /// A node at `depth` begins here: a new work unit at [`SUBTREE_DEPTH`].
+    fn begin(&mut self, depth: u32) {
+        if depth == SUBTREE_DEPTH {
+            self.end_subtree();
+            self.subtree = Some((self.nodes.len() as u32, 0));
+        }
+    }
+
+    fn end_subtree(&mut self) {
+        if let Some((node, count)) = self.subtree.take() {
+            self.subtrees.insert(node, count);
+        }
+    }
+
+    /// An inner node at `depth` on the way to the next leaf, which lies below its `second` child
+    /// (then its first child is empty).
+    fn open(&mut self, depth: u32, second: bool) {
+        self.begin(depth);
+        let at = self.nodes.len();
+        self.nodes.push(EMPTY); // patched when its second child is placed
+        if second {
+            self.nodes.push(EMPTY); // no cells below its first child
+            self.nodes[at] = self.nodes.len() as u32;
+        }
+        self.open.push((at, second));
+    }
+
+    /// A leaf at `depth` for cell `cell`.
+    fn leaf(&mut self, depth: u32, cell: u32) {
+        self.begin(depth);
+        if depth < SUBTREE_DEPTH {
+            self.subtrees.insert(self.nodes.len() as u32, 1);
+        } else if let Some((_, count)) = self.subtree.as_mut() {
+            *count += 1;
+        }
+        self.nodes.push(LEAF | cell);
+    }
+
+    /// Closes the open nodes but the first `keep` (those at depths below `keep`): a second child
+    /// never started is empty.
+    fn close_to(&mut self, keep: usize) {
+        while self.open.len() > keep {
+            let Some((at, second)) = self.open.pop() else {
+                break;
+            };
+            if !second {
+                self.nodes[at] = self.nodes.len() as u32;
+                self.nodes.push(EMPTY);
+            }
+        }
+    }
+
+    /// The next leaf lies below the second child of the deepest open node, whose first child
+    /// held the last leaf.
+    fn start_second(&mut self) {
+        if let Some(top) = self.open.last_mut() {
+            top.1 = true;
+            self.nodes[top.0] = self.nodes.len() as u32;
+        }
     }
 }
 
@@ -538,6 +628,8 @@ mod tests {
             // Depth in the low bits: the mesh's bisection depth.
             let depths: Vec<u8> = paths.iter().map(|&p| path_depth(p) as u8).collect();
             assert_eq!(depths, mesh.depths);
+            // Meshes are written in ascending path order: the one-pass case of `from_paths`.
+            assert!(paths.windows(2).all(|w| w[0] < w[1]), "{q:?}");
             let rebuilt = BspTree::from_paths(&g, &paths).unwrap();
             // The cells shuffled (as a redistribution would) and only every third one kept.
             let n = mesh.tets.len();
