@@ -101,6 +101,7 @@ vtkViewDependentTetrahedra::vtkViewDependentTetrahedra()
   , MaximumNumberOfTetrahedra(1000000)
   , SortCells(0)
   , NumberOfHierarchyBuilds(0)
+  , MeshLocalPiece(false)
   , Internals(new vtkInternals)
 {
   this->SetInputArrayToProcess(
@@ -158,7 +159,7 @@ int vtkViewDependentTetrahedra::RequestData(
                   << " x " << this->ViewportSize[1] << ").");
     return 0;
   }
-  if (vtkDiamonds::Pieces::DistributedController())
+  if (!this->MeshLocalPiece && vtkDiamonds::Pieces::DistributedController())
   {
     vtkErrorMacro(<< "View Dependent Tetrahedra runs on one process only (it has more than one "
                      "MPI rank): show the image with the Adaptive Volume representation instead, "
@@ -295,4 +296,5 @@ void vtkViewDependentTetrahedra::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "MaximumNumberOfTetrahedra: " << this->MaximumNumberOfTetrahedra << "\n";
   os << indent << "SortCells: " << this->SortCells << "\n";
   os << indent << "NumberOfHierarchyBuilds: " << this->NumberOfHierarchyBuilds << "\n";
+  os << indent << "MeshLocalPiece: " << this->MeshLocalPiece << "\n";
 }

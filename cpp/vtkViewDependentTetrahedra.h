@@ -104,8 +104,9 @@ public:
 
   ///@{
   /**
-   * Cell order of the output: 0 as refined (default), 1 back to front, 2 front to back from
-   * CameraPosition (exact).
+   * Cell order of the output: 0 as refined (default; ascending bisection paths, the order in which
+   * vtkDiamondsVisibilitySort rebuilds its tree in one pass), 1 back to front, 2 front to back
+   * from CameraPosition (exact).
    */
   vtkSetMacro(SortCells, int);
   vtkGetMacro(SortCells, int);
@@ -115,6 +116,19 @@ public:
    * Number of hierarchies built (one per execution whose array or geometry changed).
    */
   vtkGetMacro(NumberOfHierarchyBuilds, vtkIdType);
+
+  ///@{
+  /**
+   * Under MPI (more than one rank): off (default), the filter refuses to run; on, every rank
+   * refines the piece of the image it holds for the camera, on its own (its own hierarchy and
+   * budget, no exchange, so the meshes of neighbouring pieces need not conform across their shared
+   * face). The Adaptive Volume representation turns it on: its ranks render their pieces apart and
+   * ParaView composites them in depth order. Not a proxy property.
+   */
+  vtkSetMacro(MeshLocalPiece, bool);
+  vtkGetMacro(MeshLocalPiece, bool);
+  vtkBooleanMacro(MeshLocalPiece, bool);
+  ///@}
 
 protected:
   vtkViewDependentTetrahedra();
@@ -132,6 +146,7 @@ protected:
   vtkIdType MaximumNumberOfTetrahedra;
   int SortCells;
   vtkIdType NumberOfHierarchyBuilds;
+  bool MeshLocalPiece;
 
 private:
   vtkViewDependentTetrahedra(const vtkViewDependentTetrahedra&) = delete;

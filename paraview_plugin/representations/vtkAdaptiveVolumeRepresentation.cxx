@@ -25,6 +25,7 @@ vtkAdaptiveVolumeRepresentation::vtkAdaptiveVolumeRepresentation()
   this->Refiner->SetMaximumNumberOfTetrahedra(400000);
   this->Refiner->SetPixelTolerance(1.0);
   this->Refiner->SetSortCells(0); // the mapper asks the sort for the order of every render
+  this->Refiner->MeshLocalPieceOn(); // under MPI every rank refines and renders its own piece
   vtkNew<vtkCallbackCommand> counter; // counts the refiner's executions
   counter->SetClientData(this);
   counter->SetCallback([](vtkObject*, unsigned long, void* self, void*) {

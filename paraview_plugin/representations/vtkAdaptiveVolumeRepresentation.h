@@ -17,7 +17,10 @@
  * server refines and renders, the client receives images. Under MPI each rendering rank refines and
  * renders its own piece of the image (its own hierarchy, the same camera and budget per rank) and
  * ParaView composites the pieces in depth order using their bounds (axis-aligned boxes, so the
- * compositing order is exact); the budget applies per rank.
+ * compositing order is exact); the budget applies per rank (the refiner runs with
+ * vtkViewDependentTetrahedra::MeshLocalPiece on). GetNumberOfTetrahedra and
+ * GetNumberOfRefinements describe the process they are called on: in client-server mode the
+ * client's copy, which only shows the server's images, reports 0.
  *
  * @sa
  * vtkViewDependentTetrahedra, vtkDiamondsVisibilitySort, vtkImageVolumeRepresentation,
