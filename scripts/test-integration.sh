@@ -98,10 +98,10 @@ step "xvfb-run -a pvbatch scripts/demo.py" demo_render
 # A rendering test under xvfb, retried once when the X server or its OpenGL context could not be
 # had (the test then prints no summary line); a test that ran and failed is not retried.
 render_test() {
-  local log="$ROOT/build/$(basename "$2" .py).log"
+  local log="$ROOT/build/$(basename "$2" .py)${3:+$(echo "${@:3}" | tr -c 'a-z0-9\n' '-')}.log"
   local attempt status
   for attempt in 1 2; do
-    xvfb-run -a -s "-screen 0 1024x768x24" "$1" "$2" >"$log" 2>&1
+    xvfb-run -a -s "-screen 0 1024x768x24" "$@" >"$log" 2>&1
     status=$?
     cat "$log"
     if grep -q "^$(basename "$2" .py): " "$log"; then
@@ -115,6 +115,10 @@ step "xvfb-run -a pvpython tests/pvpython/render_visibility_sort.py" \
   render_test pvpython tests/pvpython/render_visibility_sort.py
 step "xvfb-run -a pvbatch tests/pvpython/render_adaptive_volume.py" \
   render_test pvbatch tests/pvpython/render_adaptive_volume.py
+for ranks in 1 2; do
+  step "xvfb-run -a pvpython tests/pvpython/render_adaptive_volume.py --client-server $ranks (mpiexec -n $ranks pvserver)" \
+    render_test pvpython tests/pvpython/render_adaptive_volume.py --client-server "$ranks"
+done
 
 echo
 for s in "${failed_steps[@]}"; do

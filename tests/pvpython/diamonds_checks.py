@@ -105,6 +105,34 @@ class ErrorCapture:
         return "\n".join(self.messages)
 
 
+def start_pvserver(ranks):
+    """Starts `mpiexec -n ranks pvserver` on a free local port (its environment without this
+    process's own MPI variables, so it is not part of this process's singleton MPI job) and waits
+    until it accepts connections; returns the process and its port. Connect with
+    `simple.Connect("localhost", port)`; the server exits when its client disconnects."""
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("localhost", 0))
+        port = s.getsockname()[1]
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_", "PMIX_", "OPAL_"))}
+    server = subprocess.Popen(["mpiexec", "--allow-run-as-root", "--oversubscribe", "-n", str(ranks), "pvserver",
+                               f"--server-port={port}"], stdout=subprocess.PIPE, text=True, env=env)
+    for line in server.stdout:  # the server says when it listens
+        if "Accepting connection" in line:
+            break
+    return server, port
+
+
+def stop_pvserver(simple, server):
+    """Disconnects from the server of start_pvserver and waits for it to exit."""
+    simple.Disconnect()
+    try:
+        server.wait(timeout=60)
+    except subprocess.TimeoutExpired:
+        server.terminate()
+
+
 def fetch(proxy):
     from paraview import servermanager
 
