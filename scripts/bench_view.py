@@ -42,6 +42,12 @@ PIXEL_TOLERANCE = 0.5
 COMPARE_EVERY = 15
 CENTER_SORT_EVERY = 4
 PADDED = os.path.join(ROOT, "build", "bonsai_padded_257.vti")
+# The previous run (commit cdff493, load 9.8), before meshes were written in bisection-path order and
+# the sort's tree was rebuilt in one pass over them (kept for comparison).
+BEFORE = ("Before (commit cdff493, the exact sort's tree rebuilt by sorting the paths; load 9.8): refinement "
+          "18.5 / 66.4 / 209.9 ms, exact sort 31.2 (14.4 + 14.9) / 125.8 (77.0 + 47.4) / 301.2 (184.9 + 114.2) ms "
+          "at 100 K / 400 K / 1 M; refinement + exact sort at 400 K 192.2 ms; vtkCellCenterDepthSort on the same "
+          "meshes 228 / 909 / 2606 ms (a yardstick of the machine's load in each run).")
 
 
 def padded_bonsai():
@@ -296,6 +302,7 @@ def report(results):
                   f"({'met' if ratio >= 3 else 'not met'});",
                   f"- image RMSE within 2× of the RMSE at 1 M: {rmse4:.2f} vs {rmse1:.2f} "
                   f"({'met' if rmse4 <= 2 * rmse1 else 'not met'})."]
+    lines += ["", BEFORE]
     lines += ["", f"![frame 0 at 100 K, 400 K, 1 M tetrahedra and the full-resolution volume rendering]"
               f"(images/{os.path.basename(STRIP)})", ""]
     return lines
