@@ -16,7 +16,7 @@
 #    client of `mpiexec -n 2 pvserver`.
 # 4. scripts/demo.py under `xvfb-run -a pvbatch`, into build/test-demo, and
 #    tests/pvpython/render_visibility_sort.py and render_adaptive_volume.py under `xvfb-run -a`
-#    (the steps that render).
+#    (the steps that render), the latter also as a pvpython client of `mpiexec -n 1` and `-n 2 pvserver`.
 # Ends with the line "N passed, M failed"; exits non-zero if any step failed.
 set -uo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
