@@ -42,35 +42,46 @@ fn is_split(split: &SplitSet, t: &Tet) -> bool {
 }
 
 /// Visits the inside leaves below `t`, depth first, the first child of every bisection first
-/// (ascending bisection paths, [`crate::view::BspTree::paths`]), skipping the subtrees of the
-/// tetrahedra for which `prune` holds.
+/// (ascending bisection paths, [`crate::view::BspTree::paths`]), with their diamonds (`None` for a
+/// unit-cube tetrahedron), skipping the subtrees of the tetrahedra for which `prune` holds. The
+/// children of an inside tetrahedron are inside: only the tetrahedra that straddle the domain's far
+/// faces are placed.
 #[inline]
 fn walk_pruned(
     lattice: &Lattice,
     split: &SplitSet,
     t: Tet,
     prune: impl Fn(&Tet) -> bool,
-    mut visit: impl FnMut(&Tet),
+    mut visit: impl FnMut(&Tet, Option<Diamond>),
 ) {
     let mut stack = Vec::with_capacity(4 * lattice.levels as usize + 4);
-    stack.push(t);
-    while let Some(t) = stack.pop() {
-        match lattice.place(&t) {
-            Placement::Outside => {}
-            _ if prune(&t) => {}
-            _ if is_split(split, &t) => {
-                let [first, second] = bisect(&t);
-                stack.extend([second, first]); // popped first: the first child
-            }
-            Placement::Inside => visit(&t),
-            Placement::Straddling => unreachable!("straddling diamonds are split in the base mesh"),
+    stack.push((t, false));
+    while let Some((t, inside)) = stack.pop() {
+        let placement = if inside {
+            Placement::Inside
+        } else {
+            lattice.place(&t)
+        };
+        if placement == Placement::Outside || prune(&t) {
+            continue;
+        }
+        let diamond = Diamond::of_tet(&t);
+        if diamond.is_some_and(|d| split.contains(d)) {
+            let inside = placement == Placement::Inside;
+            let [first, second] = bisect(&t);
+            stack.push((second, inside));
+            stack.push((first, inside)); // popped first: the first child
+        } else if placement == Placement::Inside {
+            visit(&t, diamond);
+        } else {
+            unreachable!("straddling diamonds are split in the base mesh");
         }
     }
 }
 
-/// Visits the inside leaves below `t`, depth first.
+/// Visits the inside leaves below `t`, depth first, with their diamonds.
 #[inline]
-fn walk(lattice: &Lattice, split: &SplitSet, t: Tet, visit: impl FnMut(&Tet)) {
+fn walk(lattice: &Lattice, split: &SplitSet, t: Tet, visit: impl FnMut(&Tet, Option<Diamond>)) {
     walk_pruned(lattice, split, t, |_| false, visit);
 }
 
@@ -83,11 +94,22 @@ pub(crate) fn output_tet(
     leaf: &Tet,
     error: &impl Fn(Diamond) -> f64,
 ) -> (Tet, u8, f32) {
+    output_leaf(lattice, leaf, Diamond::of_tet(leaf), error)
+}
+
+/// [`output_tet`] for a leaf whose diamond (`Diamond::of_tet`) is known.
+#[inline]
+fn output_leaf(
+    lattice: &Lattice,
+    leaf: &Tet,
+    diamond: Option<Diamond>,
+    error: &impl Fn(Diamond) -> f64,
+) -> (Tet, u8, f32) {
     let mut leaf = *leaf;
     if signed_volume6(&leaf) < 0 {
         leaf.swap(2, 3);
     }
-    match Diamond::of_tet(&leaf) {
+    match diamond {
         Some(dm) => (leaf, dm.depth(lattice) as u8, error(dm) as f32),
         None => (leaf, (3 * lattice.levels) as u8, 0.0),
     }
@@ -144,7 +166,7 @@ pub(crate) fn leaves_below<X>(
     keep: &dyn Fn(&Tet) -> Option<X>,
 ) -> Vec<X> {
     let mut out = Vec::new();
-    walk_pruned(lattice, split, t, prune, |t| out.extend(keep(t)));
+    walk_pruned(lattice, split, t, prune, |t, _| out.extend(keep(t)));
     out
 }
 
@@ -154,7 +176,7 @@ pub(crate) fn count_tets(lattice: &Lattice, split: &SplitSet) -> usize {
         .into_par_iter()
         .map(|t| {
             let mut n = 0;
-            walk(lattice, split, t, |_| n += 1);
+            walk(lattice, split, t, |_, _| n += 1);
             n
         })
         .sum()
@@ -275,7 +297,7 @@ impl MeshPlan {
         let mut counts = memory::with_capacity(roots.len(), "the mesh's subtrees")?;
         counts.par_extend(roots.par_iter().map(|&t| {
             let mut n = 0;
-            walk(lattice, &split, t, |_| n += 1);
+            walk(lattice, &split, t, |_, _| n += 1);
             n
         }));
         let mut used = memory::copied(split.domain_bits(), "the mesh's point set")?;
@@ -385,8 +407,8 @@ impl MeshPlan {
             .map(|(root, c, d, e)| {
                 let mut k = 0;
                 let mut max = 0.0f32;
-                walk(lattice, &self.split, root, |leaf| {
-                    let (leaf, depth, err) = output_tet(lattice, leaf, &error);
+                walk(lattice, &self.split, root, |leaf, diamond| {
+                    let (leaf, depth, err) = output_leaf(lattice, leaf, diamond, &error);
                     for (slot, p) in c[4 * k..4 * k + 4].iter_mut().zip(leaf) {
                         *slot = I::from_usize(self.points.id(lattice.index(p)));
                     }
@@ -528,7 +550,7 @@ mod tests {
         let lattice = &plan.lattice;
         let mut leaves = Vec::new();
         for t in subtrees(lattice, &plan.split) {
-            walk(lattice, &plan.split, t, |t| leaves.push(*t));
+            walk(lattice, &plan.split, t, |t, _| leaves.push(*t));
         }
         let set: BTreeSet<usize> = leaves.iter().flatten().map(|&p| lattice.index(p)).collect();
         let point_ids: Vec<usize> = set.into_iter().collect();
