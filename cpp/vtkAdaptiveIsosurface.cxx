@@ -404,14 +404,9 @@ int vtkAdaptiveIsosurface::RequestDistributed(vtkMultiProcessController* control
   // before the next one.
   vtkDiamonds::Pieces pieces(controller, inputVector[0]->GetInformationObject(0), input);
   const auto agree = [&](bool mine, const char* what) {
-    if (pieces.AllOk(mine))
+    if (pieces.Agree(this, Text.Name, mine, what))
     {
       return true;
-    }
-    if (mine)
-    {
-      vtkErrorMacro(<< "Adaptive Isosurface stopped: " << what
-                    << " failed on another rank (see its error).");
     }
     output->Initialize();
     carrier->Initialize();

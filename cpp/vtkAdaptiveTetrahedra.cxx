@@ -237,14 +237,9 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
       vtkDiamonds::CoreSamples(this, Text, array, samples, type);
   }
   const auto agree = [&](bool mine, const char* what) {
-    if (pieces.AllOk(mine))
+    if (pieces.Agree(this, Text.Name, mine, what))
     {
       return true;
-    }
-    if (mine)
-    {
-      vtkErrorMacro(<< "Adaptive Tetrahedra stopped: " << what
-                    << " failed on another rank (see its error).");
     }
     output->Initialize();
     return false;

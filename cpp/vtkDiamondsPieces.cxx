@@ -1,5 +1,6 @@
 #include "vtkDiamondsPieces.h"
 
+#include "vtkAlgorithm.h"
 #include "vtkCommunicator.h"
 #include "vtkDataArray.h"
 #include "vtkIdList.h"
@@ -198,6 +199,20 @@ bool Pieces::AllOk(bool ok)
   this->Controller->AllReduce(&mine, &all, 1, vtkCommunicator::MIN_OP);
   this->Sent += sizeof(int);
   return all == 1;
+}
+
+bool Pieces::Agree(vtkAlgorithm* filter, const char* name, bool ok, const char* what)
+{
+  if (this->AllOk(ok))
+  {
+    return true;
+  }
+  if (ok)
+  {
+    vtkErrorWithObjectMacro(
+      filter, << name << " stopped: " << what << " failed on another rank (see its error).");
+  }
+  return false;
 }
 
 void Pieces::MaxInPlace(std::vector<double>& values)

@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+class vtkAlgorithm;
 class vtkDataArray;
 class vtkIdList;
 class vtkImageData;
@@ -54,6 +55,9 @@ public:
 
   // Collective: true on every rank when `ok` is true on every rank.
   bool AllOk(bool ok);
+  // Collective: AllOk, and where `ok` held but another rank failed, an error on `filter` saying that
+  // `name` stopped because `what` failed on another rank (which reported its own error).
+  bool Agree(vtkAlgorithm* filter, const char* name, bool ok, const char* what);
   // Collective: element-wise maximum over the ranks, in place.
   void MaxInPlace(std::vector<double>& values);
   // Collective: sum over the ranks.
