@@ -95,12 +95,15 @@ step "mpiexec -n 3 pvbatch tests/pvpython/mpi_isosurface.py" env DIAMONDS_EXPECT
 step "pvpython tests/pvpython/mpi_pieces.py --client-server (mpiexec -n 2 pvserver)" \
   timeout 1200 pvpython tests/pvpython/mpi_pieces.py --client-server
 step "xvfb-run -a pvbatch scripts/demo.py" demo_render
-# A rendering test under xvfb, retried once when the X server or its OpenGL context could not be
-# had (the test then prints no summary line); a test that ran and failed is not retried.
+# A rendering test under xvfb, retried twice, 30 s apart, when the X server or its OpenGL context
+# could not be had (the test then prints no summary line): a 2-rank pvserver's second rank was seen
+# refused by a fresh Xvfb ("bad X server connection") for about two minutes after the previous
+# client-server step. A test that ran and failed is not retried.
 render_test() {
   local log="$ROOT/build/$(basename "$2" .py)${3:+$(echo "${@:3}" | tr -c 'a-z0-9\n' '-')}.log"
   local attempt status
-  for attempt in 1 2; do
+  for attempt in 1 2 3; do
+    [ "$attempt" = 1 ] || sleep 30
     xvfb-run -a -s "-screen 0 1024x768x24" "$@" >"$log" 2>&1
     status=$?
     cat "$log"
