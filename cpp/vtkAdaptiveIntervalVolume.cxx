@@ -154,10 +154,8 @@ int vtkAdaptiveIntervalVolume::RequestData(
                   << "); it is in world units, 0 gives the full-resolution interval volume.");
     return 0;
   }
-  if (this->MaximumNumberOfTetrahedra < 0)
+  if (!vtkDiamonds::CheckBudget(this, this->MaximumNumberOfTetrahedra))
   {
-    vtkErrorMacro(<< "MaximumNumberOfTetrahedra must be >= 0 (got "
-                  << this->MaximumNumberOfTetrahedra << "); 0 means no limit.");
     return 0;
   }
   int association = vtkDataObject::FIELD_ASSOCIATION_POINTS;

@@ -142,10 +142,8 @@ int vtkAdaptiveTetrahedra::RequestData(
                   << "); 0 reproduces every sample.");
     return 0;
   }
-  if (this->MaximumNumberOfTetrahedra < 0)
+  if (!vtkDiamonds::CheckBudget(this, this->MaximumNumberOfTetrahedra))
   {
-    vtkErrorMacro(<< "MaximumNumberOfTetrahedra must be >= 0 (got "
-                  << this->MaximumNumberOfTetrahedra << "); 0 means no limit.");
     return 0;
   }
 

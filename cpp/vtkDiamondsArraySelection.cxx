@@ -27,6 +27,18 @@ std::string ArrayNames(vtkFieldData* data)
 }
 
 //------------------------------------------------------------------------------
+bool CheckBudget(vtkAlgorithm* filter, long long budget)
+{
+  if (budget < 0)
+  {
+    vtkErrorWithObjectMacro(filter,
+      << "MaximumNumberOfTetrahedra must be >= 0 (got " << budget << "); 0 means no limit.");
+    return false;
+  }
+  return true;
+}
+
+//------------------------------------------------------------------------------
 vtkDataArray* ImageArrayToProcess(vtkAlgorithm* filter, const FilterText& text, vtkImageData* input,
   vtkDataArray* selected, int association, int& result)
 {

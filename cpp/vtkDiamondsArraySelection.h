@@ -1,5 +1,5 @@
 // Internal to the Diamonds VTK module (not installed, not wrapped): the array a filter processes and
-// how its messages name the filter and the input's arrays.
+// how its messages name the filter and the input's arrays, and the parameter checks filters share.
 #ifndef vtkDiamondsArraySelection_h
 #define vtkDiamondsArraySelection_h
 
@@ -37,6 +37,10 @@ vtkDataArray* SelectPointArray(vtkAlgorithm* filter, const FilterText& text, vtk
 // (1 for an empty image, 0 after an error reported on `filter`).
 vtkDataArray* ImageArrayToProcess(vtkAlgorithm* filter, const FilterText& text, vtkImageData* input,
   vtkDataArray* selected, int association, int& result);
+
+// Whether `budget` (a filter's MaximumNumberOfTetrahedra) is usable: >= 0, 0 meaning no limit;
+// reports an error on `filter` otherwise.
+bool CheckBudget(vtkAlgorithm* filter, long long budget);
 
 // Quoted, comma-separated names of the arrays of `data`, for messages.
 std::string ArrayNames(vtkFieldData* data);

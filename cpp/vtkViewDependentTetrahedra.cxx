@@ -141,10 +141,8 @@ int vtkViewDependentTetrahedra::RequestData(
                   << ").");
     return 0;
   }
-  if (this->MaximumNumberOfTetrahedra < 0)
+  if (!vtkDiamonds::CheckBudget(this, this->MaximumNumberOfTetrahedra))
   {
-    vtkErrorMacro(<< "MaximumNumberOfTetrahedra must be >= 0 (got "
-                  << this->MaximumNumberOfTetrahedra << "); 0 means no limit.");
     return 0;
   }
   if (this->SortCells < 0 || this->SortCells > 2)

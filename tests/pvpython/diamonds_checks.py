@@ -117,7 +117,8 @@ def start_pvserver(ranks):
         port = s.getsockname()[1]
     env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_", "PMIX_", "OPAL_"))}
     server = subprocess.Popen(["mpiexec", "--allow-run-as-root", "--oversubscribe", "-n", str(ranks), "pvserver",
-                               f"--server-port={port}"], stdout=subprocess.PIPE, text=True, env=env)
+                               f"--server-port={port}"], stdout=subprocess.PIPE, text=True, env=env,
+                              start_new_session=True)  # its own process group, so stop_pvserver can end all ranks
     for line in server.stdout:  # the server says when it listens
         if "Accepting connection" in line:
             break
@@ -125,12 +126,28 @@ def start_pvserver(ranks):
 
 
 def stop_pvserver(simple, server):
-    """Disconnects from the server of start_pvserver and waits for it to exit."""
+    """Disconnects from the server of start_pvserver and waits for it to exit. A multi-rank pvserver
+    can hang for a minute in MPI's finalisation after its client left, and a rank still holding its X
+    display makes the next test's server fail to open one, so after 10 s its whole process group
+    (mpiexec and every rank) is terminated, then killed."""
+    import signal
+
     simple.Disconnect()
-    try:
-        server.wait(timeout=60)
-    except subprocess.TimeoutExpired:
-        server.terminate()
+    for sig in (None, signal.SIGTERM, signal.SIGKILL):
+        if sig is not None:
+            try:
+                os.killpg(server.pid, sig)
+            except ProcessLookupError:
+                pass
+        try:
+            server.wait(timeout=10)
+            break
+        except subprocess.TimeoutExpired:
+            continue
+    try:  # ranks that outlived mpiexec
+        os.killpg(server.pid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass
 
 
 def fetch(proxy):

@@ -36,19 +36,7 @@ simple = dc.require_plugin()
 CLIENT_SERVER = "--client-server" in sys.argv
 server = None
 if CLIENT_SERVER:
-    import socket
-    import time
-
-    with socket.socket() as s:
-        s.bind(("localhost", 0))
-        port = s.getsockname()[1]
-    server = subprocess.Popen(["mpiexec", "--allow-run-as-root", "--oversubscribe", "-n", "2", "pvserver",
-                               f"--server-port={port}"], stdout=subprocess.PIPE, text=True,
-                              # not a child of this process's own (singleton) MPI job
-                              env={k: v for k, v in os.environ.items() if not k.startswith(("OMPI_", "PMIX_", "OPAL_"))})
-    for line in server.stdout:  # the server says when it listens
-        if "Accepting connection" in line:
-            break
+    server, port = dc.start_pvserver(2)
     dc.check(simple.Connect("localhost", port, timeout=60) is not None, f"connected to pvserver on port {port}")
     ranks = servermanager.ActiveConnection.GetNumberOfDataPartitions()
 else:
@@ -205,10 +193,6 @@ if folder:
         simple.Delete(reader)
 
 if CLIENT_SERVER:
-    simple.Disconnect()
-    try:
-        server.wait(timeout=60)  # pvserver exits when its client disconnects
-    except subprocess.TimeoutExpired:
-        server.terminate()
+    dc.stop_pvserver(simple, server)
     dc.finish(f"mpi_pieces (client of a {ranks}-rank pvserver)")
 dc.finish(f"mpi_pieces ({ranks} ranks)", mpi=True)
