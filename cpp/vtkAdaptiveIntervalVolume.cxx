@@ -41,7 +41,8 @@ const vtkDiamonds::FilterText Text = { "Adaptive Interval Volume", "extract the 
   "extracts the interval volume of", "Scalars" };
 
 // Fills `output` with the tetrahedra of `volume` over `input`: points, every input point array
-// copied at samples and interpolated along the mesh edge at new points, cell data "Level".
+// copied at samples and interpolated along the mesh edge at new points, cell data "Level". Throws
+// vtkDiamonds::OutOfMemory.
 void FillVolume(const bridge::IntervalVolume& volume, vtkImageData* input, vtkUnstructuredGrid* output)
 {
   const rust::Slice<const double> weights = volume.weights();
@@ -50,10 +51,10 @@ void FillVolume(const bridge::IntervalVolume& volume, vtkImageData* input, vtkUn
   const vtkIdType numPoints = static_cast<vtkIdType>(weights.size());
   const vtkIdType numTets = static_cast<vtkIdType>(levels.size());
   output->SetPoints(vtkDiamonds::PointsFrom(volume.points()));
-  output->SetCells(VTK_TETRA, FixedSizeCells(4, volume.tets(), numPoints));
+  vtkDiamonds::SetTetrahedra(output, FixedSizeCells(4, volume.tets(), numPoints));
   vtkPointData* in = input->GetPointData();
   vtkPointData* out = output->GetPointData();
-  out->InterpolateAllocate(in, numPoints);
+  vtkDiamonds::AllocateLike(in, out, numPoints, /*interpolate=*/true);
   for (vtkIdType i = 0; i < numPoints; ++i)
   {
     const vtkIdType a = sources[2 * i];
@@ -135,6 +136,7 @@ void vtkAdaptiveIntervalVolume::ReleaseHierarchy()
 //------------------------------------------------------------------------------
 int vtkAdaptiveIntervalVolume::RequestData(
   vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
+try
 {
   vtkImageData* input = vtkImageData::GetData(inputVector[0]);
   vtkUnstructuredGrid* output = vtkUnstructuredGrid::GetData(outputVector, 0);
@@ -226,6 +228,11 @@ int vtkAdaptiveIntervalVolume::RequestData(
     OneValue<vtkIdTypeArray>("NumberOfLeaves", static_cast<vtkIdType>((*volume)->leaves())));
   this->UpdateProgress(1.0);
   return 1;
+}
+catch (const std::bad_alloc& e)
+{
+  vtkDiamonds::ReportOutOfMemory(this, "Adaptive Interval Volume", outputVector, e);
+  return 0;
 }
 
 //------------------------------------------------------------------------------

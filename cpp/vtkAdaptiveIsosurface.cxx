@@ -249,7 +249,7 @@ void vtkAdaptiveIsosurface::vtkInternals::FillSurface(vtkAdaptiveIsosurface* sel
     vtkNew<vtkFloatArray> normalArray;
     normalArray->SetName("Normals");
     normalArray->SetNumberOfComponents(3);
-    normalArray->SetNumberOfTuples(numPoints);
+    vtkDiamonds::Allocate(normalArray, 3 * numPoints);
     std::copy(normals.begin(), normals.end(), normalArray->GetPointer(0));
     output->GetPointData()->SetNormals(normalArray);
   }
@@ -260,7 +260,7 @@ void vtkAdaptiveIsosurface::vtkInternals::FillSurface(vtkAdaptiveIsosurface* sel
       vtkSmartPointer<vtkDataArray>::Take(vtkDataArray::CreateDataArray(array->GetDataType()));
     scalars->SetName(array->GetName());
     scalars->SetNumberOfComponents(1);
-    scalars->SetNumberOfTuples(numPoints);
+    vtkDiamonds::Allocate(scalars, numPoints);
     for (vtkIdType i = 0; i < numPoints; ++i)
     {
       scalars->SetComponent(i, 0, values[i]);
@@ -272,6 +272,7 @@ void vtkAdaptiveIsosurface::vtkInternals::FillSurface(vtkAdaptiveIsosurface* sel
 //------------------------------------------------------------------------------
 int vtkAdaptiveIsosurface::RequestData(
   vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
+try
 {
   vtkImageData* input = vtkImageData::GetData(inputVector[0]);
   vtkPolyData* output = vtkPolyData::GetData(outputVector, 0);
@@ -391,6 +392,11 @@ int vtkAdaptiveIsosurface::RequestData(
 
   this->UpdateProgress(1.0);
   return 1;
+}
+catch (const std::bad_alloc& e)
+{
+  vtkDiamonds::ReportOutOfMemory(this, "Adaptive Isosurface", outputVector, e);
+  return 0;
 }
 
 //------------------------------------------------------------------------------

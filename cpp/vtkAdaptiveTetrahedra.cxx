@@ -125,6 +125,7 @@ void vtkAdaptiveTetrahedra::ReleaseHierarchy()
 //------------------------------------------------------------------------------
 int vtkAdaptiveTetrahedra::RequestData(
   vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
+try
 {
   vtkImageData* input = vtkImageData::GetData(inputVector[0]);
   vtkUnstructuredGrid* output = vtkUnstructuredGrid::GetData(outputVector);
@@ -207,6 +208,11 @@ int vtkAdaptiveTetrahedra::RequestData(
 
   this->UpdateProgress(1.0);
   return 1;
+}
+catch (const std::bad_alloc& e)
+{
+  vtkDiamonds::ReportOutOfMemory(this, "Adaptive Tetrahedra", outputVector, e);
+  return 0;
 }
 
 //------------------------------------------------------------------------------

@@ -2,6 +2,7 @@
 
 #include "vtkDiamondsImageGeometry.h"
 
+#include "vtkAlgorithm.h"
 #include "vtkCellArray.h"
 #include "vtkCellData.h"
 #include "vtkDataSet.h"
@@ -11,6 +12,7 @@
 #include "vtkIdList.h"
 #include "vtkIdTypeArray.h"
 #include "vtkImageData.h"
+#include "vtkInformationVector.h"
 #include "vtkIntArray.h"
 #include "vtkPointData.h"
 #include "vtkPoints.h"
@@ -22,6 +24,7 @@
 #include "vtkUnstructuredGrid.h"
 
 #include <algorithm>
+#include <cstdlib>
 #include <cstring>
 #include <limits>
 #include <string>
@@ -29,6 +32,84 @@
 
 namespace vtkDiamonds
 {
+void Allocate(vtkAbstractArray* array, vtkIdType values)
+{
+  values = std::max<vtkIdType>(values, 0);
+  const std::size_t bytes =
+    static_cast<std::size_t>(values) * static_cast<std::size_t>(array->GetDataTypeSize());
+  auto fail = [&]()
+  {
+    const char* name = array->GetName();
+    return OutOfMemory("not enough memory for " + std::to_string(values) + " values of " +
+      array->GetDataTypeAsString() + " (" + std::to_string(bytes >> 20) + " MiB)" +
+      (name ? std::string(" for \"") + name + "\"" : std::string()));
+  };
+  void* memory = std::malloc(std::max<std::size_t>(bytes, 1));
+  if (!memory)
+  {
+    throw fail();
+  }
+  if (array->GetArrayType() == vtkAbstractArray::AoSDataArrayTemplate)
+  {
+    array->SetVoidArray(memory, values, 0, vtkAbstractArray::VTK_DATA_ARRAY_FREE);
+    return;
+  }
+  std::free(memory); // the memory is there: VTK's own allocation will not abort
+  if (!array->SetNumberOfValues(values))
+  {
+    throw fail();
+  }
+}
+
+void AllocateLike(vtkDataSetAttributes* in, vtkDataSetAttributes* out, vtkIdType tuples,
+  bool interpolate)
+{
+  // One tuple each (VTK's allocation, which cannot fail at that size), then the real size.
+  if (interpolate)
+  {
+    out->InterpolateAllocate(in, 1);
+  }
+  else
+  {
+    out->CopyAllocate(in, 1);
+  }
+  for (int k = 0; k < out->GetNumberOfArrays(); ++k)
+  {
+    vtkAbstractArray* array = out->GetAbstractArray(k);
+    Allocate(array, tuples * array->GetNumberOfComponents());
+  }
+}
+
+std::string OutOfMemoryMessage(const std::bad_alloc& e)
+{
+  return dynamic_cast<const OutOfMemory*>(&e) ? e.what() : "not enough memory";
+}
+
+void ReportOutOfMemory(
+  vtkAlgorithm* filter, const char* name, vtkInformationVector* outputVector, const std::bad_alloc& e)
+{
+  for (int port = 0; port < outputVector->GetNumberOfInformationObjects(); ++port)
+  {
+    if (vtkDataObject* output = vtkDataObject::GetData(outputVector, port))
+    {
+      output->Initialize();
+    }
+  }
+  vtkErrorWithObjectMacro(filter,
+    << name << " ran out of memory: " << OutOfMemoryMessage(e)
+    << ". Its outputs are empty; raise the tolerance, set a maximum number of cells, restrict the "
+       "input (e.g. Extract Subset) or free memory, and apply again.");
+}
+
+void SetTetrahedra(vtkUnstructuredGrid* output, vtkCellArray* cells)
+{
+  vtkNew<vtkUnsignedCharArray> types;
+  Allocate(types, cells->GetNumberOfCells());
+  types->FillValue(VTK_TETRA);
+  output->SetCells(types, cells);
+}
+
+//------------------------------------------------------------------------------
 vtkSmartPointer<vtkCellArray> FixedSizeCells(
   int size, rust::Slice<const std::uint32_t> ids, vtkIdType numPoints)
 {
@@ -41,7 +122,7 @@ vtkSmartPointer<vtkCellArray> FixedSizeCells(
   else
   {
     vtkNew<vtkTypeInt64Array> connectivity;
-    connectivity->SetNumberOfValues(n);
+    Allocate(connectivity, n);
     std::copy(ids.begin(), ids.end(), connectivity->GetPointer(0));
     cells->SetData(size, connectivity);
   }
@@ -53,7 +134,7 @@ vtkSmartPointer<vtkPoints> PointsFrom(rust::Slice<const double> xyz)
 {
   vtkNew<vtkDoubleArray> data;
   data->SetNumberOfComponents(3);
-  data->SetNumberOfTuples(static_cast<vtkIdType>(xyz.size() / 3));
+  Allocate(data, static_cast<vtkIdType>(xyz.size() / 3 * 3));
   std::copy(xyz.begin(), xyz.end(), data->GetPointer(0));
   auto points = vtkSmartPointer<vtkPoints>::New();
   points->SetData(data);
@@ -69,10 +150,10 @@ vtkSmartPointer<vtkCellArray> CellsFrom(
     return cells;
   }
   vtkNew<vtkTypeInt64Array> off;
-  off->SetNumberOfValues(static_cast<vtkIdType>(offsets.size()));
+  Allocate(off, static_cast<vtkIdType>(offsets.size()));
   std::copy(offsets.begin(), offsets.end(), off->GetPointer(0));
   vtkNew<vtkTypeInt64Array> conn;
-  conn->SetNumberOfValues(static_cast<vtkIdType>(connectivity.size()));
+  Allocate(conn, static_cast<vtkIdType>(connectivity.size()));
   std::copy(connectivity.begin(), connectivity.end(), conn->GetPointer(0));
   cells->SetData(off, conn);
   return cells;
@@ -124,8 +205,7 @@ void AddOutputArrays(const bridge::OutputArrays& arrays, vtkDataSet* output)
     const std::string name(info.name);
     array->SetName(name.c_str());
     array->SetNumberOfComponents(static_cast<int>(info.components));
-    array->SetNumberOfTuples(
-      static_cast<vtkIdType>(bytes.size() / (array->GetDataTypeSize() * info.components)));
+    Allocate(array, static_cast<vtkIdType>(bytes.size() / array->GetDataTypeSize()));
     if (!bytes.empty())
     {
       std::memcpy(array->GetVoidPointer(0), bytes.data(), bytes.size());
@@ -154,57 +234,41 @@ void AddOutputArrays(const bridge::OutputArrays& arrays, vtkDataSet* output)
 //------------------------------------------------------------------------------
 namespace
 {
-// A new array of `tuples` tuples of `components` values (contents undefined), or null with `error`
-// set when it cannot be allocated.
+// A new array of `tuples` tuples of `components` values (contents undefined); throws OutOfMemory.
 template <typename ArrayT>
-vtkSmartPointer<ArrayT> Uninitialized(
-  const char* name, vtkIdType tuples, int components, std::string& error)
+vtkSmartPointer<ArrayT> Uninitialized(const char* name, vtkIdType tuples, int components)
 {
   auto array = vtkSmartPointer<ArrayT>::New();
   array->SetName(name);
   array->SetNumberOfComponents(components);
-  if (!array->SetNumberOfValues(tuples * components))
-  {
-    error = "cannot allocate " + std::to_string(tuples * components) + " values of " +
-      array->GetDataTypeAsString() + (name ? std::string(" for ") + name : std::string());
-    return nullptr;
-  }
+  Allocate(array, tuples * components);
   return array;
 }
 
 // Connectivity and offsets of `IdArrayT` (vtkTypeInt32Array or vtkTypeInt64Array) written by the
 // core, with the depths and errors; the cells are set on `output` with their cell data.
 template <typename IdArrayT, typename Write>
-bool WriteTetrahedra(vtkIdType numTets, vtkUnstructuredGrid* output, Write write,
-  double& maxError, std::string& error)
+double WriteTetrahedra(vtkIdType numTets, vtkUnstructuredGrid* output, Write write)
 {
-  auto connectivity = Uninitialized<IdArrayT>(nullptr, 4 * numTets, 1, error);
-  auto offsets = connectivity ? Uninitialized<IdArrayT>(nullptr, numTets + 1, 1, error) : nullptr;
-  auto depths =
-    offsets ? Uninitialized<vtkUnsignedCharArray>("BisectionDepth", numTets, 1, error) : nullptr;
-  auto errors =
-    depths ? Uninitialized<vtkFloatArray>("ApproximationError", numTets, 1, error) : nullptr;
-  auto types = errors ? Uninitialized<vtkUnsignedCharArray>(nullptr, numTets, 1, error) : nullptr;
-  if (!types)
-  {
-    return false;
-  }
+  auto connectivity = Uninitialized<IdArrayT>(nullptr, 4 * numTets, 1);
+  auto offsets = Uninitialized<IdArrayT>(nullptr, numTets + 1, 1);
+  auto depths = Uninitialized<vtkUnsignedCharArray>("BisectionDepth", numTets, 1);
+  auto errors = Uninitialized<vtkFloatArray>("ApproximationError", numTets, 1);
   // vtkTypeInt64 is long long, the bridge's i64 is std::int64_t (long): the same 64-bit integers.
   using Id = std::conditional_t<sizeof(typename IdArrayT::ValueType) == 4, std::int32_t,
     std::int64_t>;
   static_assert(sizeof(Id) == sizeof(typename IdArrayT::ValueType), "ids of the same width");
-  maxError = write(
+  const double maxError = write(
     rust::Slice<Id>(reinterpret_cast<Id*>(connectivity->GetPointer(0)), 4 * numTets),
     rust::Slice<Id>(reinterpret_cast<Id*>(offsets->GetPointer(0)), numTets + 1),
     rust::Slice<std::uint8_t>(depths->GetPointer(0), numTets),
     rust::Slice<float>(errors->GetPointer(0), numTets));
-  types->FillValue(VTK_TETRA);
   vtkNew<vtkCellArray> cells;
   cells->SetData(offsets, connectivity);
-  output->SetCells(types, cells);
+  SetTetrahedra(output, cells);
   output->GetCellData()->AddArray(depths);
   output->GetCellData()->AddArray(errors);
-  return true;
+  return maxError;
 }
 
 // Whether `a` and `b` are arrays of the same name (or both unnamed), type and components.
@@ -226,11 +290,7 @@ bool PlanToUnstructuredGrid(const bridge::Hierarchy& hierarchy, const bridge::Me
   try
   {
     // Points at the exact input sample positions (the formula vtkImageData uses for its bounds).
-    auto xyz = Uninitialized<vtkDoubleArray>(nullptr, numPoints, 3, error);
-    if (!xyz)
-    {
-      return false;
-    }
+    auto xyz = Uninitialized<vtkDoubleArray>(nullptr, numPoints, 3);
     const ImageGeometry image(input);
     bridge::PointFrame frame;
     for (int axis = 0; axis < 3; ++axis)
@@ -248,7 +308,7 @@ bool PlanToUnstructuredGrid(const bridge::Hierarchy& hierarchy, const bridge::Me
     // information), filled by the core from the matching input points.
     vtkPointData* inPD = input->GetPointData();
     vtkPointData* outPD = output->GetPointData();
-    outPD->CopyAllocate(inPD, numPoints);
+    AllocateLike(inPD, outPD, numPoints);
     vtkNew<vtkIdList> pointIds; // only for arrays that are not one contiguous block
     for (int i = 0, k = 0; k < outPD->GetNumberOfArrays(); ++i)
     {
@@ -264,13 +324,6 @@ bool PlanToUnstructuredGrid(const bridge::Hierarchy& hierarchy, const bridge::Me
         continue; // not passed through (e.g. global ids, as CopyData)
       }
       ++k;
-      const vtkIdType values = numPoints * out->GetNumberOfComponents();
-      if (!out->SetNumberOfValues(values))
-      {
-        error = "cannot allocate " + std::to_string(values) + " values for point array " +
-          (out->GetName() ? out->GetName() : "(unnamed)");
-        return false;
-      }
       vtkDataArray* data = vtkDataArray::SafeDownCast(in);
       if (data && data->HasStandardMemoryLayout() && numPoints > 0)
       {
@@ -299,24 +352,29 @@ bool PlanToUnstructuredGrid(const bridge::Hierarchy& hierarchy, const bridge::Me
     if (numPoints <= std::numeric_limits<vtkTypeInt32>::max() &&
       4 * numTets <= std::numeric_limits<vtkTypeInt32>::max())
     {
-      return WriteTetrahedra<vtkTypeInt32Array>(
-        numTets, output,
+      maxError = WriteTetrahedra<vtkTypeInt32Array>(numTets, output,
         [&](rust::Slice<std::int32_t> c, rust::Slice<std::int32_t> o,
           rust::Slice<std::uint8_t> d, rust::Slice<float> e)
-        { return hierarchy.write_tets_i32(plan, c, o, d, e); },
-        maxError, error);
+        { return hierarchy.write_tets_i32(plan, c, o, d, e); });
     }
-    return WriteTetrahedra<vtkTypeInt64Array>(
-      numTets, output,
-      [&](rust::Slice<std::int64_t> c, rust::Slice<std::int64_t> o, rust::Slice<std::uint8_t> d,
-        rust::Slice<float> e) { return hierarchy.write_tets_i64(plan, c, o, d, e); },
-      maxError, error);
+    else
+    {
+      maxError = WriteTetrahedra<vtkTypeInt64Array>(numTets, output,
+        [&](rust::Slice<std::int64_t> c, rust::Slice<std::int64_t> o,
+          rust::Slice<std::uint8_t> d, rust::Slice<float> e)
+        { return hierarchy.write_tets_i64(plan, c, o, d, e); });
+    }
+    return true;
   }
   catch (const rust::Error& e)
   {
     error = e.what();
-    return false;
   }
+  catch (const std::bad_alloc& e)
+  {
+    error = OutOfMemoryMessage(e);
+  }
+  return false;
 }
 
 //------------------------------------------------------------------------------
@@ -338,10 +396,8 @@ void MeshToUnstructuredGrid(
 
   // Points at the exact input sample positions (the formula vtkImageData uses for its bounds),
   // and the input ids to copy point data from.
-  vtkNew<vtkPoints> points;
-  points->SetDataTypeToDouble();
-  points->SetNumberOfPoints(numPoints);
-  double* xyz = vtkDoubleArray::SafeDownCast(points->GetData())->GetPointer(0);
+  auto coordinates = Uninitialized<vtkDoubleArray>(nullptr, numPoints, 3);
+  double* xyz = coordinates->GetPointer(0);
   vtkNew<vtkIdList> inputIds;
   inputIds->SetNumberOfIds(numPoints);
   const std::size_t nx = static_cast<std::size_t>(dims[0]);
@@ -357,18 +413,20 @@ void MeshToUnstructuredGrid(
     }
     inputIds->SetId(i, static_cast<vtkIdType>(id));
   }
+  vtkNew<vtkPoints> points;
+  points->SetData(coordinates);
   output->SetPoints(points);
 
   // Every input point-data array, tuple by tuple from the matching input point.
   vtkPointData* inPD = input->GetPointData();
   vtkPointData* outPD = output->GetPointData();
-  outPD->CopyAllocate(inPD, numPoints);
+  AllocateLike(inPD, outPD, numPoints);
   outPD->CopyData(inPD, inputIds, vtkIdType(0));
 
   vtkSmartPointer<vtkCellArray> cells = FixedSizeCells(4, tets, numPoints);
   // The connectivity is copied: free the core's copy before more arrays are allocated.
   mesh.release_tets();
-  output->SetCells(VTK_TETRA, cells);
+  SetTetrahedra(output, cells);
 
   output->GetCellData()->AddArray(
     NamedArray<vtkUnsignedCharArray>("BisectionDepth", numTets, levels.data()));

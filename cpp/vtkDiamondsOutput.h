@@ -10,22 +10,63 @@
 
 #include <cstdint>
 #include <cstring>
+#include <new>
 #include <string>
 #include <vector>
 
+class vtkAbstractArray;
+class vtkAlgorithm;
 class vtkCellArray;
 class vtkDataSet;
+class vtkDataSetAttributes;
 class vtkImageData;
+class vtkInformationVector;
 class vtkPoints;
 class vtkStringArray;
 class vtkUnstructuredGrid;
 
 namespace vtkDiamonds
 {
+// Thrown when an output array cannot be allocated; what() says which and how large. A std::bad_alloc,
+// so one handler also catches VTK's own (vtkIdList, for instance, allocates with new[]).
+class OutOfMemory : public std::bad_alloc
+{
+public:
+  explicit OutOfMemory(std::string message)
+    : Message(std::move(message))
+  {
+  }
+  const char* what() const noexcept override { return this->Message.c_str(); }
+
+private:
+  std::string Message;
+};
+
+// Gives `array` (its number of components set) `values` values, contents undefined, or throws
+// OutOfMemory. The filters' output arrays are allocated here rather than by VTK because VTK's data
+// arrays abort the process when an allocation fails (ParaView 5.11's VTK is built without NDEBUG,
+// so vtkGenericDataArray calls abort() after "Unable to allocate"): AOS arrays get their memory
+// from malloc, others only after a malloc of their size succeeded.
+void Allocate(vtkAbstractArray* array, vtkIdType values);
+
+// Creates in `out` the arrays of `in` that CopyAllocate (or InterpolateAllocate, with
+// `interpolate`) would, each with `tuples` tuples allocated by Allocate; throws OutOfMemory.
+void AllocateLike(vtkDataSetAttributes* in, vtkDataSetAttributes* out, vtkIdType tuples,
+  bool interpolate = false);
+
+// The message of an allocation failure caught as `e`: OutOfMemory's, or a generic one.
+std::string OutOfMemoryMessage(const std::bad_alloc& e);
+
+// What a filter's RequestData does when memory ran out (its body is a function-try-block catching
+// std::bad_alloc): every output emptied (no partial result), the error reported on `filter`, named
+// `name`.
+void ReportOutOfMemory(
+  vtkAlgorithm* filter, const char* name, vtkInformationVector* outputVector, const std::bad_alloc& e);
+
 // Fills `output` with the tetrahedra of `mesh` over `input`: points at the sample positions, every
 // input point array passed through, cell data "BisectionDepth" and the mesh's per-tetrahedron errors named
 // `errorName` ("ApproximationError" for Adaptive Tetrahedra, "IsosurfaceError" for carriers). The mesh's
-// tetrahedra are released as soon as they are copied (lower peak memory).
+// tetrahedra are released as soon as they are copied (lower peak memory). Throws OutOfMemory.
 void MeshToUnstructuredGrid(
   bridge::Mesh& mesh, vtkImageData* input, const char* errorName, vtkUnstructuredGrid* output);
 
@@ -38,13 +79,13 @@ void MeshToUnstructuredGrid(
 bool PlanToUnstructuredGrid(const bridge::Hierarchy& hierarchy, const bridge::MeshPlan& plan,
   vtkImageData* input, vtkUnstructuredGrid* output, double& maxError, std::string& error);
 
-// A named array of `n` values copied from `values`.
+// A named array of `n` values copied from `values` (throws OutOfMemory).
 template <typename ArrayT>
 vtkSmartPointer<ArrayT> NamedArray(const char* name, vtkIdType n, const void* values)
 {
   auto array = vtkSmartPointer<ArrayT>::New();
   array->SetName(name);
-  array->SetNumberOfValues(n);
+  Allocate(array, n);
   if (n > 0)
   {
     std::memcpy(array->GetPointer(0), values, n * sizeof(typename ArrayT::ValueType));
@@ -53,7 +94,8 @@ vtkSmartPointer<ArrayT> NamedArray(const char* name, vtkIdType n, const void* va
 }
 
 // Cells of `size` points each from `ids` (point indices below `numPoints`, `size` per cell): 32-bit
-// connectivity when the point count allows (half the memory), else 64-bit.
+// connectivity when the point count allows (half the memory), else 64-bit. Throws OutOfMemory, as
+// the three functions below.
 vtkSmartPointer<vtkCellArray> FixedSizeCells(
   int size, rust::Slice<const std::uint32_t> ids, vtkIdType numPoints);
 
@@ -67,8 +109,11 @@ vtkSmartPointer<vtkCellArray> CellsFrom(
 // A named string array.
 vtkSmartPointer<vtkStringArray> Strings(const char* name, const std::vector<std::string>& values);
 
+// Sets the cells of `output`, all tetrahedra (the cell types array allocated by Allocate).
+void SetTetrahedra(vtkUnstructuredGrid* output, vtkCellArray* cells);
+
 // Adds the core's named arrays to the point, cell or field data of `output`, in order, and makes
-// the arrays marked so the active scalars.
+// the arrays marked so the active scalars (throws OutOfMemory).
 void AddOutputArrays(const bridge::OutputArrays& arrays, vtkDataSet* output);
 
 // A named one-value array (field data).

@@ -841,6 +841,7 @@ int vtkMaterialInterfaceApproximation::RequestUpdateExtent(
 //------------------------------------------------------------------------------
 int vtkMaterialInterfaceApproximation::RequestData(
   vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
+try
 {
   vtkDataSet* input = vtkDataSet::GetData(inputVector[0]);
   vtkPolyData* interfaceInput = vtkPolyData::GetData(inputVector[1]);
@@ -924,6 +925,11 @@ int vtkMaterialInterfaceApproximation::RequestData(
   }
   this->UpdateProgress(1.0);
   return 1;
+}
+catch (const std::bad_alloc& e)
+{
+  vtkDiamonds::ReportOutOfMemory(this, "Material Interface Approximation", outputVector, e);
+  return 0;
 }
 
 //------------------------------------------------------------------------------

@@ -137,6 +137,7 @@ int vtkProgressiveTetrahedralMesh::FillInputPortInformation(int, vtkInformation*
 //------------------------------------------------------------------------------
 int vtkProgressiveTetrahedralMesh::RequestData(
   vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
+try
 {
   vtkUnstructuredGrid* input = vtkUnstructuredGrid::GetData(inputVector[0]);
   vtkUnstructuredGrid* output = vtkUnstructuredGrid::GetData(outputVector, 0);
@@ -306,40 +307,22 @@ int vtkProgressiveTetrahedralMesh::RequestData(
   rust::Slice<const double> errors = pm.level_field_errors();
   const vtkIdType np = static_cast<vtkIdType>(pointIds.size());
   const vtkIdType nt = static_cast<vtkIdType>(errors.size());
+  vtkNew<vtkDoubleArray> coordinates;
+  coordinates->SetNumberOfComponents(3);
+  vtkDiamonds::Allocate(coordinates, 3 * np);
   vtkNew<vtkPoints> points;
-  points->SetDataTypeToDouble();
-  points->SetNumberOfPoints(np);
+  points->SetData(coordinates);
   vtkPointData* inPD = tets->GetPointData();
   vtkPointData* outPD = output->GetPointData();
-  outPD->CopyAllocate(inPD, np);
+  vtkDiamonds::AllocateLike(inPD, outPD, np);
   for (vtkIdType k = 0; k < np; ++k)
   {
     points->SetPoint(k, tets->GetPoint(pointIds[k]));
     outPD->CopyData(inPD, pointIds[k], k);
   }
   output->SetPoints(points);
-  vtkNew<vtkIdTypeArray> connectivity;
-  connectivity->SetNumberOfValues(4 * nt);
-  vtkNew<vtkIdTypeArray> offsets;
-  offsets->SetNumberOfValues(nt + 1);
-  for (vtkIdType t = 0; t <= nt; ++t)
-  {
-    offsets->SetValue(t, 4 * t);
-  }
-  for (vtkIdType k = 0; k < 4 * nt; ++k)
-  {
-    connectivity->SetValue(k, corners[k]);
-  }
-  vtkNew<vtkCellArray> cells;
-  cells->SetData(offsets, connectivity);
-  output->SetCells(VTK_TETRA, cells);
-  vtkNew<vtkDoubleArray> fieldError;
-  fieldError->SetName("FieldError");
-  fieldError->SetNumberOfValues(nt);
-  for (vtkIdType t = 0; t < nt; ++t)
-  {
-    fieldError->SetValue(t, errors[t]);
-  }
+  vtkDiamonds::SetTetrahedra(output, vtkDiamonds::FixedSizeCells(4, corners, np));
+  auto fieldError = vtkDiamonds::NamedArray<vtkDoubleArray>("FieldError", nt, errors.data());
   output->GetCellData()->AddArray(fieldError);
 
   vtkFieldData* fieldData = output->GetFieldData();
@@ -356,35 +339,10 @@ int vtkProgressiveTetrahedralMesh::RequestData(
     rust::Slice<const double> isoValues = pm.iso_values();
     rust::Slice<const std::uint32_t> triangles = pm.iso_triangles();
     const vtkIdType nip = static_cast<vtkIdType>(isoValues.size());
-    const vtkIdType ntri = static_cast<vtkIdType>(triangles.size() / 3);
-    vtkNew<vtkPoints> sp;
-    sp->SetDataTypeToDouble();
-    sp->SetNumberOfPoints(nip);
-    vtkNew<vtkDoubleArray> values;
-    values->SetName(array->GetName() ? array->GetName() : "Isovalue");
-    values->SetNumberOfValues(nip);
-    for (vtkIdType k = 0; k < nip; ++k)
-    {
-      sp->SetPoint(k, &isoPoints[3 * k]);
-      values->SetValue(k, isoValues[k]);
-    }
-    vtkNew<vtkIdTypeArray> triOffsets;
-    triOffsets->SetNumberOfValues(ntri + 1);
-    for (vtkIdType t = 0; t <= ntri; ++t)
-    {
-      triOffsets->SetValue(t, 3 * t);
-    }
-    vtkNew<vtkIdTypeArray> triConnectivity;
-    triConnectivity->SetNumberOfValues(3 * ntri);
-    for (vtkIdType k = 0; k < 3 * ntri; ++k)
-    {
-      triConnectivity->SetValue(k, triangles[k]);
-    }
-    vtkNew<vtkCellArray> polys;
-    polys->SetData(triOffsets, triConnectivity);
-    surface->SetPoints(sp);
-    surface->SetPolys(polys);
-    surface->GetPointData()->SetScalars(values);
+    surface->SetPoints(vtkDiamonds::PointsFrom(isoPoints));
+    surface->SetPolys(vtkDiamonds::FixedSizeCells(3, triangles, nip));
+    surface->GetPointData()->SetScalars(vtkDiamonds::NamedArray<vtkDoubleArray>(
+      array->GetName() ? array->GetName() : "Isovalue", nip, isoValues.data()));
   }
   if (pm.merged_points() > 0)
   {
@@ -394,6 +352,11 @@ int vtkProgressiveTetrahedralMesh::RequestData(
   }
   this->UpdateProgress(1.0);
   return 1;
+}
+catch (const std::bad_alloc& e)
+{
+  vtkDiamonds::ReportOutOfMemory(this, "Progressive Tetrahedral Mesh", outputVector, e);
+  return 0;
 }
 
 //------------------------------------------------------------------------------

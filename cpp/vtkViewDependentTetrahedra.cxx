@@ -75,7 +75,7 @@ void Reorder(vtkUnstructuredGrid* output, const rust::Vec<std::uint32_t>& order)
     vtkSmartPointer<vtkAbstractArray> out = vtk::TakeSmartPointer(in->NewInstance());
     out->SetName(in->GetName());
     out->SetNumberOfComponents(in->GetNumberOfComponents());
-    out->SetNumberOfTuples(n);
+    vtkDiamonds::Allocate(out, n * in->GetNumberOfComponents());
     in->GetTuples(ids, out);
     in->DeepCopy(out);
   }
@@ -124,6 +124,7 @@ int vtkViewDependentTetrahedra::FillInputPortInformation(int, vtkInformation* in
 //------------------------------------------------------------------------------
 int vtkViewDependentTetrahedra::RequestData(
   vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
+try
 {
   vtkImageData* input = vtkImageData::GetData(inputVector[0]);
   vtkUnstructuredGrid* output = vtkUnstructuredGrid::GetData(outputVector);
@@ -220,7 +221,7 @@ int vtkViewDependentTetrahedra::RequestData(
   const vtkIdType numTets = output->GetNumberOfCells();
   vtkNew<vtkTypeUInt64Array> paths;
   paths->SetName("BisectionPath");
-  paths->SetNumberOfValues(numTets);
+  vtkDiamonds::Allocate(paths, numTets);
   rust::Vec<std::uint32_t> order;
   try
   {
@@ -241,7 +242,7 @@ int vtkViewDependentTetrahedra::RequestData(
     vtkUnsignedCharArray::SafeDownCast(cd->GetAbstractArray("BisectionDepth"));
   vtkNew<vtkUnsignedCharArray> levels;
   levels->SetName("Level");
-  levels->SetNumberOfValues(numTets);
+  vtkDiamonds::Allocate(levels, numTets);
   for (vtkIdType i = 0; i < numTets; ++i)
   {
     levels->SetValue(i, static_cast<unsigned char>(depths->GetValue(i) / 3));
@@ -275,6 +276,11 @@ int vtkViewDependentTetrahedra::RequestData(
   fieldData->AddArray(OneValue<vtkDoubleArray>("FrameSeconds", frame.seconds));
   this->UpdateProgress(1.0);
   return 1;
+}
+catch (const std::bad_alloc& e)
+{
+  vtkDiamonds::ReportOutOfMemory(this, "View Dependent Tetrahedra", outputVector, e);
+  return 0;
 }
 
 //------------------------------------------------------------------------------

@@ -783,13 +783,52 @@ pub struct Surface {
 /// (`&Hierarchy`, `&Mesh`, the sample bytes), is the C++ progress observer, which holds no
 /// invariant the Rust side could break, or is an [`IsoState`], which [`Hierarchy::isosurface`]
 /// clears when its body fails or panics.
+///
+/// Memory: the outermost `guard` of a call arms the emergency reserve of [`ALLOCATOR`]
+/// ([`diamonds::memory::arm`]); when an allocation failed during the call (the reserve given
+/// back to let it finish or reach a progress report, where [`reporter`] stops it), its result is
+/// dropped and the call fails with an out-of-memory message instead of aborting the process.
 pub fn guard<T>(what: &str, body: impl FnOnce() -> Result<T, String>) -> Result<T, String> {
-    catch_unwind(AssertUnwindSafe(body)).unwrap_or_else(|payload| {
+    let outermost = GUARD_DEPTH.with(|depth| {
+        depth.set(depth.get() + 1);
+        depth.get() == 1
+    });
+    if outermost {
+        diamonds::memory::arm();
+    }
+    let result = catch_unwind(AssertUnwindSafe(body)).unwrap_or_else(|payload| {
         Err(format!(
             "internal error in the Diamonds core while {what}: {}. Please report this with the input that caused it.",
             panic_message(payload.as_ref())
         ))
-    })
+    });
+    GUARD_DEPTH.with(|depth| depth.set(depth.get() - 1));
+    if outermost && diamonds::memory::exhausted() {
+        drop(result);
+        return Err(format!(
+            "out of memory while {what}: an allocation failed, so the work was stopped and its memory \
+             freed. Raise the tolerance, set a maximum number of cells, restrict the input (e.g. \
+             Extract Subset) or free memory, and apply again."
+        ));
+    }
+    result
+}
+
+thread_local! {
+    /// Nesting depth of [`guard`] on this thread (bridge functions may call each other).
+    static GUARD_DEPTH: std::cell::Cell<u32> = const { std::cell::Cell::new(0) };
+}
+
+/// The global allocator of the plugin's Rust code: the system's, with an emergency reserve, so
+/// that running out of memory ends the call with an error (see [`guard`]) instead of aborting
+/// ParaView.
+#[global_allocator]
+static ALLOCATOR: diamonds::memory::Reserving = diamonds::memory::Reserving;
+
+/// The C++ observer's `report` as the core's progress callback: stops the work (returns false,
+/// as an abort request does) once an allocation has failed, so that [`guard`] can report it.
+fn reporter(mut progress: Pin<&mut ffi::ProgressObserver>) -> impl FnMut(f64) -> bool + '_ {
+    move |fraction| !diamonds::memory::exhausted() && progress.as_mut().report(fraction)
 }
 
 /// The text of a panic payload (`panic!` carries a `&str` or a `String`).
@@ -922,7 +961,7 @@ fn build_hierarchy(
     mut progress: Pin<&mut ffi::ProgressObserver>,
 ) -> Result<Box<Hierarchy>, String> {
     guard("building the diamond hierarchy", || {
-        let mut report = |fraction: f64| progress.as_mut().report(fraction);
+        let mut report = reporter(progress.as_mut());
         build_with(grid, scalar_type, samples, &mut report).map(Box::new)
     })
 }

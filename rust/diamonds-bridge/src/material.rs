@@ -319,7 +319,7 @@ impl MaterialModel {
         mut progress: Pin<&mut ffi::ProgressObserver>,
     ) -> Result<Box<MaterialMesh>, String> {
         guard("refining the material mesh", || {
-            let mut report = |fraction: f64| progress.as_mut().report(fraction);
+            let mut report = crate::reporter(progress.as_mut());
             self.refine_with(query, &mut report).map(Box::new)
         })
     }

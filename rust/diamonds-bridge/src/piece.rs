@@ -133,7 +133,7 @@ pub fn build_piece_hierarchy(
         let layout = layout(whole, owned)?;
         let local = typed_slice(scalar_type, local)?;
         let fetched = typed_slice(scalar_type, fetched)?;
-        let mut report = |fraction: f64| progress.as_mut().report(fraction);
+        let mut report = crate::reporter(progress.as_mut());
         piece::PieceHierarchy::build(layout, local, fetched, &mut report)
             .map(|h| Box::new(PieceHierarchy(h)))
             .map_err(|e| e.to_string())

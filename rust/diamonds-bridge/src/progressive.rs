@@ -35,7 +35,7 @@ pub fn build_progressive(
     mut progress: Pin<&mut ffi::ProgressObserver>,
 ) -> Result<Box<Progressive>, String> {
     guard("building the progressive mesh", || {
-        let mut report = |fraction: f64| progress.as_mut().report(fraction);
+        let mut report = crate::reporter(progress.as_mut());
         build_with(points, tets, scalars, spec, &mut report).map(Box::new)
     })
 }

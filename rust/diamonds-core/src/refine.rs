@@ -633,6 +633,7 @@ pub(crate) fn grow_concurrent(
     let mut round = first;
     let mut added = Vec::new();
     while !round.is_empty() {
+        crate::memory::check("the refinement's rounds")?;
         // Per thread: the diamonds to try next round, and the diamonds split in this one.
         let next: Result<(Vec<Diamond>, Vec<Diamond>)> =
             round

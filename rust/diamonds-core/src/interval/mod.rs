@@ -178,6 +178,9 @@ fn extract_volume<T: Sample>(
         (ids.map(|i| i as u32), ids.map(|i| volume.at_index(i)))
     };
     let patch = |t: &Tet| {
+        if crate::memory::exhausted() {
+            return None; // the extraction fails with an out-of-memory error: stop allocating
+        }
         let (ids, f) = ids_values(t);
         let mut out = Vec::new();
         clip(ids, f, range, &mut out);
