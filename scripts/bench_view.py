@@ -145,16 +145,22 @@ def measure(budget):
     mapper = vtkProjectedTetrahedraMapper()
     ordering = servermanager.misc.DiamondsVisibilitySort().GetClientSideObject()
     mapper.SetVisibilitySort(ordering)
-    volume = vtkVolume()
-    volume.SetMapper(mapper)
-    volume.SetProperty(prop)
-    renderer = vtkRenderer()
-    renderer.SetBackground(1.0, 1.0, 1.0)
-    renderer.AddVolume(volume)
-    window = vtkRenderWindow()
-    window.SetSize(*SIZE)
-    window.SetOffScreenRendering(1)
-    window.AddRenderer(renderer)
+
+    def offscreen(volume_mapper):
+        """A white off-screen window of SIZE showing `volume_mapper` with the transfer functions."""
+        volume = vtkVolume()
+        volume.SetMapper(volume_mapper)
+        volume.SetProperty(prop)
+        renderer = vtkRenderer()
+        renderer.SetBackground(1.0, 1.0, 1.0)
+        renderer.AddVolume(volume)
+        window = vtkRenderWindow()
+        window.SetSize(*SIZE)
+        window.SetOffScreenRendering(1)
+        window.AddRenderer(renderer)
+        return renderer, window
+
+    renderer, window = offscreen(mapper)
     camera = renderer.GetActiveCamera()
     camera.SetViewAngle(30.0)
     camera.SetFocalPoint(*center)
@@ -162,16 +168,7 @@ def measure(budget):
 
     reference_mapper = vtkSmartVolumeMapper()
     reference_mapper.SetInputData(image)
-    reference = vtkVolume()
-    reference.SetMapper(reference_mapper)
-    reference.SetProperty(prop)
-    ref_renderer = vtkRenderer()
-    ref_renderer.SetBackground(1.0, 1.0, 1.0)
-    ref_renderer.AddVolume(reference)
-    ref_window = vtkRenderWindow()
-    ref_window.SetSize(*SIZE)
-    ref_window.SetOffScreenRendering(1)
-    ref_window.AddRenderer(ref_renderer)
+    ref_renderer, ref_window = offscreen(reference_mapper)
     ref_renderer.SetActiveCamera(camera)
 
     def drain(sort, mesh):

@@ -8,12 +8,12 @@
 #    and -> vtkAdaptiveIsosurface.
 # 2. tests/pvpython/test_*.py: the plugin auto-loaded through PV_PLUGIN_PATH, independent numpy
 #    checks of the meshes, isosurfaces, interval volumes (test_interval.py, against Iso Volume)
-#    and material interfaces, properties, bad inputs
+#    and material interfaces, properties, bad inputs, memory limits (test_memory_limit.py)
 #    (test_material.py writes its impact case with target/release/diamonds, brought up to date
 #    with cargo).
 # 3. tests/pvpython/mpi_pieces.py, mpi_isosurface.py and mpi_material.py under `mpiexec -n 2 pvbatch`,
-#    mpi_pieces.py and mpi_isosurface.py again under `mpiexec -n 3 pvbatch`, and mpi_pieces.py as a pvpython
-#    client of `mpiexec -n 2 pvserver`.
+#    mpi_pieces.py and mpi_isosurface.py again under `mpiexec -n 3 pvbatch`, and both as pvpython
+#    clients of `mpiexec -n 2 pvserver`.
 # 4. scripts/demo.py under `xvfb-run -a pvbatch`, into build/test-demo, and
 #    tests/pvpython/render_visibility_sort.py and render_adaptive_volume.py under `xvfb-run -a`
 #    (the steps that render), the latter also as a pvpython client of `mpiexec -n 1` and `-n 2 pvserver`.
@@ -94,6 +94,8 @@ step "mpiexec -n 3 pvbatch tests/pvpython/mpi_isosurface.py" env DIAMONDS_EXPECT
   mpiexec --allow-run-as-root --oversubscribe -n 3 pvbatch tests/pvpython/mpi_isosurface.py
 step "pvpython tests/pvpython/mpi_pieces.py --client-server (mpiexec -n 2 pvserver)" \
   timeout 1200 pvpython tests/pvpython/mpi_pieces.py --client-server
+step "pvpython tests/pvpython/mpi_isosurface.py --client-server (mpiexec -n 2 pvserver)" \
+  timeout 1200 pvpython tests/pvpython/mpi_isosurface.py --client-server
 step "xvfb-run -a pvbatch scripts/demo.py" demo_render
 # A rendering test under xvfb, retried twice, 30 s apart, when the X server or its OpenGL context
 # could not be had (the test then prints no summary line): a 2-rank pvserver's second rank was seen

@@ -150,6 +150,35 @@ def stop_pvserver(simple, server):
         pass
 
 
+class Ranks:
+    """The MPI ranks a distributed test runs on: pvbatch's own (`mpiexec -n N pvbatch script.py`) or,
+    with `--client-server` on the command line, those of a 2-rank pvserver this pvpython client starts
+    and Connects to (as the GUI connects). Checks the count against DIAMONDS_EXPECTED_RANKS (default 2);
+    `finish` stops the server and prints the summary."""
+
+    def __init__(self, simple):
+        from paraview import servermanager
+
+        self.simple = simple
+        self.client_server = "--client-server" in sys.argv
+        self.server = None
+        if self.client_server:
+            self.server, port = start_pvserver(2)
+            check(simple.Connect("localhost", port, timeout=60) is not None, f"connected to pvserver on port {port}")
+            self.count = servermanager.ActiveConnection.GetNumberOfDataPartitions()
+        else:
+            self.count = servermanager.vtkProcessModule.GetProcessModule().GetNumberOfLocalPartitions()
+        expected = int(os.environ.get("DIAMONDS_EXPECTED_RANKS", "2"))
+        check(self.count == expected, f"running on {self.count} MPI ranks (expected {expected})"
+              + (" of a pvserver this client connected to" if self.client_server else ""))
+
+    def finish(self, name):
+        if self.client_server:
+            stop_pvserver(self.simple, self.server)
+            finish(f"{name} (client of a {self.count}-rank pvserver)")
+        finish(f"{name} ({self.count} ranks)", mpi=True)
+
+
 def fetch(proxy):
     from paraview import servermanager
 

@@ -2,7 +2,9 @@
 
   PV_PLUGIN_PATH=$PWD/build/lib/paraview-5.11/plugins/Diamonds \
     mpiexec --allow-run-as-root -n 2 pvbatch tests/pvpython/mpi_isosurface.py
-  (and -n 3 with DIAMONDS_EXPECTED_RANKS=3).
+  (and -n 3 with DIAMONDS_EXPECTED_RANKS=3), or in client-server mode, as the GUI connects:
+  PV_PLUGIN_PATH=... pvpython tests/pvpython/mpi_isosurface.py --client-server
+  (starts `mpiexec -n 2 pvserver` on a free port and Connects to it).
 
 For images of odd sizes (ParaView's Wavelet, an image smaller than the number of ranks, and every
 shared volume when ../shared is there) and several queries, the script (rank 0) fetches every rank's
@@ -35,9 +37,8 @@ from vtkmodules.vtkImagingCore import vtkRTAnalyticSource  # noqa: E402
 from vtkmodules.vtkIOXML import vtkXMLImageDataReader, vtkXMLImageDataWriter, vtkXMLPolyDataReader  # noqa: E402
 
 simple = dc.require_plugin()
-ranks = servermanager.vtkProcessModule.GetProcessModule().GetNumberOfLocalPartitions()
-expected = int(os.environ.get("DIAMONDS_EXPECTED_RANKS", "2"))
-dc.check(ranks == expected, f"running on {ranks} MPI ranks (expected {expected})")
+RANKS = dc.Ranks(simple)
+ranks = RANKS.count
 workdir = tempfile.mkdtemp(prefix="diamonds-mpi-iso-")
 
 
@@ -247,4 +248,4 @@ if folder:
         simple.Delete(check_distributed(reader, ct, name, [isovalue], 0.01 * diagonal, entry.split("_")[0]))
         simple.Delete(reader)
 
-dc.finish(f"mpi_isosurface ({ranks} ranks)", mpi=True)
+RANKS.finish("mpi_isosurface")

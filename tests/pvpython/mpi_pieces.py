@@ -33,17 +33,8 @@ from vtkmodules.vtkImagingCore import vtkRTAnalyticSource  # noqa: E402
 from vtkmodules.vtkIOXML import vtkXMLImageDataReader, vtkXMLImageDataWriter, vtkXMLUnstructuredGridReader  # noqa: E402
 
 simple = dc.require_plugin()
-CLIENT_SERVER = "--client-server" in sys.argv
-server = None
-if CLIENT_SERVER:
-    server, port = dc.start_pvserver(2)
-    dc.check(simple.Connect("localhost", port, timeout=60) is not None, f"connected to pvserver on port {port}")
-    ranks = servermanager.ActiveConnection.GetNumberOfDataPartitions()
-else:
-    ranks = servermanager.vtkProcessModule.GetProcessModule().GetNumberOfLocalPartitions()
-expected = int(os.environ.get("DIAMONDS_EXPECTED_RANKS", "2"))
-dc.check(ranks == expected, f"running on {ranks} MPI ranks (expected {expected})"
-         + (" of a pvserver this client connected to" if CLIENT_SERVER else ""))
+RANKS = dc.Ranks(simple)
+ranks = RANKS.count
 workdir = tempfile.mkdtemp(prefix="diamonds-mpi-")
 
 
@@ -192,7 +183,4 @@ if folder:
         simple.Delete(check_distributed(reader, ct, name, (0.1 if big else 0.02) * (hi - lo), entry.split("_")[0]))
         simple.Delete(reader)
 
-if CLIENT_SERVER:
-    dc.stop_pvserver(simple, server)
-    dc.finish(f"mpi_pieces (client of a {ranks}-rank pvserver)")
-dc.finish(f"mpi_pieces ({ranks} ranks)", mpi=True)
+RANKS.finish("mpi_pieces")
