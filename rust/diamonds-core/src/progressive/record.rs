@@ -23,6 +23,10 @@ pub struct VertexSplit {
     /// keeps every tetrahedron's `FieldError` without locating a vertex.
     pub errors_before: Vec<f64>,
     pub errors_after: Vec<f64>,
+    /// Tetrahedra outside `removed` and `moved` whose field error the collapse changed (removed
+    /// vertices outside the mesh that a new boundary face came nearer to), as `(tetrahedron, before,
+    /// after)`.
+    pub other_errors: Vec<(u32, f64, f64)>,
 }
 
 /// The field error of a level at the original vertices it does not have, and the boundary distance of
@@ -31,8 +35,8 @@ pub struct VertexSplit {
 pub struct LevelError {
     /// Tetrahedra of the level.
     pub tets: usize,
-    /// Largest `|f(v) - L(v)|` over the removed original vertices `v` (`L` the level's linear
-    /// interpolant, at the nearest place of the mesh for a vertex outside it).
+    /// Largest `|f(v) - L(x)|` over the removed original vertices `v` (`L` the level's linear
+    /// interpolant, `x = v` inside the level's mesh, else the nearest point of the mesh to `v`).
     pub max_field_error: f64,
     /// Root mean square of the same errors (0 with no removed vertex).
     pub rms_field_error: f64,
@@ -197,6 +201,9 @@ impl Replay {
                 substitute(&mut self.tets[t as usize], s.vertex, s.target);
                 self.errors[t as usize] = e;
             }
+            for &(t, _, after) in &s.other_errors {
+                self.errors[t as usize] = after;
+            }
             self.live -= s.removed.len();
             self.level -= 1;
             on_step(self, s);
@@ -212,6 +219,9 @@ impl Replay {
             for (&t, &e) in s.removed.iter().chain(&s.moved).zip(&s.errors_before) {
                 self.errors[t as usize] = e;
             }
+            for &(t, before, _) in &s.other_errors {
+                self.errors[t as usize] = before;
+            }
             self.live += s.removed.len();
             self.level += 1;
             on_step(self, s);
@@ -225,9 +235,9 @@ impl Replay {
     }
 
     /// For each tetrahedron of the current level (in [`Replay::live_tets`] order), the largest
-    /// `|f(v) - L(v)|` over the removed original vertices `v` inside it (0 if none; a vertex outside
-    /// the mesh, where the boundary moved, counts for the tetrahedron it is nearest the inside of),
-    /// as the reduction placed them.
+    /// `|f(v) - L(x)|` over the removed original vertices `v` inside it (0 if none; a vertex outside
+    /// the mesh, where the boundary moved, is measured at its nearest point `x` of the mesh and counts
+    /// for the tetrahedron of that boundary face), as the reduction placed them.
     pub fn field_errors(&self) -> Vec<f64> {
         self.errors
             .iter()

@@ -9,9 +9,18 @@
 //! *exactly*: every removed original vertex lying in the changed region (the star of `p_i`) is
 //! located in the new tetrahedra and its error `|f(v) - L(v)|` recomputed; if that exceeds the queued
 //! estimate the collapse goes back into the queue at its exact cost. So the reported error of every
-//! level is the exact maximum over all removed original vertices (a vertex outside the simplified
-//! mesh, where the boundary moved, is measured at the nearest place of its tetrahedron), and the
-//! maximum field error stop is exact. Each tetrahedron carries the removed vertices inside it.
+//! level is the exact maximum over all removed original vertices, and the maximum field error stop
+//! is exact. Each tetrahedron carries the removed vertices inside it.
+//!
+//! **Vertices outside the mesh.** Where the boundary moved (within the boundary tolerance), a removed
+//! vertex can lie outside the simplified mesh; its error is then measured at the *nearest point of
+//! the mesh* (on its boundary surface): `|f(v) - L(π(v))|`. The tetrahedron of that boundary face
+//! carries it. A collapse that changes the boundary (`p_i` on it: the boundary surface undergoes the
+//! edge collapse `p_i → p_j`) can bring a new face nearer to any outside vertex, not only to those
+//! its star carries, so the current boundary faces and the outside vertices (each with the ball
+//! reaching its nearest point) are kept in R-trees: the outside vertices whose ball meets the new
+//! faces are measured again, and the tetrahedra they leave or join outside the collapse's star are
+//! recorded in its split, so a replay keeps every tetrahedron's error.
 //!
 //! **Boundary.** Boundary vertices collapse only along boundary edges (§3.2); the geometric error is
 //! the boundary quadric (Eq. 4). With `preserve_boundary`, corners stay, vertices of feature edges
@@ -22,12 +31,14 @@ use super::cost::{interpolate, shape_measure, Frame, Quadric};
 use super::record::{LevelError, ProgressiveMesh, VertexSplit};
 use super::validity::{feature_edges_at, is_feature_edge, link_condition, Link};
 use super::{Params, TetInput};
-use crate::geometry::point_triangle_distance;
+use crate::geometry::{closest_point_on_triangle, point_triangle_distance};
 use crate::hierarchy::Progress;
 use crate::{Error, Result};
 use glam::DVec3;
 use priority_queue::PriorityQueue;
 use rayon::prelude::*;
+use rstar::primitives::{GeomWithData, Rectangle};
+use rstar::{Envelope, PointDistance, RTree, RTreeObject, AABB};
 use rustc_hash::FxBuildHasher;
 use std::cmp::Ordering;
 
@@ -123,12 +134,84 @@ impl ErrorTree {
     }
 }
 
-/// A removed original vertex placed in a tetrahedron, with its error there.
+/// A removed original vertex placed in a tetrahedron, with its error there and, for the field, its
+/// distance outside the mesh (0 inside).
 #[derive(Clone, Copy, Debug)]
 struct Placed {
     vertex: u32,
     tet: u32,
     error: f64,
+    outside: f64,
+}
+
+/// Barycentric coordinates at least this far below 0 put a point outside a tetrahedron (rounding
+/// puts points on a face either side of it).
+const INSIDE: f64 = -1e-9;
+
+/// A face of the current boundary surface in the R-tree of [`Simplifier::faces`]: its corners
+/// (sorted: faces are equal when their corners are) and their positions.
+#[derive(Clone, Debug)]
+struct BoundaryFace {
+    corners: [u32; 3],
+    x: [DVec3; 3],
+}
+
+impl BoundaryFace {
+    fn new(mut corners: [u32; 3], pos: &[DVec3]) -> Self {
+        corners.sort_unstable();
+        Self {
+            corners,
+            x: corners.map(|v| pos[v as usize]),
+        }
+    }
+}
+
+impl PartialEq for BoundaryFace {
+    fn eq(&self, other: &Self) -> bool {
+        self.corners == other.corners
+    }
+}
+
+impl RTreeObject for BoundaryFace {
+    type Envelope = AABB<[f64; 3]>;
+
+    fn envelope(&self) -> Self::Envelope {
+        let [a, b, c] = self.x;
+        AABB::from_corners(a.min(b).min(c).to_array(), a.max(b).max(c).to_array())
+    }
+}
+
+impl PointDistance for BoundaryFace {
+    fn distance_2(&self, point: &[f64; 3]) -> f64 {
+        let p = DVec3::from_array(*point);
+        let [a, b, c] = self.x;
+        closest_point_on_triangle(p, a, b, c).0.distance_squared(p)
+    }
+}
+
+/// A tetrahedron after a collapse: its index, corners and [`Frame`].
+type Framed = (u32, [u32; 4], Frame);
+
+/// The mesh after `hec(i → j)` as [`Simplifier::place_field`] needs it: the tetrahedra of `i`'s star
+/// that stay (`new`), those around the edge (`removed`), the boundary faces at `j` replacing those at
+/// `i` (`new_faces`).
+#[derive(Clone, Copy)]
+struct After<'a> {
+    i: u32,
+    new: &'a [Framed],
+    removed: &'a [u32],
+    new_faces: &'a [BoundaryFace],
+}
+
+/// An outside vertex in the R-tree of [`Simplifier::outside`]: the box around the ball reaching its
+/// nearest point of the mesh.
+type OutsideBall = GeomWithData<Rectangle<[f64; 3]>, u32>;
+
+fn outside_ball(v: u32, p: DVec3, d: f64) -> OutsideBall {
+    GeomWithData::new(
+        Rectangle::from_corners((p - d).to_array(), (p + d).to_array()),
+        v,
+    )
 }
 
 /// What a collapse changes, measured before it is made.
@@ -138,6 +221,10 @@ struct Exact {
     field: Vec<Placed>,
     boundary: Vec<Placed>,
     max_field: f64,
+    /// The boundary surface's edge collapse (`p_i` on the boundary): the faces at `p_i` that go and
+    /// the faces at `p_j` that replace them.
+    old_faces: Vec<BoundaryFace>,
+    new_faces: Vec<BoundaryFace>,
 }
 
 /// A tetrahedron around the vertex `i` that a collapse `hec(i → j)` moves, prepared for any `j`:
@@ -221,6 +308,13 @@ struct Simplifier<'a> {
     /// The largest field error carried by each tetrahedron.
     tet_max: Vec<f64>,
     field_error: Vec<f64>,
+    /// The tetrahedron carrying each removed vertex's field error, and its distance outside the mesh
+    /// (0 inside).
+    home: Vec<u32>,
+    outside_distance: Vec<f64>,
+    /// The current boundary surface and the removed vertices outside the mesh.
+    faces: RTree<BoundaryFace>,
+    outside: RTree<OutsideBall>,
     boundary_distance: Vec<f64>,
     field_set: ErrorTree,
     boundary_set: ErrorTree,
@@ -340,6 +434,20 @@ impl<'a> Simplifier<'a> {
                 },
             )
             .collect();
+        // Each boundary face once, from its lowest corner's link.
+        let faces = RTree::bulk_load(
+            links
+                .iter()
+                .enumerate()
+                .flat_map(|(v, l)| {
+                    let v = v as u32;
+                    l.boundary_faces()
+                        .filter(move |&(a, b, _)| v < a && v < b)
+                        .map(move |(a, b, _)| [v, a, b])
+                })
+                .map(|f| BoundaryFace::new(f, &pos))
+                .collect(),
+        );
         // Q_v: the planes of the boundary faces around v (Eq. 3).
         let quadric = links
             .par_iter()
@@ -379,6 +487,10 @@ impl<'a> Simplifier<'a> {
             boundary_bins: vec![Vec::new(); m],
             tet_max: vec![0.0; m],
             field_error: vec![0.0; n],
+            home: vec![u32::MAX; n],
+            outside_distance: vec![0.0; n],
+            faces,
+            outside: RTree::new(),
             boundary_distance: vec![0.0; n],
             field_set: ErrorTree::new(n),
             boundary_set: ErrorTree::new(n),
@@ -408,6 +520,7 @@ impl<'a> Simplifier<'a> {
         self.removed_count += 1;
         self.kind[v as usize] = self.kind[kept as usize];
         self.field_error[v as usize] = e;
+        self.home[v as usize] = t;
         self.field_set.set(v, None, e);
         self.field_bins[t as usize].push(v);
         self.tet_max[t as usize] = self.tet_max[t as usize].max(e);
@@ -572,21 +685,79 @@ impl<'a> Simplifier<'a> {
         }
     }
 
-    /// Places `v` in the best of the tetrahedra `new` (corners after the collapse, each with its
-    /// [`Frame`]): the one it is inside, else the one it is least outside; returns the index in `new`
-    /// and the field error.
-    fn place_field(&self, v: u32, new: &[(u32, [u32; 4], Frame)]) -> (u32, f64) {
+    /// Places the removed vertex `v` in the mesh after a collapse ([`After`]): in the new tetrahedron
+    /// holding it, else (outside the mesh) at the nearest point of the boundary surface after the
+    /// collapse, carried by that face's tetrahedron.
+    fn place_field(&self, v: u32, after: &After<'_>) -> Placed {
+        let After {
+            i,
+            new,
+            removed,
+            new_faces,
+        } = *after;
         let p = self.pos[v as usize];
-        let mut best = (f64::NEG_INFINITY, 0, 0.0);
+        let fv = self.f[v as usize];
+        let mut best = (f64::NEG_INFINITY, 0, [0.0; 4], [0; 4]);
         for &(t, c, frame) in new {
             let b = frame.barycentric(p);
             let m = b.iter().copied().fold(f64::INFINITY, f64::min);
             if m > best.0 {
-                let value = interpolate(b, c.map(|k| self.f[k as usize]));
-                best = (m, t, (self.f[v as usize] - value).abs());
+                best = (m, t, b, c);
             }
         }
-        (best.1, best.2)
+        let (m, t, b, c) = best;
+        let clamped = Placed {
+            vertex: v,
+            tet: t,
+            error: (fv - interpolate(b, c.map(|k| self.f[k as usize]))).abs(),
+            outside: 0.0,
+        };
+        if m >= INSIDE {
+            return clamped;
+        }
+        let at = p.to_array();
+        let nearest = self
+            .faces
+            .nearest_neighbor_iter(&at)
+            .find(|f| !f.corners.contains(&i))
+            .into_iter()
+            .chain(new_faces)
+            .min_by(|a, b| a.distance_2(&at).total_cmp(&b.distance_2(&at)));
+        let placed = nearest.and_then(|face| {
+            let [a, b, c] = face.x;
+            let q = closest_point_on_triangle(p, a, b, c).0;
+            let (t, corners) = self.owner_after(face.corners, removed, new)?;
+            let frame = Frame::of(&self.points(corners))?.0;
+            let value = interpolate(frame.barycentric(q), corners.map(|k| self.f[k as usize]));
+            Some(Placed {
+                vertex: v,
+                tet: t,
+                error: (fv - value).abs(),
+                outside: q.distance(p),
+            })
+        });
+        // (A face always has a tetrahedron; the clamped place only guards against the impossible.)
+        placed.unwrap_or(clamped)
+    }
+
+    /// The tetrahedron with the boundary face `face` after `hec(i → j)` (see [`Self::place_field`]),
+    /// with its corners then.
+    fn owner_after(
+        &self,
+        face: [u32; 3],
+        removed: &[u32],
+        new: &[Framed],
+    ) -> Option<(u32, [u32; 4])> {
+        let holds = |c: &[u32; 4]| face.iter().all(|v| c.contains(v));
+        new.iter()
+            .find(|(_, c, _)| holds(c))
+            .map(|&(t, c, _)| (t, c))
+            .or_else(|| {
+                self.star[face[0] as usize]
+                    .iter()
+                    .find(|t| !removed.contains(t) && holds(&self.tets[**t as usize]))
+                    .map(|&t| (t, self.tets[t as usize]))
+            })
     }
 
     /// Measures `hec(i → j)` exactly: the field error of every removed original vertex in the star of
@@ -604,24 +775,59 @@ impl<'a> Simplifier<'a> {
         if new.is_empty() {
             return None;
         }
-        let framed: Vec<(u32, [u32; 4], Frame)> = new
+        let framed: Vec<Framed> = new
             .iter()
             .map(|&(t, c)| Some((t, c, Frame::of(&self.points(c))?.0)))
             .collect::<Option<_>>()?;
-        let carried: Vec<u32> = std::iter::once(i)
+        // With `i` on the boundary, the boundary surface undergoes the edge collapse `i → j`: the
+        // faces at `i` go, those not at `j` come back at `j`.
+        let (old_faces, new_faces) = if self.kind[i as usize] == Kind::Interior {
+            (Vec::new(), Vec::new())
+        } else {
+            let link = Link::of(&self.tets, star, i);
+            let old = link
+                .boundary_faces()
+                .map(|(a, b, _)| BoundaryFace::new([i, a, b], &self.pos))
+                .collect();
+            let new = link
+                .boundary_faces()
+                .filter(|&(a, b, _)| a != j && b != j)
+                .map(|(a, b, _)| BoundaryFace::new([j, a, b], &self.pos))
+                .collect();
+            (old, new)
+        };
+        let mut carried: Vec<u32> = std::iter::once(i)
             .chain(
                 star.iter()
                     .flat_map(|&t| self.field_bins[t as usize].iter().copied()),
             )
             .collect();
-        let place = |&v: &u32| {
-            let (tet, error) = self.place_field(v, &framed);
-            Placed {
-                vertex: v,
-                tet,
-                error,
-            }
+        // Outside vertices elsewhere that a new boundary face comes nearer to.
+        if let Some(first) = new_faces.first() {
+            let envelope = new_faces.iter().fold(first.envelope(), |e, f| {
+                let mut e = e;
+                e.merge(&f.envelope());
+                e
+            });
+            carried.extend(
+                self.outside
+                    .locate_in_envelope_intersecting(&envelope)
+                    .map(|ball| ball.data)
+                    .filter(|&v| {
+                        let at = self.pos[v as usize].to_array();
+                        let d = self.outside_distance[v as usize];
+                        !star.contains(&self.home[v as usize])
+                            && new_faces.iter().any(|f| f.distance_2(&at) <= d * d)
+                    }),
+            );
+        }
+        let after = After {
+            i,
+            new: &framed,
+            removed: &removed,
+            new_faces: &new_faces,
         };
+        let place = |&v: &u32| self.place_field(v, &after);
         // Coarse levels carry hundreds of removed vertices per star: place them in parallel.
         let field: Vec<Placed> = if carried.len() * framed.len() > 1 << 14 {
             carried.par_iter().map(place).collect()
@@ -654,6 +860,7 @@ impl<'a> Simplifier<'a> {
                         vertex: v,
                         tet,
                         error: d,
+                        outside: 0.0,
                     });
                 }
             }
@@ -664,6 +871,8 @@ impl<'a> Simplifier<'a> {
             field,
             boundary,
             max_field,
+            old_faces,
+            new_faces,
         })
     }
 
@@ -715,6 +924,8 @@ impl<'a> Simplifier<'a> {
             moved,
             field,
             boundary,
+            old_faces,
+            new_faces,
             ..
         } = exact;
         let errors_before = removed
@@ -722,6 +933,30 @@ impl<'a> Simplifier<'a> {
             .chain(&moved)
             .map(|&t| self.tet_max[t as usize])
             .collect();
+        // Tetrahedra outside the star that outside vertices leave or join.
+        let in_star = |t: u32| removed.contains(&t) || moved.contains(&t);
+        let mut others: Vec<u32> = field
+            .iter()
+            .filter(|p| p.vertex != i)
+            .map(|p| self.home[p.vertex as usize])
+            .chain(field.iter().map(|p| p.tet))
+            .filter(|&t| !in_star(t))
+            .collect();
+        others.sort_unstable();
+        others.dedup();
+        let others_before: Vec<f64> = others.iter().map(|&t| self.tet_max[t as usize]).collect();
+        for p in field.iter().filter(|p| p.vertex != i) {
+            let home = self.home[p.vertex as usize];
+            if !in_star(home) {
+                self.field_bins[home as usize].retain(|&v| v != p.vertex);
+            }
+        }
+        for f in &old_faces {
+            self.faces.remove(f);
+        }
+        for f in new_faces {
+            self.faces.insert(f);
+        }
         for &t in &removed {
             self.alive[t as usize] = false;
             for v in self.tets[t as usize] {
@@ -748,12 +983,32 @@ impl<'a> Simplifier<'a> {
         self.quadric[j as usize].add(&qi);
         self.live -= removed.len();
         for p in field {
-            let old = (p.vertex != i).then(|| self.field_error[p.vertex as usize]);
+            let v = p.vertex as usize;
+            let old = (p.vertex != i).then(|| self.field_error[v]);
             self.field_set.set(p.vertex, old, p.error);
-            self.field_error[p.vertex as usize] = p.error;
+            self.field_error[v] = p.error;
             self.field_bins[p.tet as usize].push(p.vertex);
+            self.home[v] = p.tet;
             let m = &mut self.tet_max[p.tet as usize];
             *m = m.max(p.error);
+            if p.vertex != i && self.outside_distance[v] > 0.0 {
+                self.outside.remove(&outside_ball(
+                    p.vertex,
+                    self.pos[v],
+                    self.outside_distance[v],
+                ));
+            }
+            if p.outside > 0.0 {
+                self.outside
+                    .insert(outside_ball(p.vertex, self.pos[v], p.outside));
+            }
+            self.outside_distance[v] = p.outside;
+        }
+        for &t in &others {
+            self.tet_max[t as usize] = self.field_bins[t as usize]
+                .iter()
+                .map(|&v| self.field_error[v as usize])
+                .fold(0.0, f64::max);
         }
         for p in boundary {
             let old = (p.vertex != i).then(|| self.boundary_distance[p.vertex as usize]);
@@ -785,6 +1040,11 @@ impl<'a> Simplifier<'a> {
             target: j,
             errors_after: moved.iter().map(|&t| self.tet_max[t as usize]).collect(),
             errors_before,
+            other_errors: others
+                .iter()
+                .zip(others_before)
+                .map(|(&t, before)| (t, before, self.tet_max[t as usize]))
+                .collect(),
             removed,
             moved,
         }
