@@ -37,7 +37,6 @@
 #include <string>
 #include <vector>
 
-#include <sys/resource.h>
 
 vtkStandardNewMacro(vtkAdaptiveIsosurface);
 
@@ -451,7 +450,14 @@ int vtkAdaptiveIsosurface::RequestDistributed(vtkMultiProcessController* control
     this->Internals->Cache.Release();
     this->Internals->WholeBuilt = vtkInternals::WholeKey();
     std::string error;
-    ok = pieces.GatherWhole(samples, this->Internals->Whole, error);
+    std::vector<vtkDataArray*> pointArrays;
+    if (samples)
+    {
+      pointArrays.push_back(samples);
+    }
+    vtkSmartPointer<vtkDataSet> gathered;
+    ok = pieces.GatherWhole(input, pointArrays, {}, gathered, error);
+    this->Internals->Whole = vtkImageData::SafeDownCast(gathered);
     if (!ok)
     {
       vtkErrorMacro(<< "Adaptive Isosurface could not fetch the image from the other ranks: "
@@ -513,12 +519,7 @@ int vtkAdaptiveIsosurface::RequestDistributed(vtkMultiProcessController* control
   if (surface)
   {
     this->Internals->FillSurface(this, **surface, array, output);
-    const rust::Slice<const std::uint64_t> ids = (*surface)->global_point_ids();
-    vtkNew<vtkIdTypeArray> globalIds;
-    globalIds->SetName("GlobalPointIds");
-    globalIds->SetNumberOfValues(static_cast<vtkIdType>(ids.size()));
-    std::copy(ids.begin(), ids.end(), globalIds->GetPointer(0));
-    output->GetPointData()->SetGlobalIds(globalIds);
+    output->GetPointData()->SetGlobalIds(vtkDiamonds::GlobalPointIds((*surface)->global_point_ids()));
     errorBound[0] = (*surface)->error_bound();
   }
   if (surface && this->GenerateCarrierTetrahedra)
@@ -544,15 +545,6 @@ int vtkAdaptiveIsosurface::RequestDistributed(vtkMultiProcessController* control
   const vtkIdType numTriangles = output->GetNumberOfCells();
   pieces.MaxInPlace(errorBound);
   const vtkIdType total = pieces.Sum(numTriangles);
-  const double seconds =
-    std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-  const std::vector<double> trianglesPerRank = pieces.PerRank(static_cast<double>(numTriangles));
-  const std::vector<double> secondsPerRank = pieces.PerRank(seconds);
-  const std::vector<double> bytesPerRank = pieces.PerRank(pieces.BytesSent());
-  const std::vector<double> exchangePerRank = pieces.PerRank(pieces.ExchangeSeconds());
-  struct rusage usage;
-  getrusage(RUSAGE_SELF, &usage);
-  const std::vector<double> peakPerRank = pieces.PerRank(usage.ru_maxrss * 1024.0);
   const bridge::GridSpec& grid = pieces.Whole();
   double diagonal2 = 0.0;
   for (int axis = 0; axis < 3; ++axis)
@@ -570,15 +562,7 @@ int vtkAdaptiveIsosurface::RequestDistributed(vtkMultiProcessController* control
   fieldData->AddArray(OneValue<vtkIdTypeArray>("NumberOfTriangles", total));
   fieldData->AddArray(OneValue<vtkDoubleArray>("Tolerance", this->Tolerance));
   fieldData->AddArray(OneValue<vtkDoubleArray>("RelativeTolerance", relativeTolerance));
-  for (const auto& [name, values] : { std::make_pair("TrianglesPerRank", &trianglesPerRank),
-         std::make_pair("SecondsPerRank", &secondsPerRank),
-         std::make_pair("BytesSentPerRank", &bytesPerRank),
-         std::make_pair("ExchangeSecondsPerRank", &exchangePerRank),
-         std::make_pair("PeakMemoryPerRank", &peakPerRank) })
-  {
-    fieldData->AddArray(
-      NamedArray<vtkDoubleArray>(name, static_cast<vtkIdType>(values->size()), values->data()));
-  }
+  pieces.AddFigures(fieldData, "TrianglesPerRank", numTriangles, started);
   this->UpdateProgress(1.0);
   return 1;
 }

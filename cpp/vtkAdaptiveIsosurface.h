@@ -102,9 +102,9 @@
  * than one process, the union of the ranks' outputs is exactly the surface one process extracts
  * from the whole image (same triangles, points, normals and scalars, up to order and point ids),
  * each triangle on exactly one rank (the one whose piece holds the centroid of the tetrahedron
- * carrying it, cells half-open), watertight across pieces. Every rank with a piece fetches the
- * points it does not hold from the ranks that do (the whole image; memory per rank is that of the
- * whole image, the fetch is repeated only when some rank's input changed) and runs the serial
+ * carrying it, cells half-open), watertight across pieces. Every rank with a piece gathers every
+ * rank's piece of the array (the whole image; memory per rank is that of the whole image, the
+ * gather is repeated only when some rank's input changed) and runs the serial
  * extraction, then writes its share. The output carries the point array "GlobalPointIds" (the
  * point's index in the whole surface, the same on every rank; set as the global ids) and field
  * data "TrianglesPerRank", "SecondsPerRank", "BytesSentPerRank", "ExchangeSecondsPerRank" and

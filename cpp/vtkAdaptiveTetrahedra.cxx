@@ -36,7 +36,6 @@
 #include <optional>
 #include <string>
 
-#include <sys/resource.h>
 
 vtkStandardNewMacro(vtkAdaptiveTetrahedra);
 
@@ -483,15 +482,6 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
   std::vector<double> maxError{ (*mesh)->max_error() };
   pieces.MaxInPlace(maxError);
   const vtkIdType total = pieces.Sum(numTets);
-  const double seconds =
-    std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-  const std::vector<double> tetsPerRank = pieces.PerRank(static_cast<double>(numTets));
-  const std::vector<double> secondsPerRank = pieces.PerRank(seconds);
-  const std::vector<double> bytesPerRank = pieces.PerRank(pieces.BytesSent());
-  const std::vector<double> exchangePerRank = pieces.PerRank(pieces.ExchangeSeconds());
-  struct rusage usage;
-  getrusage(RUSAGE_SELF, &usage);
-  const std::vector<double> peakPerRank = pieces.PerRank(usage.ru_maxrss * 1024.0);
   vtkFieldData* fieldData = output->GetFieldData();
   if (!empty)
   {
@@ -501,15 +491,7 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
   fieldData->AddArray(OneValue<vtkIdTypeArray>("NumberOfTetrahedra", total));
   fieldData->AddArray(OneValue<vtkDoubleArray>("MaximumError", maxError[0]));
   fieldData->AddArray(OneValue<vtkIdTypeArray>("RefinementRounds", rounds));
-  for (const auto& [name, values] : { std::make_pair("TetrahedraPerRank", &tetsPerRank),
-         std::make_pair("SecondsPerRank", &secondsPerRank),
-         std::make_pair("BytesSentPerRank", &bytesPerRank),
-         std::make_pair("ExchangeSecondsPerRank", &exchangePerRank),
-         std::make_pair("PeakMemoryPerRank", &peakPerRank) })
-  {
-    fieldData->AddArray(vtkDiamonds::NamedArray<vtkDoubleArray>(
-      name, static_cast<vtkIdType>(values->size()), values->data()));
-  }
+  pieces.AddFigures(fieldData, "TetrahedraPerRank", numTets, started);
   this->UpdateProgress(1.0);
   return 1;
 }

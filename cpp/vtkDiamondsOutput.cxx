@@ -434,4 +434,14 @@ void MeshToUnstructuredGrid(
     NamedArray<vtkFloatArray>(errorName, numTets, errors.data()));
 }
 
+//------------------------------------------------------------------------------
+vtkSmartPointer<vtkIdTypeArray> GlobalPointIds(rust::Slice<const std::uint64_t> ids)
+{
+  auto globalIds = vtkSmartPointer<vtkIdTypeArray>::New();
+  globalIds->SetName("GlobalPointIds");
+  globalIds->SetNumberOfValues(static_cast<vtkIdType>(ids.size()));
+  std::copy(ids.begin(), ids.end(), globalIds->GetPointer(0));
+  return globalIds;
+}
+
 } // namespace vtkDiamonds

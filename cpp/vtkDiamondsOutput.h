@@ -19,6 +19,7 @@ class vtkAlgorithm;
 class vtkCellArray;
 class vtkDataSet;
 class vtkDataSetAttributes;
+class vtkIdTypeArray;
 class vtkImageData;
 class vtkInformationVector;
 class vtkPoints;
@@ -115,6 +116,10 @@ void SetTetrahedra(vtkUnstructuredGrid* output, vtkCellArray* cells);
 // Adds the core's named arrays to the point, cell or field data of `output`, in order, and makes
 // the arrays marked so the active scalars (throws OutOfMemory).
 void AddOutputArrays(const bridge::OutputArrays& arrays, vtkDataSet* output);
+
+// The point array "GlobalPointIds" of a rank's share of a distributed output: `ids`, each point's
+// index in the whole output.
+vtkSmartPointer<vtkIdTypeArray> GlobalPointIds(rust::Slice<const std::uint64_t> ids);
 
 // A named one-value array (field data).
 template <typename ArrayT>

@@ -1,21 +1,30 @@
 #include "vtkDiamondsPieces.h"
 
+#include "vtkDiamondsOutput.h"
+
 #include "vtkAlgorithm.h"
+#include "vtkCellData.h"
 #include "vtkCommunicator.h"
 #include "vtkDataArray.h"
+#include "vtkDoubleArray.h"
+#include "vtkFieldData.h"
 #include "vtkIdList.h"
 #include "vtkImageData.h"
 #include "vtkInformation.h"
 #include "vtkMultiProcessController.h"
-#include "vtkPointData.h"
-#include "vtkStreamingDemandDrivenPipeline.h"
 #include "vtkNew.h"
+#include "vtkPointData.h"
+#include "vtkRectilinearGrid.h"
+#include "vtkStreamingDemandDrivenPipeline.h"
 #include "vtkTypeInt64Array.h"
 #include "vtkTypeUInt64Array.h"
 
 #include <algorithm>
 #include <chrono>
+#include <limits>
 #include <numeric>
+
+#include <sys/resource.h>
 
 namespace vtkDiamonds
 {
@@ -101,31 +110,43 @@ Pieces::Pieces(vtkMultiProcessController* controller, const int wholeExtent[6],
 }
 
 //------------------------------------------------------------------------------
-// What Pieces takes from a filter's input image and its pipeline information.
+// What Pieces takes from a filter's input and its pipeline information.
 struct Pieces::InputGeometry
 {
   int Whole[6];
   int Extent[6] = { 0, -1, 0, -1, 0, -1 };
-  double Origin[3];
-  double Spacing[3];
-  InputGeometry(vtkInformation* inInfo, vtkImageData* input)
+  double Origin[3] = { 0.0, 0.0, 0.0 };
+  double Spacing[3] = { 1.0, 1.0, 1.0 };
+  InputGeometry(vtkInformation* inInfo, vtkDataSet* input)
   {
     inInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), this->Whole);
+    auto* image = vtkImageData::SafeDownCast(input);
+    auto* rectilinear = vtkRectilinearGrid::SafeDownCast(input);
     if (input->GetNumberOfPoints() > 0)
     {
-      input->GetExtent(this->Extent);
+      if (image)
+      {
+        image->GetExtent(this->Extent);
+      }
+      else if (rectilinear)
+      {
+        rectilinear->GetExtent(this->Extent);
+      }
     }
-    input->GetOrigin(this->Origin);
-    input->GetSpacing(this->Spacing);
-    if (inInfo->Has(vtkDataObject::ORIGIN()) && inInfo->Has(vtkDataObject::SPACING()))
+    if (image)
     {
-      inInfo->Get(vtkDataObject::ORIGIN(), this->Origin);
-      inInfo->Get(vtkDataObject::SPACING(), this->Spacing);
+      image->GetOrigin(this->Origin);
+      image->GetSpacing(this->Spacing);
+      if (inInfo->Has(vtkDataObject::ORIGIN()) && inInfo->Has(vtkDataObject::SPACING()))
+      {
+        inInfo->Get(vtkDataObject::ORIGIN(), this->Origin);
+        inInfo->Get(vtkDataObject::SPACING(), this->Spacing);
+      }
     }
   }
 };
 
-Pieces::Pieces(vtkMultiProcessController* controller, vtkInformation* inInfo, vtkImageData* input)
+Pieces::Pieces(vtkMultiProcessController* controller, vtkInformation* inInfo, vtkDataSet* input)
   : Pieces(controller, InputGeometry(inInfo, input))
 {
 }
@@ -136,58 +157,314 @@ Pieces::Pieces(vtkMultiProcessController* controller, const InputGeometry& g)
 }
 
 //------------------------------------------------------------------------------
-bool Pieces::GatherWhole(
-  vtkDataArray* samples, vtkSmartPointer<vtkImageData>& whole, std::string& error)
+namespace
+{
+// What GatherWhole puts together: point data, cell data, or a rectilinear grid's coordinates
+// along one axis.
+enum class Layout
+{
+  Points,
+  Cells,
+  AxisX,
+  AxisY,
+  AxisZ
+};
+
+// The tuples of `layout` over extent `e` (VTK order, relative or not): as VTK counts them, so that
+// they match the arrays of a piece (a flat piece of a volume has 2-D cells).
+vtkIdType TupleCount(Layout layout, const std::int64_t* e)
+{
+  vtkIdType n[3];
+  for (int axis = 0; axis < 3; ++axis)
+  {
+    n[axis] = std::max<vtkIdType>(e[2 * axis + 1] - e[2 * axis] + 1, 0);
+  }
+  switch (layout)
+  {
+    case Layout::Points:
+      return n[0] * n[1] * n[2];
+    case Layout::Cells:
+    {
+      if (n[0] * n[1] * n[2] == 0)
+      {
+        return 0;
+      }
+      vtkIdType cells = 1;
+      for (vtkIdType k : n)
+      {
+        cells *= k > 1 ? k - 1 : 1;
+      }
+      return cells;
+    }
+    default:
+      return n[0] * n[1] * n[2] == 0 ? 0 : n[static_cast<int>(layout) - 2];
+  }
+}
+
+// A contiguous array of `a`'s values (`a` itself when it already is one).
+vtkSmartPointer<vtkDataArray> Contiguous(vtkDataArray* a)
+{
+  if (a->HasStandardMemoryLayout())
+  {
+    return a;
+  }
+  auto copy = vtkSmartPointer<vtkDataArray>::Take(vtkDataArray::CreateDataArray(a->GetDataType()));
+  copy->DeepCopy(a);
+  return copy;
+}
+} // namespace
+
+bool Pieces::GatherWhole(vtkDataSet* input, const std::vector<vtkDataArray*>& pointArrays,
+  const std::vector<vtkDataArray*>& cellArrays, vtkSmartPointer<vtkDataSet>& whole,
+  std::string& error)
 {
   whole = nullptr;
-  std::vector<vtkDataArray*> arrays;
-  if (samples)
+  auto* rectilinear = vtkRectilinearGrid::SafeDownCast(input);
+  const bool empty = this->OwnExtent()[1] < this->OwnExtent()[0] ||
+    this->OwnExtent()[3] < this->OwnExtent()[2] || this->OwnExtent()[5] < this->OwnExtent()[4];
+  // What this rank sends, in order: point arrays, cell arrays, then a rectilinear grid's
+  // coordinates (none on an empty piece).
+  std::vector<std::pair<vtkDataArray*, Layout>> mine;
+  if (!empty)
   {
-    arrays.push_back(samples);
+    for (vtkDataArray* a : pointArrays)
+    {
+      mine.emplace_back(a, Layout::Points);
+    }
+    for (vtkDataArray* a : cellArrays)
+    {
+      mine.emplace_back(a, Layout::Cells);
+    }
+    if (rectilinear)
+    {
+      mine.emplace_back(rectilinear->GetXCoordinates(), Layout::AxisX);
+      mine.emplace_back(rectilinear->GetYCoordinates(), Layout::AxisY);
+      mine.emplace_back(rectilinear->GetZCoordinates(), Layout::AxisZ);
+    }
   }
-  rust::Vec<std::uint64_t> others;
+  // Every rank's kinds of arrays: layout, type and components of each (type -1: an array that
+  // does not have the piece's number of tuples).
+  std::vector<std::int32_t> schema;
+  for (const auto& [a, layout] : mine)
+  {
+    const bool fits = a && a->GetNumberOfTuples() == TupleCount(layout, this->OwnExtent().data());
+    schema.insert(schema.end(),
+      { static_cast<std::int32_t>(layout), fits ? a->GetDataType() : -1,
+        a ? a->GetNumberOfComponents() : 0 });
+  }
+  const std::vector<double> lengths = this->PerRank(static_cast<double>(schema.size()));
+  const std::vector<std::int32_t> schemas = this->Concatenate(schema);
   bool ok = true;
   try
   {
-    others = bridge::piece_other_points(this->WholeGrid, this->OwnExtent());
+    bridge::piece_check_cover(this->WholeGrid, this->Extents());
   }
   catch (const rust::Error& e)
   {
     error = e.what();
     ok = false;
   }
-  std::vector<vtkSmartPointer<vtkDataArray>> fetched;
-  ok = this->Fetch({ others.data(), others.size() }, arrays, fetched, error) && ok;
-  if (!ok || !samples)
+  // The first rank with a piece describes the arrays; the others must hold the same kinds.
+  int first = -1;
+  std::size_t start = 0;
+  std::vector<std::size_t> starts(this->Ranks);
+  for (int r = 0; r < this->Ranks; ++r)
   {
-    return ok;
-  }
-  const std::size_t* dims = this->WholeGrid.dims.data();
-  const vtkIdType nx = static_cast<vtkIdType>(dims[0]);
-  const vtkIdType ny = static_cast<vtkIdType>(dims[1]);
-  vtkSmartPointer<vtkDataArray> all = SameKind(samples, nx * ny * static_cast<vtkIdType>(dims[2]));
-  // This rank's rows, then the fetched points (listed in `others` order).
-  const std::int64_t* e = this->All.data() + 6 * this->Me;
-  const vtkIdType rowLength = e[1] - e[0] + 1;
-  vtkIdType source = 0;
-  for (std::int64_t z = e[4]; z <= e[5]; ++z)
-  {
-    for (std::int64_t y = e[2]; y <= e[3]; ++y, source += rowLength)
+    starts[r] = start;
+    start += static_cast<std::size_t>(lengths[r]);
+    const std::int64_t* e = this->All.data() + 6 * r;
+    if (first < 0 && e[1] >= e[0] && e[3] >= e[2] && e[5] >= e[4])
     {
-      all->InsertTuples(e[0] + nx * (y + ny * z), rowLength, source, samples);
+      first = r;
     }
   }
-  for (std::size_t k = 0; k < others.size(); ++k)
+  if (first < 0)
   {
-    all->SetTuple(static_cast<vtkIdType>(others[k]), static_cast<vtkIdType>(k), fetched[0]);
+    return ok; // no rank has a piece: nothing to put together
   }
-  // The input's geometry (origin, whole extent), so that positions are computed as for the input.
-  whole = vtkSmartPointer<vtkImageData>::New();
-  whole->SetExtent(this->WholeExtent);
-  whole->SetOrigin(this->Origin);
-  whole->SetSpacing(this->WholeGrid.spacing.data());
-  whole->GetPointData()->SetScalars(all);
+  const std::size_t n = static_cast<std::size_t>(lengths[first]);
+  for (int r = 0; r < this->Ranks && ok; ++r)
+  {
+    const std::int64_t* e = this->All.data() + 6 * r;
+    if (e[1] < e[0] || e[3] < e[2] || e[5] < e[4])
+    {
+      continue;
+    }
+    const bool same = static_cast<std::size_t>(lengths[r]) == n &&
+      std::equal(schemas.begin() + starts[r], schemas.begin() + starts[r] + n,
+        schemas.begin() + starts[first]);
+    bool fits = true;
+    for (std::size_t k = 1; k < static_cast<std::size_t>(lengths[r]); k += 3)
+    {
+      fits = fits && schemas[starts[r] + k] >= 0;
+    }
+    if (!same || !fits)
+    {
+      error = "rank " + std::to_string(r) +
+        (fits ? " holds other arrays than rank " + std::to_string(first)
+              : " holds an array whose size is not its piece's");
+      ok = false;
+    }
+  }
+  if (!ok)
+  {
+    return false; // decided alike on every rank from what all ranks sent
+  }
+
+  // One all-gather per array: each rank's piece as raw bytes, placed by its extent.
+  const int* we = this->WholeExtent;
+  const std::int64_t wholeRel[6] = { 0, we[1] - we[0], 0, we[3] - we[2], 0, we[5] - we[4] };
+  std::vector<vtkSmartPointer<vtkDataArray>> assembled;
+  for (std::size_t k = 0; k < n / 3; ++k)
+  {
+    const std::int32_t* kind = schemas.data() + starts[first] + 3 * k;
+    const Layout layout = static_cast<Layout>(kind[0]);
+    vtkSmartPointer<vtkDataArray> out =
+      vtkSmartPointer<vtkDataArray>::Take(vtkDataArray::CreateDataArray(kind[1]));
+    const vtkIdType tupleBytes = kind[2] * out->GetDataTypeSize();
+    std::vector<vtkIdType> counts(this->Ranks);
+    std::vector<vtkIdType> offsets(this->Ranks, 0);
+    vtkIdType total = 0;
+    for (int r = 0; r < this->Ranks; ++r)
+    {
+      counts[r] = 3 * k < static_cast<std::size_t>(lengths[r])
+        ? TupleCount(layout, this->All.data() + 6 * r) * tupleBytes
+        : 0;
+      offsets[r] = total;
+      total += counts[r];
+    }
+    if (total > std::numeric_limits<int>::max())
+    {
+      error = "an array of the whole image has " + std::to_string(total) +
+        " bytes, more than an MPI all-gather takes (2 GiB)";
+      return false; // decided alike on every rank
+    }
+    vtkSmartPointer<vtkDataArray> send = empty ? nullptr : Contiguous(mine[k].first);
+    std::vector<unsigned char> received(static_cast<std::size_t>(total));
+    {
+      Clock clock{ this->Seconds };
+      this->Controller->AllGatherV(
+        send ? static_cast<unsigned char*>(send->GetVoidPointer(0)) : nullptr, received.data(),
+        counts[this->Me], counts.data(), offsets.data());
+    }
+    this->Sent += counts[this->Me];
+    if (empty)
+    {
+      continue;
+    }
+    out->SetName(mine[k].first->GetName());
+    out->SetNumberOfComponents(kind[2]);
+    Allocate(out, TupleCount(layout, wholeRel) * kind[2]);
+    auto* target = static_cast<unsigned char*>(out->GetVoidPointer(0));
+    for (int r = 0; r < this->Ranks; ++r)
+    {
+      const std::int64_t* e = this->All.data() + 6 * r;
+      const unsigned char* source = received.data() + offsets[r];
+      if (counts[r] == 0)
+      {
+        continue;
+      }
+      if (layout >= Layout::AxisX)
+      {
+        const int axis = static_cast<int>(layout) - 2;
+        std::copy(source, source + counts[r], target + e[2 * axis] * tupleBytes);
+        continue;
+      }
+      // Rows along x, over the points or (3-D) cells of the piece; a piece flat along an axis
+      // where the whole is not has no cells of the whole.
+      const vtkIdType c = layout == Layout::Cells ? 1 : 0;
+      std::int64_t hi[3];
+      vtkIdType dims[3];
+      bool flat = false;
+      for (int axis = 0; axis < 3; ++axis)
+      {
+        const std::int64_t wholeCount = wholeRel[2 * axis + 1] + 1;
+        const vtkIdType cellCount = wholeCount > 1 ? wholeCount - 1 : 1;
+        dims[axis] = c ? cellCount : wholeCount;
+        hi[axis] = e[2 * axis + 1] - (c && wholeCount > 1 ? 1 : 0);
+        flat = flat || hi[axis] < e[2 * axis];
+      }
+      if (flat)
+      {
+        continue;
+      }
+      const vtkIdType rowBytes = (hi[0] - e[0] + 1) * tupleBytes;
+      for (std::int64_t z = e[4]; z <= hi[2]; ++z)
+      {
+        for (std::int64_t y = e[2]; y <= hi[1]; ++y, source += rowBytes)
+        {
+          std::copy(source, source + rowBytes,
+            target + (e[0] + dims[0] * (y + dims[1] * z)) * tupleBytes);
+        }
+      }
+    }
+    assembled.push_back(out);
+  }
+  if (empty)
+  {
+    return true;
+  }
+
+  // The whole dataset, with the input's geometry so that positions are computed as for the input.
+  if (rectilinear)
+  {
+    auto grid = vtkSmartPointer<vtkRectilinearGrid>::New();
+    grid->SetExtent(this->WholeExtent);
+    const std::size_t c = assembled.size() - 3;
+    grid->SetXCoordinates(assembled[c]);
+    grid->SetYCoordinates(assembled[c + 1]);
+    grid->SetZCoordinates(assembled[c + 2]);
+    assembled.resize(c);
+    whole = grid;
+  }
+  else
+  {
+    auto image = vtkSmartPointer<vtkImageData>::New();
+    image->SetExtent(this->WholeExtent);
+    image->SetOrigin(this->Origin);
+    image->SetSpacing(this->WholeGrid.spacing.data());
+    whole = image;
+  }
+  for (std::size_t k = 0; k < assembled.size(); ++k)
+  {
+    if (k < pointArrays.size())
+    {
+      whole->GetPointData()->AddArray(assembled[k]);
+    }
+    else
+    {
+      whole->GetCellData()->AddArray(assembled[k]);
+    }
+  }
+  if (!pointArrays.empty())
+  {
+    whole->GetPointData()->SetScalars(assembled[0]);
+  }
   return true;
+}
+
+//------------------------------------------------------------------------------
+void Pieces::AddFigures(vtkFieldData* fieldData, const char* cellsName, vtkIdType cells,
+  std::chrono::steady_clock::time_point started)
+{
+  const double seconds =
+    std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  struct rusage usage;
+  getrusage(RUSAGE_SELF, &usage);
+  const std::vector<double> cellsPerRank = this->PerRank(static_cast<double>(cells));
+  const std::vector<double> secondsPerRank = this->PerRank(seconds);
+  const std::vector<double> bytesPerRank = this->PerRank(this->BytesSent());
+  const std::vector<double> exchangePerRank = this->PerRank(this->ExchangeSeconds());
+  const std::vector<double> peakPerRank = this->PerRank(usage.ru_maxrss * 1024.0);
+  for (const auto& [name, values] : { std::make_pair(cellsName, &cellsPerRank),
+         std::make_pair("SecondsPerRank", &secondsPerRank),
+         std::make_pair("BytesSentPerRank", &bytesPerRank),
+         std::make_pair("ExchangeSecondsPerRank", &exchangePerRank),
+         std::make_pair("PeakMemoryPerRank", &peakPerRank) })
+  {
+    fieldData->AddArray(
+      NamedArray<vtkDoubleArray>(name, static_cast<vtkIdType>(values->size()), values->data()));
+  }
 }
 
 //------------------------------------------------------------------------------

@@ -14,14 +14,16 @@
 #include "vtkSmartPointer.h"
 #include "vtkType.h"
 
+#include <chrono>
 #include <cstdint>
 #include <string>
 #include <vector>
 
 class vtkAlgorithm;
 class vtkDataArray;
+class vtkDataSet;
+class vtkFieldData;
 class vtkIdList;
-class vtkImageData;
 class vtkInformation;
 class vtkMultiProcessController;
 
@@ -41,9 +43,11 @@ public:
   // whole image (the same on every rank); `extent` is this rank's piece (empty: any max < min).
   Pieces(vtkMultiProcessController* controller, const int wholeExtent[6], const int extent[6],
     const double origin[3], const double spacing[3]);
-  // Collective: the same for a filter's input image `input` (its piece; empty when it has no
-  // points) and its pipeline information `inInfo` (whole extent, and origin and spacing when given).
-  Pieces(vtkMultiProcessController* controller, vtkInformation* inInfo, vtkImageData* input);
+  // Collective: the same for a filter's input `input` (its piece, a vtkImageData or a
+  // vtkRectilinearGrid; empty when it has no points) and its pipeline information `inInfo` (whole
+  // extent, and an image's origin and spacing when given). A rectilinear grid's geometry is its
+  // coordinates (GatherWhole gathers them): Whole() then has origin 0 and spacing 1.
+  Pieces(vtkMultiProcessController* controller, vtkInformation* inInfo, vtkDataSet* input);
 
   int Rank() const { return this->Me; }
   int Size() const { return this->Ranks; }
@@ -74,12 +78,26 @@ public:
   bool Fetch(rust::Slice<const std::uint64_t> ids, const std::vector<vtkDataArray*>& arrays,
     std::vector<vtkSmartPointer<vtkDataArray>>& fetched, std::string& error);
 
-  // Collective: the whole image on this rank, for filters that need all of it (Adaptive
-  // Isosurface): `samples` (this rank's point array over its extent, null on an empty piece) with
-  // every other point's tuple fetched from the rank holding it, as a point array of the same kind
-  // on an image of the whole extent. An empty piece fetches nothing and gets no image. Returns
-  // false with `error` set when a fetch fails.
-  bool GatherWhole(vtkDataArray* samples, vtkSmartPointer<vtkImageData>& whole, std::string& error);
+  // Collective: the whole dataset on this rank, for filters that need all of it (Adaptive
+  // Isosurface, Material Interface Approximation). Every rank's piece of the point arrays
+  // `pointArrays` and cell arrays `cellArrays` of `input` (this rank's piece; none for an empty
+  // piece) goes to every rank, one all-gather per array (each rank sends its piece once, whatever
+  // the number of ranks), and is put together by the pieces' extents on a dataset of the whole
+  // extent and of `input`'s type: a vtkImageData with the input's origin and spacing, or a
+  // vtkRectilinearGrid whose coordinates are gathered the same way. The first point array is the
+  // active scalars. An empty piece gets no dataset. Ranks with a piece must pass arrays of the
+  // same types and components in the same order. Returns false with `error` set when the pieces do
+  // not cover the whole extent, hold other arrays, or an array exceeds 2 GiB (MPI counts).
+  bool GatherWhole(vtkDataSet* input, const std::vector<vtkDataArray*>& pointArrays,
+    const std::vector<vtkDataArray*>& cellArrays, vtkSmartPointer<vtkDataSet>& whole,
+    std::string& error);
+
+  // Collective: the per-rank figures of a distributed execution, added to `fieldData`:
+  // `cellsName` (this rank's `cells`, e.g. TetrahedraPerRank), SecondsPerRank (since `started`),
+  // BytesSentPerRank, ExchangeSecondsPerRank and PeakMemoryPerRank (bytes, the process's peak
+  // resident set), one value per rank.
+  void AddFigures(vtkFieldData* fieldData, const char* cellsName, vtkIdType cells,
+    std::chrono::steady_clock::time_point started);
 
   // Bytes this rank sent so far (point-to-point and collective contributions), and seconds spent
   // in the steps above (exchanging and waiting for the other ranks).

@@ -8,6 +8,7 @@
 #include "vtkDoubleArray.h"
 #include "vtkFieldData.h"
 #include "vtkFloatArray.h"
+#include "vtkIdTypeArray.h"
 #include "vtkImageData.h"
 #include "vtkInformation.h"
 #include "vtkInformationVector.h"
@@ -25,10 +26,12 @@
 #include "vtkDiamondsArraySelection.h"
 #include "vtkDiamondsImageGeometry.h"
 #include "vtkDiamondsOutput.h"
+#include "vtkDiamondsPieces.h"
 #include "vtkDiamondsProgress.h"
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -309,11 +312,42 @@ public:
     vtkPolyData* interfaces, const bridge::GridSpec& grid, const bridge::ArraySelection& selection);
   // Refines the model unless the kept mesh was refined for the same query.
   Status UpdateMesh(vtkMaterialInterfaceApproximation* self, bool withFields);
-  // The three outputs from the kept mesh.
-  void FillTetrahedra(
-    vtkMaterialInterfaceApproximation* self, vtkDataSet* input, vtkUnstructuredGrid* output);
-  void FillInterfaces(vtkPolyData* output);
-  void FillSlice(vtkMaterialInterfaceApproximation* self, vtkPolyData* output);
+  // The grid, the arrays, the model and the mesh of `input` (progress 0 to 0.85); `grid` receives
+  // the input's grid.
+  Status Update(vtkMaterialInterfaceApproximation* self, vtkDataSet* input,
+    vtkPolyData* interfaces, bridge::GridSpec& grid);
+  // The slice plane of the current execution.
+  bridge::PlaneSpec Plane(vtkMaterialInterfaceApproximation* self) const;
+  // The three outputs from a mesh or polygons (the kept mesh's, or under MPI this rank's share,
+  // whose points then get "GlobalPointIds").
+  void FillTetrahedra(vtkMaterialInterfaceApproximation* self, vtkDataSet* input,
+    const bridge::MaterialMesh& mesh, vtkUnstructuredGrid* output, bool share);
+  void FillInterfaces(const bridge::PolygonMesh& polygons, vtkPolyData* output, bool share);
+  void FillSlice(const bridge::PolygonMesh& polygons, vtkPolyData* output, bool share);
+
+  // Under MPI (more than one rank): every rank with a piece puts the whole input together
+  // (Pieces::GatherWhole), computes the serial approximation and outputs its share of each port
+  // (the cells whose centroid its half-open cell box holds).
+  int RequestDistributed(vtkMaterialInterfaceApproximation* self,
+    vtkMultiProcessController* controller, vtkInformationVector** inputVector, vtkDataSet* input,
+    vtkPolyData* interfaces, vtkUnstructuredGrid* tetOutput, vtkPolyData* interfaceOutput,
+    vtkPolyData* sliceOutput);
+  // What the whole input was put together from: the gathered arrays (and a rectilinear grid's
+  // coordinates) with their modification times, every rank's extent, an image's geometry.
+  struct WholeKey
+  {
+    std::vector<const void*> Arrays;
+    std::vector<vtkMTimeType> MTimes;
+    std::vector<std::int64_t> Extents;
+    std::array<double, 6> Geometry{};
+    bool operator==(const WholeKey& o) const
+    {
+      return this->Arrays == o.Arrays && this->MTimes == o.MTimes && this->Extents == o.Extents &&
+        this->Geometry == o.Geometry;
+    }
+  };
+  vtkSmartPointer<vtkDataSet> Whole;
+  WholeKey WholeBuilt;
 
 private:
   template <typename List>
@@ -589,9 +623,9 @@ vtkMaterialInterfaceApproximation::vtkInternals::UpdateMesh(
 
 //------------------------------------------------------------------------------
 void vtkMaterialInterfaceApproximation::vtkInternals::FillTetrahedra(
-  vtkMaterialInterfaceApproximation* self, vtkDataSet* input, vtkUnstructuredGrid* output)
+  vtkMaterialInterfaceApproximation* self, vtkDataSet* input, const bridge::MaterialMesh& mesh,
+  vtkUnstructuredGrid* output, bool share)
 {
-  const bridge::MaterialMesh& mesh = **this->Mesh;
   vtkSmartPointer<vtkPoints> points = PointsFrom(mesh.points());
   output->SetPoints(points);
   output->SetCells(VTK_TETRA, FixedSizeCells(4, mesh.tets(), points->GetNumberOfPoints()));
@@ -603,6 +637,10 @@ void vtkMaterialInterfaceApproximation::vtkInternals::FillTetrahedra(
   output->GetFieldData()->PassData(input->GetFieldData());
   AddOutputArrays(
     *mesh.tetrahedra_arrays(this->MaterialNames(), this->FieldNames(), given), output);
+  if (share)
+  {
+    output->GetPointData()->SetGlobalIds(vtkDiamonds::GlobalPointIds(mesh.global_point_ids()));
+  }
   vtkFieldData* fd = output->GetFieldData();
   fd->AddArray(Strings("MaterialNames", this->StdStrings(this->Materials)));
   fd->AddArray(
@@ -611,31 +649,222 @@ void vtkMaterialInterfaceApproximation::vtkInternals::FillTetrahedra(
 }
 
 //------------------------------------------------------------------------------
-void vtkMaterialInterfaceApproximation::vtkInternals::FillInterfaces(vtkPolyData* output)
+void vtkMaterialInterfaceApproximation::vtkInternals::FillInterfaces(
+  const bridge::PolygonMesh& polygons, vtkPolyData* output, bool share)
 {
-  const bridge::MaterialMesh& mesh = **this->Mesh;
-  rust::Box<bridge::PolygonMesh> polygons = mesh.interface_polygons();
-  output->SetPoints(PointsFrom(polygons->points()));
-  output->SetPolys(CellsFrom(polygons->offsets(), polygons->connectivity()));
+  output->SetPoints(PointsFrom(polygons.points()));
+  output->SetPolys(CellsFrom(polygons.offsets(), polygons.connectivity()));
   vtkFieldData* fd = output->GetFieldData();
   fd->AddArray(Strings("MaterialNames", this->StdStrings(this->Materials)));
-  fd->AddArray(
-    Strings("InterfaceNames", this->StdStrings(mesh.interface_names(this->MaterialNames()))));
-  AddOutputArrays(polygons->arrays(), output);
+  fd->AddArray(Strings(
+    "InterfaceNames", this->StdStrings((**this->Mesh).interface_names(this->MaterialNames()))));
+  AddOutputArrays(polygons.arrays(), output);
+  if (share)
+  {
+    output->GetPointData()->SetGlobalIds(vtkDiamonds::GlobalPointIds(polygons.global_point_ids()));
+  }
 }
 
 //------------------------------------------------------------------------------
-void vtkMaterialInterfaceApproximation::vtkInternals::FillSlice(
-  vtkMaterialInterfaceApproximation* self, vtkPolyData* output)
+bridge::PlaneSpec vtkMaterialInterfaceApproximation::vtkInternals::Plane(
+  vtkMaterialInterfaceApproximation* self) const
 {
   bridge::PlaneSpec plane;
   std::copy(self->SliceOrigin, self->SliceOrigin + 3, plane.origin.begin());
   std::copy(self->SliceNormal, self->SliceNormal + 3, plane.normal.begin());
-  rust::Box<bridge::PolygonMesh> slice = (**this->Mesh).slice(plane, this->FieldNames());
-  output->SetPoints(PointsFrom(slice->points()));
-  output->SetPolys(CellsFrom(slice->offsets(), slice->connectivity()));
+  return plane;
+}
+
+void vtkMaterialInterfaceApproximation::vtkInternals::FillSlice(
+  const bridge::PolygonMesh& slice, vtkPolyData* output, bool share)
+{
+  output->SetPoints(PointsFrom(slice.points()));
+  output->SetPolys(CellsFrom(slice.offsets(), slice.connectivity()));
   output->GetFieldData()->AddArray(Strings("MaterialNames", this->StdStrings(this->Materials)));
-  AddOutputArrays(slice->arrays(), output);
+  AddOutputArrays(slice.arrays(), output);
+  if (share)
+  {
+    output->GetPointData()->SetGlobalIds(vtkDiamonds::GlobalPointIds(slice.global_point_ids()));
+  }
+}
+
+//------------------------------------------------------------------------------
+vtkMaterialInterfaceApproximation::vtkInternals::Status
+vtkMaterialInterfaceApproximation::vtkInternals::Update(vtkMaterialInterfaceApproximation* self,
+  vtkDataSet* input, vtkPolyData* interfaces, bridge::GridSpec& grid)
+{
+  const std::optional<bridge::GridSpec> g = GridOf(self, input);
+  if (!g)
+  {
+    return Status::Failed;
+  }
+  grid = *g;
+  const std::optional<bridge::ArraySelection> selection = this->SelectArrays(self, input);
+  if (!selection)
+  {
+    return Status::Failed;
+  }
+  // The model (kept while its input is the same), then the mesh (kept while the query is).
+  self->UpdateProgress(0.0);
+  if (this->UpdateModel(self, input, interfaces, grid, *selection) == Status::Failed)
+  {
+    return Status::Failed;
+  }
+  self->UpdateProgress(0.3);
+  if (self->CheckAbort())
+  {
+    return Status::Aborted;
+  }
+  const Status status = this->UpdateMesh(self, !selection->fields.empty());
+  if (status != Status::Done)
+  {
+    return status;
+  }
+  self->UpdateProgress(0.85);
+  return self->CheckAbort() ? Status::Aborted : Status::Done;
+}
+
+//------------------------------------------------------------------------------
+int vtkMaterialInterfaceApproximation::vtkInternals::RequestDistributed(
+  vtkMaterialInterfaceApproximation* self, vtkMultiProcessController* controller,
+  vtkInformationVector** inputVector, vtkDataSet* input, vtkPolyData* interfaces,
+  vtkUnstructuredGrid* tetOutput, vtkPolyData* interfaceOutput, vtkPolyData* sliceOutput)
+{
+  const auto started = std::chrono::steady_clock::now();
+  const bool empty = input->GetNumberOfPoints() == 0;
+  // Every rank takes part in every collective step below; a failure on one rank is agreed on
+  // before the next one.
+  vtkDiamonds::Pieces pieces(controller, inputVector[0]->GetInformationObject(0), input);
+  const auto clear = [&]() {
+    tetOutput->Initialize();
+    interfaceOutput->Initialize();
+    sliceOutput->Initialize();
+  };
+  const auto agree = [&](bool mine, const char* what) {
+    if (pieces.Agree(self, FilterName, mine, what))
+    {
+      return true;
+    }
+    clear();
+    return false;
+  };
+
+  // ---- Parameters, and the arrays of this piece to gather (an empty piece reads none).
+  bool ok = this->CheckParameters(self);
+  std::vector<vtkDataArray*> pointArrays;
+  std::vector<vtkDataArray*> cellArrays;
+  if (ok && !empty)
+  {
+    const std::optional<bridge::ArraySelection> selection = this->SelectArrays(self, input);
+    ok = selection.has_value();
+    std::vector<bridge::SelectedArray> read;
+    if (ok)
+    {
+      read.assign(selection->fractions.begin(), selection->fractions.end());
+      for (const bridge::SelectedField& f : selection->fields)
+      {
+        if (!f.from_materials)
+        {
+          read.push_back(f.array);
+        }
+      }
+      for (const bridge::SelectedMaterialField& m : selection->material_fields)
+      {
+        read.push_back(m.array);
+      }
+    }
+    for (const bridge::SelectedArray& a : read)
+    {
+      (a.cell ? cellArrays : pointArrays).push_back(ArrayOf(input, a));
+    }
+  }
+  if (!agree(ok, "reading the input"))
+  {
+    return 0;
+  }
+
+  // ---- The whole input on every rank with a piece, gathered again when any rank's input changed.
+  std::vector<vtkDataArray*> gathered(pointArrays);
+  gathered.push_back(nullptr);
+  gathered.insert(gathered.end(), cellArrays.begin(), cellArrays.end());
+  if (auto* rectilinear = vtkRectilinearGrid::SafeDownCast(input))
+  {
+    gathered.insert(gathered.end(), { rectilinear->GetXCoordinates(),
+                                      rectilinear->GetYCoordinates(), rectilinear->GetZCoordinates() });
+  }
+  WholeKey key;
+  for (vtkDataArray* a : gathered)
+  {
+    key.Arrays.push_back(a);
+    key.MTimes.push_back(a ? a->GetMTime() : 0);
+  }
+  key.Extents.assign(pieces.Extents().begin(), pieces.Extents().end());
+  std::copy(pieces.Whole().origin.begin(), pieces.Whole().origin.end(), key.Geometry.begin());
+  std::copy(pieces.Whole().spacing.begin(), pieces.Whole().spacing.end(), key.Geometry.begin() + 3);
+  if (pieces.Sum(this->WholeBuilt == key ? 0 : 1) > 0)
+  {
+    this->Release();
+    this->Whole = nullptr;
+    this->WholeBuilt = WholeKey();
+    std::string error;
+    ok = pieces.GatherWhole(input, pointArrays, cellArrays, this->Whole, error);
+    if (!ok)
+    {
+      vtkErrorWithObjectMacro(
+        self, << FilterName << " could not gather the input from the other ranks: " << error);
+    }
+    if (!agree(ok, "gathering the input"))
+    {
+      this->Whole = nullptr;
+      return 0;
+    }
+    this->WholeBuilt = key;
+  }
+
+  // ---- The serial approximation of the whole input, then this rank's share of each output.
+  vtkDataSet* whole = this->Whole;
+  Status status = Status::Done;
+  if (whole)
+  {
+    bridge::GridSpec grid{};
+    status = this->Update(self, whole, interfaces, grid);
+    if (status == Status::Done)
+    {
+      try
+      {
+        const bridge::MaterialMesh& mesh = **this->Mesh;
+        const std::size_t rank = static_cast<std::size_t>(pieces.Rank());
+        this->FillTetrahedra(
+          self, input, *mesh.piece(grid, pieces.Extents(), rank), tetOutput, true);
+        this->FillInterfaces(
+          *mesh.interface_polygons_piece(grid, pieces.Extents(), rank), interfaceOutput, true);
+        this->FillSlice(*mesh.slice_piece(this->Plane(self), this->FieldNames(), grid,
+                          pieces.Extents(), rank),
+          sliceOutput, true);
+      }
+      catch (const rust::Error& e)
+      {
+        vtkErrorWithObjectMacro(self, << FilterName << ": " << e.what());
+        status = Status::Failed;
+      }
+    }
+  }
+  if (!agree(status == Status::Done, "the approximation"))
+  {
+    return status == Status::Aborted ? 1 : 0;
+  }
+
+  // ---- Totals over the ranks and the per-rank figures.
+  const vtkIdType numTets = tetOutput->GetNumberOfCells();
+  const vtkIdType totalTets = pieces.Sum(numTets);
+  const vtkIdType totalPolygons = pieces.Sum(interfaceOutput->GetNumberOfCells());
+  vtkFieldData* fd = tetOutput->GetFieldData();
+  fd->AddArray(vtkDiamonds::OneValue<vtkIdTypeArray>("NumberOfTetrahedra", totalTets));
+  pieces.AddFigures(fd, "TetrahedraPerRank", numTets, started);
+  interfaceOutput->GetFieldData()->AddArray(
+    vtkDiamonds::OneValue<vtkIdTypeArray>("NumberOfPolygons", totalPolygons));
+  self->UpdateProgress(1.0);
+  return 1;
 }
 
 //------------------------------------------------------------------------------
@@ -860,7 +1089,13 @@ try
   vtkInternals& internals = *this->Internals;
   using Status = vtkInternals::Status;
 
-  // ---- Parameters, grid and arrays.
+  if (vtkMultiProcessController* controller = vtkDiamonds::Pieces::DistributedController())
+  {
+    return internals.RequestDistributed(this, controller, inputVector, input, interfaceInput,
+      tetOutput, interfaceOutput, sliceOutput);
+  }
+
+  // ---- Parameters, grid, arrays, model and mesh.
   if (!internals.CheckParameters(this))
   {
     return 0;
@@ -871,29 +1106,8 @@ try
     vtkDebugMacro(<< "The input is empty; the outputs are empty.");
     return 1;
   }
-  const std::optional<bridge::GridSpec> grid = GridOf(this, input);
-  if (!grid)
-  {
-    return 0;
-  }
-  const std::optional<bridge::ArraySelection> selection = internals.SelectArrays(this, input);
-  if (!selection)
-  {
-    return 0;
-  }
-
-  // ---- The model (kept while its input is the same), then the mesh (kept while the query is).
-  this->UpdateProgress(0.0);
-  if (internals.UpdateModel(this, input, interfaceInput, *grid, *selection) == Status::Failed)
-  {
-    return 0;
-  }
-  this->UpdateProgress(0.3);
-  if (this->CheckAbort())
-  {
-    return 1;
-  }
-  switch (internals.UpdateMesh(this, !selection->fields.empty()))
+  bridge::GridSpec grid{};
+  switch (internals.Update(this, input, interfaceInput, grid))
   {
     case Status::Done:
       break;
@@ -902,18 +1116,15 @@ try
     case Status::Failed:
       return 0;
   }
-  this->UpdateProgress(0.85);
-  if (this->CheckAbort())
-  {
-    return 1;
-  }
 
   // ---- The outputs: tetrahedra, approximated interfaces, slice.
   try
   {
-    internals.FillTetrahedra(this, input, tetOutput);
-    internals.FillInterfaces(interfaceOutput);
-    internals.FillSlice(this, sliceOutput);
+    const bridge::MaterialMesh& mesh = **internals.Mesh;
+    internals.FillTetrahedra(this, input, mesh, tetOutput, false);
+    internals.FillInterfaces(*mesh.interface_polygons(), interfaceOutput, false);
+    internals.FillSlice(
+      *mesh.slice(internals.Plane(this), SliceOf(internals.Fields)), sliceOutput, false);
   }
   catch (const rust::Error& e)
   {

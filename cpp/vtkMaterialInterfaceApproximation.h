@@ -79,6 +79,19 @@
  * tolerances, a zero or non-finite slice normal, 2-D images, oriented images, non-uniform
  * rectilinear grids, bad interface meshes. An empty input gives empty outputs without an error.
  *
+ * Distributed data (MPI: pvbatch, pvserver): when the global vtkMultiProcessController has more
+ * than one process, the union of the ranks' outputs is exactly what one process computes from the
+ * whole input (same tetrahedra, interface polygons and slice polygons with their arrays, up to order
+ * and point ids), each cell on exactly one rank (the one whose piece's half-open cell box holds the
+ * cell's centroid), so no hanging faces and crack-free interfaces across the pieces' seams. Every
+ * rank with a piece gathers every rank's piece of the selected arrays (and of a rectilinear grid's
+ * coordinates; cell data is converted on the whole input) and computes the whole approximation,
+ * then outputs its share: memory and work per rank are the serial ones. Each output carries the
+ * point array "GlobalPointIds" (the point's index in the whole output); the tetrahedra carry field
+ * data "TetrahedraPerRank", "SecondsPerRank", "BytesSentPerRank", "ExchangeSecondsPerRank" and
+ * "PeakMemoryPerRank"; "NumberOfTetrahedra" and "NumberOfPolygons" are the totals. An empty piece
+ * takes part and outputs nothing.
+ *
  * Progress: model build, then refinement (reported by the core), then the outputs; AbortExecute
  * stops the refinement and leaves the outputs empty.
  *

@@ -12,7 +12,7 @@
 #    (test_material.py writes its impact case with target/release/diamonds, brought up to date
 #    with cargo).
 # 3. tests/pvpython/mpi_pieces.py, mpi_isosurface.py and mpi_material.py under `mpiexec -n 2 pvbatch`,
-#    mpi_pieces.py and mpi_isosurface.py again under `mpiexec -n 3 pvbatch`, and both as pvpython
+#    all three again under `mpiexec -n 3 pvbatch`, and all three as pvpython
 #    clients of `mpiexec -n 2 pvserver`.
 # 4. scripts/demo.py under `xvfb-run -a pvbatch`, into build/test-demo, and
 #    tests/pvpython/render_visibility_sort.py and render_adaptive_volume.py under `xvfb-run -a`
@@ -92,10 +92,14 @@ step "mpiexec -n 3 pvbatch tests/pvpython/mpi_pieces.py" env DIAMONDS_EXPECTED_R
   mpiexec --allow-run-as-root --oversubscribe -n 3 pvbatch tests/pvpython/mpi_pieces.py
 step "mpiexec -n 3 pvbatch tests/pvpython/mpi_isosurface.py" env DIAMONDS_EXPECTED_RANKS=3 \
   mpiexec --allow-run-as-root --oversubscribe -n 3 pvbatch tests/pvpython/mpi_isosurface.py
+step "mpiexec -n 3 pvbatch tests/pvpython/mpi_material.py" env DIAMONDS_EXPECTED_RANKS=3 \
+  mpiexec --allow-run-as-root --oversubscribe -n 3 pvbatch tests/pvpython/mpi_material.py
 step "pvpython tests/pvpython/mpi_pieces.py --client-server (mpiexec -n 2 pvserver)" \
   timeout 1200 pvpython tests/pvpython/mpi_pieces.py --client-server
 step "pvpython tests/pvpython/mpi_isosurface.py --client-server (mpiexec -n 2 pvserver)" \
   timeout 1200 pvpython tests/pvpython/mpi_isosurface.py --client-server
+step "pvpython tests/pvpython/mpi_material.py --client-server (mpiexec -n 2 pvserver)" \
+  timeout 1200 pvpython tests/pvpython/mpi_material.py --client-server
 step "xvfb-run -a pvbatch scripts/demo.py" demo_render
 # A rendering test under xvfb, retried twice, 30 s apart, when the X server or its OpenGL context
 # could not be had (the test then prints no summary line): a 2-rank pvserver's second rank was seen

@@ -348,10 +348,9 @@ mod ffi {
             pieces: &[i64],
             rank: usize,
         ) -> Result<Box<Mesh>>;
-        /// Whole-grid point indices (x fastest), ascending, of every point the piece of extent
-        /// `owned` does not hold: what a rank fetches to hold the whole image (Adaptive
-        /// Isosurface); none for an empty piece.
-        fn piece_other_points(whole: &GridSpec, owned: &[i64]) -> Result<Vec<u64>>;
+        /// Fails unless the extents `pieces` (every rank's) cover every point and every cell of
+        /// the whole grid: what a rank checks before it puts the whole image together from them.
+        fn piece_check_cover(whole: &GridSpec, pieces: &[i64]) -> Result<()>;
         /// `isosurface` on a rank that holds the whole image (this hierarchy and `samples` are
         /// the whole image's): the part of the surface the rank at `rank` of `pieces` (every
         /// rank's extent) owns — the triangles of the carrier tetrahedra whose centroid its cells
@@ -604,6 +603,34 @@ mod ffi {
             plane: &PlaneSpec,
             fields: &[String],
         ) -> Result<Box<PolygonMesh>>;
+        /// Under MPI, on a rank that computed the whole mesh: the share the rank at `rank` of
+        /// `pieces` (every rank's extent relative to the whole grid `grid`) owns — the cells
+        /// whose centroid its half-open cell box holds (the whole grid's far faces included) —
+        /// with `global_point_ids`, each point's index in the whole output. Over all ranks, the
+        /// whole output, each cell once. The tetrahedra:
+        fn piece(
+            self: &MaterialMesh,
+            grid: &GridSpec,
+            pieces: &[i64],
+            rank: usize,
+        ) -> Result<Box<MaterialMesh>>;
+        /// The interfaces' share, and the cut's:
+        fn interface_polygons_piece(
+            self: &MaterialMesh,
+            grid: &GridSpec,
+            pieces: &[i64],
+            rank: usize,
+        ) -> Result<Box<PolygonMesh>>;
+        fn slice_piece(
+            self: &MaterialMesh,
+            plane: &PlaneSpec,
+            fields: &[String],
+            grid: &GridSpec,
+            pieces: &[i64],
+            rank: usize,
+        ) -> Result<Box<PolygonMesh>>;
+        /// A share's point ids in the whole output (empty for a whole output).
+        fn global_point_ids(self: &MaterialMesh) -> &[u64];
 
         /// World coordinates, three per point.
         fn points(self: &PolygonMesh) -> &[f64];
@@ -611,6 +638,7 @@ mod ffi {
         fn offsets(self: &PolygonMesh) -> &[u32];
         fn connectivity(self: &PolygonMesh) -> &[u32];
         fn arrays(self: &PolygonMesh) -> &OutputArrays;
+        fn global_point_ids(self: &PolygonMesh) -> &[u64];
 
         fn len(self: &OutputArrays) -> usize;
         /// What array `i` is (an error past the last).
@@ -736,7 +764,7 @@ pub use material::{
 };
 pub mod view;
 pub use piece::{
-    build_piece_hierarchy, piece_local_ids, piece_needed_points, piece_other_points,
+    build_piece_hierarchy, piece_check_cover, piece_local_ids, piece_needed_points,
     piece_point_owners, PieceHierarchy, PieceRefinement,
 };
 pub use view::{new_path_order, new_view_mesh, PathOrder, ViewMesh};

@@ -29,6 +29,7 @@
 
 use std::pin::Pin;
 
+use diamonds::hierarchy::piece::PositionOwner;
 use diamonds::material::outputs::{self, ArrayValues, Association};
 use diamonds::material::selection::{self, select_arrays, InputArray, SelectionOptions};
 use diamonds::material::{self, InterfaceMesh, MaterialField, MaterialInput, MaterialQuery};
@@ -36,6 +37,7 @@ use diamonds::validate::{check_material_mesh_arrays, check_polygon_arrays};
 use diamonds::Grid;
 
 use crate::ffi::{self, ArrayAssociation, ArrayType, GridSpec, MaterialQuerySpec, PlaneSpec};
+use crate::piece::boxes;
 use crate::{check_core, guard};
 
 /// Collects the input of a [`MaterialModel`]: the grid, the fractions, fields and per-material fields
@@ -60,16 +62,19 @@ pub struct MaterialModel {
     fields: usize,
 }
 
-/// Opaque handle on a [`material::MaterialMesh`] for C++, checked before it is handed over.
+/// Opaque handle on a [`material::MaterialMesh`] for C++, checked before it is handed over: a
+/// whole mesh, or one MPI rank's share of it with each point's index in the whole mesh.
 pub struct MaterialMesh {
     mesh: material::MaterialMesh,
+    global_ids: Vec<u64>,
 }
 
 /// Opaque handle on a [`material::PolygonMesh`] for C++, checked before it is handed over, with its
-/// named arrays.
+/// named arrays (and for one MPI rank's share, each point's index in the whole polygons).
 pub struct PolygonMesh {
     polygons: material::PolygonMesh,
     arrays: OutputArrays,
+    global_ids: Vec<u64>,
 }
 
 /// The named arrays of one output (see [`diamonds::material::outputs`]), read by C++ one by one.
@@ -342,8 +347,16 @@ impl MaterialModel {
             self.fields,
             query.ghost_values,
         ))?;
-        Ok(MaterialMesh { mesh })
+        Ok(MaterialMesh {
+            mesh,
+            global_ids: Vec::new(),
+        })
     }
+}
+
+/// Ownership of cells for the rank at `rank` of `pieces` (every rank's extent) on `grid`.
+fn owner(grid: &GridSpec, pieces: &[i64], rank: usize) -> Result<PositionOwner, String> {
+    PositionOwner::new(&grid_of(grid), &boxes(pieces)?, rank).map_err(|e| e.to_string())
 }
 
 impl MaterialMesh {
@@ -389,40 +402,123 @@ impl MaterialMesh {
     /// The approximated interfaces, labelled by pair index, with their arrays.
     pub fn interface_polygons(&self) -> Result<Box<PolygonMesh>, String> {
         guard("extracting the interface polygons", || {
-            let polygons = self.mesh.interface_polygons();
-            check_core(check_polygon_arrays(
-                &polygons,
-                self.mesh.materials,
-                false,
-                0,
-            ))?;
-            let arrays = OutputArrays::new(outputs::interface_arrays(&self.mesh, &polygons));
-            Ok(Box::new(PolygonMesh { polygons, arrays }))
+            self.interfaces_of(None)
         })
+    }
+
+    /// The share of the interfaces the rank at `rank` of `pieces` (every rank's extent, relative
+    /// to `grid`, the whole grid) owns, with global point ids.
+    pub fn interface_polygons_piece(
+        &self,
+        grid: &GridSpec,
+        pieces: &[i64],
+        rank: usize,
+    ) -> Result<Box<PolygonMesh>, String> {
+        guard("extracting a rank's interface polygons", || {
+            self.interfaces_of(Some(&owner(grid, pieces, rank)?))
+        })
+    }
+
+    fn interfaces_of(&self, owner: Option<&PositionOwner>) -> Result<Box<PolygonMesh>, String> {
+        let whole = self.mesh.interface_polygons();
+        let (polygons, global_ids) = match owner {
+            Some(o) => whole.piece(o),
+            None => (whole, Vec::new()),
+        };
+        check_core(check_polygon_arrays(
+            &polygons,
+            self.mesh.materials,
+            false,
+            0,
+        ))?;
+        let arrays = OutputArrays::new(outputs::interface_arrays(&self.mesh, &polygons));
+        Ok(Box::new(PolygonMesh {
+            polygons,
+            arrays,
+            global_ids,
+        }))
     }
 
     /// The cut by `plane`, labelled by material, with each field (named by `fields`) of the
     /// polygon's material.
     pub fn slice(&self, plane: &PlaneSpec, fields: &[String]) -> Result<Box<PolygonMesh>, String> {
         guard("slicing the material mesh", || {
-            let polygons = self
-                .mesh
-                .slice(plane.origin, plane.normal)
-                .map_err(|e| e.to_string())?;
-            check_core(check_polygon_arrays(
-                &polygons,
-                self.mesh.materials,
-                true,
-                self.mesh.fields,
-            ))?;
-            let arrays = OutputArrays::new(outputs::slice_arrays(
-                &polygons,
-                fields,
-                plane.origin,
-                plane.normal,
-            ));
-            Ok(Box::new(PolygonMesh { polygons, arrays }))
+            self.slice_of(plane, fields, None)
         })
+    }
+
+    /// The share of the cut the rank at `rank` of `pieces` owns (see
+    /// [`MaterialMesh::interface_polygons_piece`]), with global point ids.
+    pub fn slice_piece(
+        &self,
+        plane: &PlaneSpec,
+        fields: &[String],
+        grid: &GridSpec,
+        pieces: &[i64],
+        rank: usize,
+    ) -> Result<Box<PolygonMesh>, String> {
+        guard("slicing a rank's share of the material mesh", || {
+            self.slice_of(plane, fields, Some(&owner(grid, pieces, rank)?))
+        })
+    }
+
+    fn slice_of(
+        &self,
+        plane: &PlaneSpec,
+        fields: &[String],
+        owner: Option<&PositionOwner>,
+    ) -> Result<Box<PolygonMesh>, String> {
+        let whole = self
+            .mesh
+            .slice(plane.origin, plane.normal)
+            .map_err(|e| e.to_string())?;
+        let (polygons, global_ids) = match owner {
+            Some(o) => whole.piece(o),
+            None => (whole, Vec::new()),
+        };
+        check_core(check_polygon_arrays(
+            &polygons,
+            self.mesh.materials,
+            true,
+            self.mesh.fields,
+        ))?;
+        let arrays = OutputArrays::new(outputs::slice_arrays(
+            &polygons,
+            fields,
+            plane.origin,
+            plane.normal,
+        ));
+        Ok(Box::new(PolygonMesh {
+            polygons,
+            arrays,
+            global_ids,
+        }))
+    }
+
+    /// The share of this (whole) mesh the rank at `rank` of `pieces` owns: the tetrahedra whose
+    /// centroid its cells hold ([`PositionOwner`]), with global point ids.
+    pub fn piece(
+        &self,
+        grid: &GridSpec,
+        pieces: &[i64],
+        rank: usize,
+    ) -> Result<Box<MaterialMesh>, String> {
+        guard("extracting a rank's share of the material mesh", || {
+            let (mesh, global_ids) = self.mesh.piece(&owner(grid, pieces, rank)?);
+            check_core(check_material_mesh_arrays(
+                &mesh,
+                self.mesh.materials,
+                self.mesh.fields,
+                self.mesh.ghost_values,
+            ))?;
+            Ok(Box::new(MaterialMesh { mesh, global_ids }))
+        })
+    }
+
+    /// For a share ([`MaterialMesh::piece`]): each point's index in the whole mesh; empty for a
+    /// whole mesh.
+    pub fn global_point_ids(&self) -> &[u64] {
+        &self.global_ids
     }
 
     /// The mesh as the core returned it.
@@ -447,6 +543,11 @@ impl PolygonMesh {
 
     pub fn arrays(&self) -> &OutputArrays {
         &self.arrays
+    }
+
+    /// For a share: each point's index in the whole polygons; empty for whole polygons.
+    pub fn global_point_ids(&self) -> &[u64] {
+        &self.global_ids
     }
 
     /// The polygons as the core returned them.
@@ -615,7 +716,10 @@ mod tests {
 
     #[test]
     fn output_arrays_read_in_place() {
-        let mesh = MaterialMesh { mesh: tiny_mesh() };
+        let mesh = MaterialMesh {
+            mesh: tiny_mesh(),
+            global_ids: Vec::new(),
+        };
         assert_eq!(mesh.points().len(), 12);
         assert_eq!(mesh.tets(), &[0, 1, 2, 3]);
         let names = |list: &[&str]| list.iter().map(|s| s.to_string()).collect::<Vec<_>>();

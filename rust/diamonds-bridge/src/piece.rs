@@ -26,7 +26,7 @@ pub struct PieceHierarchy(piece::PieceHierarchy);
 pub struct PieceRefinement(piece::PieceRefinement);
 
 /// The point boxes of `extents` (six values per piece, VTK order).
-fn boxes(extents: &[i64]) -> Result<Vec<PointBox>, String> {
+pub(crate) fn boxes(extents: &[i64]) -> Result<Vec<PointBox>, String> {
     if !extents.len().is_multiple_of(6) {
         return Err(format!(
             "{} extent values: not six per piece",
@@ -63,10 +63,30 @@ pub fn piece_needed_points(whole: &GridSpec, owned: &[i64]) -> Result<Vec<u64>, 
     })
 }
 
-/// Whole-grid indices of every point the piece `owned` does not hold, ascending.
-pub fn piece_other_points(whole: &GridSpec, owned: &[i64]) -> Result<Vec<u64>, String> {
-    guard("listing the points a piece does not hold", || {
-        Ok(layout(whole, owned)?.other_points())
+/// Checks that the pieces of `pieces` (every rank's extent) cover every point and every cell of the
+/// whole grid, so that the whole image can be put together from them.
+pub fn piece_check_cover(whole: &GridSpec, pieces: &[i64]) -> Result<(), String> {
+    guard("checking that the pieces cover the image", || {
+        let points = boxes(pieces)?;
+        if let Some(p) = piece::first_uncovered(whole.dims, &points) {
+            return Err(format!(
+                "point {p} of the whole extent lies in no rank's piece"
+            ));
+        }
+        let cells: Vec<PointBox> = points
+            .iter()
+            .map(|b| PointBox {
+                lo: b.lo,
+                hi: b.hi - IVec3::ONE,
+            })
+            .collect();
+        let cell_dims = whole.dims.map(|d| d.saturating_sub(1));
+        if let Some(c) = piece::first_uncovered(cell_dims, &cells) {
+            return Err(format!(
+                "cell {c} of the whole extent lies in no rank's piece"
+            ));
+        }
+        Ok(())
     })
 }
 

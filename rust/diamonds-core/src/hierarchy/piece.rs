@@ -221,19 +221,6 @@ impl PieceLayout {
         out
     }
 
-    /// Whole-grid indices (x fastest), ascending, of every point this piece does not hold: what a
-    /// piece fetches to hold the whole image (Adaptive Isosurface, see "Across MPI pieces" in
-    /// [`crate::isosurface`]). None for an empty piece, which computes nothing.
-    pub fn other_points(&self) -> Vec<u64> {
-        if self.owned.is_empty() {
-            return Vec::new();
-        }
-        (0..self.grid.len() as u64)
-            .into_par_iter()
-            .filter(|&i| !self.owned.contains(self.lattice.point(i as usize)))
-            .collect()
-    }
-
     /// For each whole-grid index of `ids`, the index (x fastest) of that point among the points this
     /// piece holds, or −1 when it holds no such point: where a pass-through array finds the point.
     pub fn local_ids(&self, ids: &[u64]) -> Vec<i64> {
@@ -286,6 +273,24 @@ pub fn point_owners(lattice: &Lattice, pieces: &[PointBox], ids: &[u64]) -> Vec<
                 .unwrap_or(pieces.len()) as u32
         })
         .collect()
+}
+
+/// The first point (x fastest) of a grid of `dims` points that none of `pieces` holds, if any: a
+/// grid put together from the pieces' points needs them to cover it. Called with the grid of cells
+/// (`dims` − 1) and the pieces' cell boxes (`hi` − 1), it checks the cells.
+pub fn first_uncovered(dims: [usize; 3], pieces: &[PointBox]) -> Option<IVec3> {
+    let n: usize = dims.iter().product();
+    let point = |i: usize| {
+        IVec3::new(
+            (i % dims[0]) as i32,
+            (i / dims[0] % dims[1]) as i32,
+            (i / (dims[0] * dims[1])) as i32,
+        )
+    };
+    (0..n)
+        .into_par_iter()
+        .map(point)
+        .find_first(|&p| !pieces.iter().any(|b| b.contains(p)))
 }
 
 /// The part of the diamond hierarchy one piece needs: errors of the diamonds that meet it.
@@ -759,6 +764,71 @@ impl CellOwner {
     }
 }
 
+/// Which piece owns a cell of a mesh whose vertices need not be grid points (Material Interface
+/// Approximation's tetrahedra on a finer lattice, its interface polygons and plane cuts): the first
+/// piece whose half-open cell box `[lo, hi)` holds the cell's centroid (the mean of its vertices) in
+/// grid units, as [`CellOwner`] decides for the hierarchy's tetrahedra, with two additions that make
+/// every cell owned exactly once whatever the cell and the layout: the whole grid's far faces belong
+/// to the boxes that reach them (a cut or an interface may lie on them), and a centroid no piece
+/// holds (pieces that leave a gap) goes to the first non-empty piece. Every rank decides with the
+/// same floating-point operations on the same cells, so the pieces' shares partition the mesh.
+#[derive(Clone, Debug)]
+pub struct PositionOwner {
+    origin: DVec3,
+    spacing: DVec3,
+    /// The whole grid's far corner, in grid units.
+    far: DVec3,
+    /// Every non-empty piece's box in grid units, with its rank, in rank order.
+    boxes: Vec<(usize, DVec3, DVec3)>,
+    me: usize,
+}
+
+impl PositionOwner {
+    /// Ownership for piece `me` of `pieces` (every piece's points, relative to `grid`'s first point).
+    pub fn new(grid: &Grid, pieces: &[PointBox], me: usize) -> Result<Self> {
+        if me >= pieces.len() {
+            return Err(Error::Parameter(format!(
+                "piece {me} of {} pieces",
+                pieces.len()
+            )));
+        }
+        grid.validate()?;
+        Ok(Self {
+            origin: DVec3::from_array(grid.origin),
+            spacing: DVec3::from_array(grid.spacing),
+            far: DVec3::from_array(grid.dims.map(|d| d as f64 - 1.0)),
+            boxes: pieces
+                .iter()
+                .enumerate()
+                .filter(|(_, b)| !b.is_empty())
+                .map(|(r, b)| (r, b.lo.as_dvec3(), b.hi.as_dvec3()))
+                .collect(),
+            me,
+        })
+    }
+
+    /// The piece owning a cell with centroid `c` (world coordinates); `None` when every piece is
+    /// empty.
+    pub fn owner(&self, c: DVec3) -> Option<usize> {
+        let u = ((c - self.origin) / self.spacing).clamp(DVec3::ZERO, self.far);
+        let holds = |lo: DVec3, hi: DVec3| {
+            u.cmpge(lo).all() && (u.cmplt(hi) | (hi.cmpeq(self.far) & u.cmple(hi))).all()
+        };
+        self.boxes
+            .iter()
+            .find(|&&(_, lo, hi)| holds(lo, hi))
+            .or(self.boxes.first())
+            .map(|b| b.0)
+    }
+
+    /// Does this piece own the cell with vertices `points` (world coordinates)?
+    pub fn owns(&self, points: impl ExactSizeIterator<Item = [f64; 3]>) -> bool {
+        let n = points.len().max(1) as f64;
+        let c = points.map(DVec3::from_array).sum::<DVec3>() / n;
+        self.owner(c) == Some(self.me)
+    }
+}
+
 /// The split set of one query on one piece, grown in rounds with the other pieces
 /// ([`PieceHierarchy::start`], [`PieceHierarchy::outgoing`], [`PieceHierarchy::receive`]).
 #[derive(Debug)]
@@ -1026,36 +1096,33 @@ mod tests {
         assert_eq!(cells(&parts), cells(&[&serial.query(&query).unwrap()]));
     }
 
-    /// Every rank's part of the Adaptive Isosurface of `query`, computed as the filter does: the
-    /// rank fetches every point it does not hold, puts the whole image together and extracts the
-    /// part it owns. An empty piece computes nothing.
+    /// Every rank's part of the Adaptive Isosurface of `query`, computed as the filter does: every
+    /// piece's points are gathered on every rank ([`first_uncovered`] checks that they cover the
+    /// grid), which puts the whole image together and extracts the part it owns. An empty piece
+    /// computes nothing.
     fn iso_pieces(
         grid: Grid,
         samples: &[f32],
         boxes: &[PointBox],
         query: &IsoQuery,
     ) -> Vec<IsoSurface> {
-        (boxes.iter().enumerate())
-            .map(|(me, &b)| {
-                let layout = PieceLayout::new(grid, b).unwrap();
-                if b.is_empty() {
-                    assert!(layout.other_points().is_empty());
-                    return IsoSurface::default();
-                }
-                let mut whole = vec![f32::NAN; grid.len()];
-                for z in b.lo.z..=b.hi.z {
-                    for y in b.lo.y..=b.hi.y {
-                        for x in b.lo.x..=b.hi.x {
-                            let i = grid.index(x as usize, y as usize, z as usize);
-                            whole[i] = samples[i];
-                        }
+        assert_eq!(first_uncovered(grid.dims, boxes), None);
+        let mut whole = vec![f32::NAN; grid.len()];
+        for b in boxes {
+            for z in b.lo.z..=b.hi.z {
+                for y in b.lo.y..=b.hi.y {
+                    for x in b.lo.x..=b.hi.x {
+                        let i = grid.index(x as usize, y as usize, z as usize);
+                        whole[i] = samples[i];
                     }
                 }
-                let others = layout.other_points();
-                assert_eq!(others.len(), grid.len() - b.len());
-                for i in others {
-                    assert!(whole[i as usize].is_nan(), "point {i} fetched twice");
-                    whole[i as usize] = samples[i as usize];
+            }
+        }
+        assert!(whole.iter().all(|v| !v.is_nan()));
+        (boxes.iter().enumerate())
+            .map(|(me, &b)| {
+                if b.is_empty() {
+                    return IsoSurface::default();
                 }
                 let h = Hierarchy::build_for_isosurfaces(grid, ScalarSlice::F32(&whole)).unwrap();
                 IsoState::new()

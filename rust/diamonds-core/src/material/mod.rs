@@ -46,6 +46,7 @@ pub mod distance;
 mod model;
 pub mod naming;
 pub mod outputs;
+mod piece;
 mod polygons;
 pub mod reconstruct;
 pub mod selection;

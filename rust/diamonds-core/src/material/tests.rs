@@ -633,3 +633,159 @@ fn fields_given_only_per_material_are_mixed_by_fraction() {
     let e = MaterialModel::new(&input).err().unwrap().to_string();
     assert!(e.contains("3 materials"), "{e}");
 }
+
+/// The whole mesh's cells by their points' coordinate bits (polygons rotated to start at their
+/// smallest point, orientation kept), sorted.
+fn coordinate_cells(
+    points: &[[f64; 3]],
+    cells: impl Iterator<Item = Vec<u32>>,
+) -> Vec<Vec<[u64; 3]>> {
+    let mut out: Vec<Vec<[u64; 3]>> = cells
+        .map(|c| {
+            let mut x: Vec<[u64; 3]> = c
+                .iter()
+                .map(|&v| points[v as usize].map(f64::to_bits))
+                .collect();
+            let k = (0..x.len()).min_by_key(|&k| x[k]).unwrap_or(0);
+            x.rotate_left(k);
+            x
+        })
+        .collect();
+    out.sort();
+    out
+}
+
+fn polygon_cells(p: &PolygonMesh) -> impl Iterator<Item = Vec<u32>> + '_ {
+    p.offsets
+        .windows(2)
+        .map(|w| p.connectivity[w[0] as usize..w[1] as usize].to_vec())
+}
+
+/// Under MPI every rank computes the whole approximation and keeps its share
+/// ([`crate::hierarchy::piece::PositionOwner`]): for layouts cut along shared planes (2 and 3
+/// pieces, odd sizes), overlapping pieces and an empty piece, and for cuts on the seams, the shares' tetrahedra, interface polygons and cut polygons together are the whole ones
+/// (as coordinate cells, each on one piece), every share point's global id names the whole point
+/// with the same coordinates and values, and cell arrays follow their cells.
+#[test]
+fn pieces_together_are_the_whole_approximation() {
+    use crate::hierarchy::piece::{PointBox, PositionOwner};
+    use glam::IVec3;
+    let case = Case::impact_with_material_densities([15, 17, 27]);
+    let mesh = case.model().refine(&query(0.3, 3.0), &mut noop()).unwrap();
+    let g = case.grid;
+    let pb = |lo: [i32; 3], hi: [i32; 3]| PointBox {
+        lo: IVec3::from_array(lo),
+        hi: IVec3::from_array(hi),
+    };
+    let layouts = [
+        vec![pb([0, 0, 0], [14, 16, 13]), pb([0, 0, 13], [14, 16, 26])],
+        vec![
+            pb([0, 0, 0], [7, 16, 26]),
+            pb([7, 0, 0], [14, 8, 26]),
+            pb([7, 8, 0], [14, 16, 26]),
+        ],
+        vec![pb([0, 0, 0], [14, 16, 26]); 2],
+        vec![
+            PointBox::EMPTY,
+            pb([0, 0, 0], [14, 16, 26]),
+            PointBox::EMPTY,
+        ],
+    ];
+    let seam_z = g.origin[2] + 13.0 * g.spacing[2];
+    let seam_x = g.origin[0] + 7.0 * g.spacing[0];
+    let whole_polygons = [
+        mesh.interface_polygons(),
+        mesh.slice([0.0, 0.0, seam_z], [0.0, 0.0, 1.0]).unwrap(),
+        mesh.slice([seam_x, 0.0, 0.0], [1.0, 0.0, 0.0]).unwrap(),
+        mesh.slice([6.0, 0.5, -2.0], [0.3, 1.0, 0.2]).unwrap(),
+    ];
+    let counts: Vec<usize> = whole_polygons.iter().map(|p| p.labels.len()).collect();
+    assert!(counts.iter().all(|&n| n > 0), "{counts:?}");
+    let whole_tets = coordinate_cells(&mesh.points, mesh.tets.iter().map(|t| t.to_vec()));
+    for boxes in &layouts {
+        let owners: Vec<PositionOwner> = (0..boxes.len())
+            .map(|me| PositionOwner::new(&g, boxes, me).unwrap())
+            .collect();
+        // Tetrahedra.
+        let mut union = Vec::new();
+        let mut per_piece = Vec::new();
+        for owner in &owners {
+            let (part, ids) = mesh.piece(owner);
+            per_piece.push(part.tets.len());
+            assert!(ids.windows(2).all(|w| w[0] < w[1]));
+            for (k, &i) in ids.iter().enumerate() {
+                let i = i as usize;
+                assert_eq!(part.points[k], mesh.points[i]);
+                assert_eq!(part.point_material[k], mesh.point_material[i]);
+                for (a, b) in part.material_field.iter().zip(&mesh.material_field) {
+                    assert_eq!(a[k].to_bits(), b[i].to_bits());
+                }
+                for (a, b) in part.material_distance.iter().zip(&mesh.material_distance) {
+                    assert_eq!(a[k].to_bits(), b[i].to_bits());
+                }
+            }
+            for (t, tet) in part.tets.iter().enumerate() {
+                let w = mesh
+                    .tets
+                    .iter()
+                    .position(|u| *u == tet.map(|v| ids[v as usize] as u32))
+                    .expect("a whole tetrahedron");
+                assert_eq!(part.field_error[t], mesh.field_error[w]);
+                assert_eq!(part.depths[t], mesh.depths[w]);
+                assert_eq!(part.tet_materials[t], mesh.tet_materials[w]);
+            }
+            assert_eq!(part.max_field_error, mesh.max_field_error);
+            union.extend(coordinate_cells(
+                &part.points,
+                part.tets.iter().map(|t| t.to_vec()),
+            ));
+        }
+        union.sort();
+        assert_eq!(union, whole_tets, "layout {boxes:?}: {per_piece:?}");
+        let non_empty = boxes.iter().filter(|b| !b.is_empty()).count();
+        if boxes.iter().all(|b| !b.is_empty() && *b != boxes[0]) {
+            assert!(per_piece.iter().all(|&n| n > 0), "{per_piece:?}");
+        }
+        assert!(per_piece.iter().filter(|&&n| n > 0).count() <= non_empty);
+        // Interface and cut polygons.
+        for whole in &whole_polygons {
+            let mut union = Vec::new();
+            for owner in &owners {
+                let (part, ids) = whole.piece(owner);
+                for (k, &i) in ids.iter().enumerate() {
+                    assert_eq!(part.points[k], whole.points[i as usize]);
+                    for (a, b) in part.values.iter().zip(&whole.values) {
+                        assert_eq!(a[k].to_bits(), b[i as usize].to_bits());
+                    }
+                }
+                assert_eq!(part.offsets.len(), part.labels.len() + 1);
+                let labelled = polygon_cells(&part).zip(&part.labels).map(|(c, l)| {
+                    let mut c = c;
+                    c.push(l[0] as u32 * 256 + l[1] as u32 + u32::MAX / 2);
+                    c
+                });
+                union.extend(labelled.map(|c| {
+                    (
+                        c[..c.len() - 1]
+                            .iter()
+                            .map(|&v| ids[v as usize])
+                            .collect::<Vec<_>>(),
+                        c[c.len() - 1],
+                    )
+                }));
+            }
+            let mut want: Vec<(Vec<u64>, u32)> = polygon_cells(whole)
+                .zip(&whole.labels)
+                .map(|(c, l)| {
+                    (
+                        c.iter().map(|&v| v as u64).collect(),
+                        l[0] as u32 * 256 + l[1] as u32 + u32::MAX / 2,
+                    )
+                })
+                .collect();
+            want.sort();
+            union.sort();
+            assert_eq!(union, want, "layout {boxes:?}");
+        }
+    }
+}
