@@ -31,6 +31,10 @@
 //!   the isosurface refinement for both bounding surfaces, every leaf that meets the range clipped and
 //!   tetrahedralised by a rule on global point names, so patches conform. Entry points:
 //!   [`interval::extract`] and [`interval::IntervalState::extract`].
+//! - [`isodiamond`]: relevant and minimal isodiamond hierarchies (Weiss & De Floriani §5–§7): one
+//!   isosurface or interval volume stored as the isodiamonds it needs, with the full hierarchy's
+//!   split set at each rung of a ladder of tolerances, extracted at any rung without the volume;
+//!   a compact byte encoding.
 //! - [`progressive`]: progressive tetrahedral meshes of unstructured input (Labsik et al.): half-edge
 //!   collapses with the weighted cost of §3.3 into a base mesh and vertex splits, replayable to any
 //!   level, with the exact field error at every removed vertex.
@@ -47,6 +51,7 @@ pub mod fields;
 pub mod geometry;
 pub mod hierarchy;
 pub mod interval;
+pub mod isodiamond;
 pub mod isosurface;
 pub mod lattice;
 pub mod material;
@@ -116,6 +121,9 @@ pub enum Error {
     /// A progressive mesh stream that cannot be read ([`progressive::stream`]).
     #[error("invalid progressive mesh stream: {0}")]
     Stream(String),
+    /// Isodiamond hierarchy bytes that cannot be read ([`isodiamond`]).
+    #[error("invalid isodiamond hierarchy: {0}")]
+    Isodiamonds(String),
     /// The caller asked to stop.
     #[error("aborted")]
     Aborted,

@@ -31,7 +31,7 @@ use crate::lattice::{Lattice, Tet};
 use crate::memory;
 use crate::volume::{Sample, ScalarSlice, Volume};
 use crate::{with_volume, Error, IsoQuery, Result};
-use clip::clip;
+pub(crate) use clip::clip;
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -161,8 +161,22 @@ fn check(hierarchy: &Hierarchy, scalars: ScalarSlice<'_>, query: &IntervalQuery)
     Ok(())
 }
 
+/// The split set [`extract`] refines `query` to (no budget), for the isodiamond hierarchies
+/// ([`crate::isodiamond`]) that store it.
+pub(crate) fn split_set<T: Sample>(
+    hierarchy: &Hierarchy,
+    volume: &Volume<'_, T>,
+    query: &IntervalQuery,
+) -> Result<crate::refine::SplitSet> {
+    let iso = query.iso_query(query.tolerance);
+    let keep = |_: &Tet| None::<()>;
+    let (_, _, split) =
+        IsoState::new().refined_leaves(hierarchy, volume, &iso, query.range, keep)?;
+    Ok(split)
+}
+
 /// The patch of one leaf: its tetrahedra as point names, and the leaf's bisection depth.
-type Patch = (Vec<[PointKey; 4]>, u8);
+pub(crate) type Patch = (Vec<[PointKey; 4]>, u8);
 
 /// [`extract_with`] on the typed samples (checked).
 fn extract_volume<T: Sample>(
@@ -187,7 +201,7 @@ fn extract_volume<T: Sample>(
         (!out.is_empty()).then(|| (out, depth(&lattice, t)))
     };
     let mut tolerance = query.tolerance;
-    let (mut patches, mut error_bound) =
+    let (mut patches, mut error_bound, _) =
         state.refined_leaves(hierarchy, volume, &query.iso_query(tolerance), range, patch)?;
     let count = |patches: &[Patch]| patches.iter().map(|p| p.0.len()).sum::<usize>();
     let mut warnings = Vec::new();
@@ -196,7 +210,7 @@ fn extract_volume<T: Sample>(
         // count does not grow with it; counted without keeping the patches). At the data
         // diagonal nothing non-empty is split.
         let counted = |state: &mut IsoState, tolerance: f64| {
-            let (counts, _) = state.refined_leaves(
+            let (counts, ..) = state.refined_leaves(
                 hierarchy,
                 volume,
                 &query.iso_query(tolerance),
@@ -219,7 +233,7 @@ fn extract_volume<T: Sample>(
             }
         }
         tolerance = hi;
-        (patches, error_bound) =
+        (patches, error_bound, _) =
             state.refined_leaves(hierarchy, volume, &query.iso_query(tolerance), range, patch)?;
         let n = count(&patches);
         if n > query.max_tetrahedra {
@@ -236,7 +250,20 @@ fn extract_volume<T: Sample>(
             range[0], range[1]
         ));
     }
-    let mut result = assemble(volume, range, &patches)?;
+    let world = |i: u32| DVec3::from(volume.grid.point(volume.grid.ijk(i as usize)));
+    // Position, weight of the second source, value; from the lower-index end, as marching
+    // tetrahedra places its points, so that bounding surfaces match Adaptive Isosurface's bit for bit.
+    let place = |(i, j, level): PointKey| {
+        if level == SAMPLE {
+            return (world(i), 0.0, volume.at_index(i as usize));
+        }
+        let v = range[(level - ALPHA) as usize];
+        let (fa, fb) = (volume.at_index(i as usize), volume.at_index(j as usize));
+        let (pa, pb) = (world(i), world(j));
+        let w = (v - fa) / (fb - fa);
+        (pa + (v - fa) / (fb - fa) * (pb - pa), w, v)
+    };
+    let mut result = assemble(&patches, place)?;
     result.tolerance = tolerance;
     result.error_bound = error_bound;
     result.warnings = warnings;
@@ -244,18 +271,16 @@ fn extract_volume<T: Sample>(
 }
 
 /// Bisection depth of a leaf (unit-cube tetrahedra are one below the finest diamonds).
-fn depth(lattice: &Lattice, t: &Tet) -> u8 {
+pub(crate) fn depth(lattice: &Lattice, t: &Tet) -> u8 {
     Diamond::of_tet(t).map_or(3 * lattice.levels, |d| d.depth(lattice)) as u8
 }
 
-/// The mesh of the patches: distinct point names become the points (in name order), tetrahedra
-/// positively oriented.
-fn assemble<T: Sample>(
-    volume: &Volume<'_, T>,
-    range: [f64; 2],
+/// The mesh of the patches: distinct point names become the points (in name order), placed by
+/// `place` (position, weight of the second source, value), tetrahedra positively oriented.
+pub(crate) fn assemble(
     patches: &[Patch],
+    place: impl Fn(PointKey) -> (DVec3, f64, f64) + Sync,
 ) -> Result<IntervalVolume> {
-    let grid = &volume.grid;
     let n: usize = patches.iter().map(|p| p.0.len()).sum();
     let mut keys: Vec<PointKey> = memory::with_capacity(4 * n, "the interval volume points")?;
     keys.par_extend(
@@ -265,22 +290,7 @@ fn assemble<T: Sample>(
     );
     keys.par_sort_unstable();
     keys.dedup();
-    let world = |i: u32| DVec3::from(grid.point(grid.ijk(i as usize)));
-    // Position, weight of the second source, value; from the lower-index end, as marching
-    // tetrahedra places its points, so that bounding surfaces match Adaptive Isosurface's bit for bit.
-    let placed: Vec<(DVec3, f64, f64)> = keys
-        .par_iter()
-        .map(|&(i, j, level)| {
-            if level == SAMPLE {
-                return (world(i), 0.0, volume.at_index(i as usize));
-            }
-            let v = range[(level - ALPHA) as usize];
-            let (fa, fb) = (volume.at_index(i as usize), volume.at_index(j as usize));
-            let (pa, pb) = (world(i), world(j));
-            let w = (v - fa) / (fb - fa);
-            (pa + (v - fa) / (fb - fa) * (pb - pa), w, v)
-        })
-        .collect();
+    let placed: Vec<(DVec3, f64, f64)> = keys.par_iter().map(|&k| place(k)).collect();
     let id = |k: &PointKey| keys.binary_search(k).expect("listed") as u32;
     let mut result = IntervalVolume {
         tets: memory::with_capacity(n, "the interval volume tetrahedra")?,

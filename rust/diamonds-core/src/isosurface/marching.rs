@@ -14,7 +14,7 @@ use rustc_hash::FxHashSet;
 
 /// Does the tetrahedron with vertex values `f` carry the isosurface of `v`? (Vertices at `v` count as above.)
 #[inline]
-fn crosses(f: &[f64; 4], v: f64) -> bool {
+pub(crate) fn crosses(f: &[f64; 4], v: f64) -> bool {
     let min = f[0].min(f[1]).min(f[2].min(f[3]));
     let max = f[0].max(f[1]).max(f[2].max(f[3]));
     min < v && v <= max
@@ -116,18 +116,65 @@ pub fn marching_tetrahedra<T: Sample>(
     isovalues: &[f64],
     compute_normals: bool,
 ) -> Result<IsoSurface> {
-    Ok(marching_with_sources(volume, tets, isovalues, compute_normals)?.0)
+    let field = OnVolume { volume, isovalues };
+    Ok(marching_with_sources(&field, tets, compute_normals)?.0)
 }
 
-/// [`marching_tetrahedra`], and for each triangle the position in `tets` of the tetrahedron that
-/// made it.
-pub(super) fn marching_with_sources<T: Sample>(
-    volume: &Volume<'_, T>,
+/// What marching tetrahedra reads: the values at the tetrahedra's vertices compared with the
+/// levels, the name of each vertex and the point of each crossed edge. A volume's samples
+/// ([`OnVolume`]), or an isodiamond hierarchy's vertex classes and quantised crossings
+/// ([`crate::isodiamond`]), which give the same polygons.
+pub(crate) trait Marching: Sync {
+    /// The levels the values are compared with, one surface each.
+    fn levels(&self) -> &[f64];
+    /// The values at the vertices of `t` (inside the grid).
+    fn values(&self, t: &Tet) -> [f64; 4];
+    /// The name of a lattice point of the grid: its point index.
+    fn index(&self, p: IVec3) -> u32;
+    /// The point of edge `key`: position, isovalue and, when asked and defined, the unit normal.
+    fn point(&self, key: EdgeKey, compute_normals: bool) -> (DVec3, f64, Option<DVec3>);
+    /// The normal where [`Marching::point`] has none: the direction of `t`'s gradient.
+    fn tet_normal(&self, t: &Tet) -> DVec3;
+}
+
+/// Marching tetrahedra on a volume's samples for `isovalues`.
+pub(super) struct OnVolume<'a, 'v, T> {
+    pub(super) volume: &'a Volume<'v, T>,
+    pub(super) isovalues: &'a [f64],
+}
+
+impl<T: Sample> Marching for OnVolume<'_, '_, T> {
+    fn levels(&self) -> &[f64] {
+        self.isovalues
+    }
+
+    fn values(&self, t: &Tet) -> [f64; 4] {
+        t.map(|p| self.volume.at(p.x as usize, p.y as usize, p.z as usize))
+    }
+
+    fn index(&self, p: IVec3) -> u32 {
+        self.volume
+            .grid
+            .index(p.x as usize, p.y as usize, p.z as usize) as u32
+    }
+
+    fn point(&self, key: EdgeKey, compute_normals: bool) -> (DVec3, f64, Option<DVec3>) {
+        interpolate(self.volume, self.isovalues, key, compute_normals)
+    }
+
+    fn tet_normal(&self, t: &Tet) -> DVec3 {
+        tet_gradient(self.volume, t).normalize_or_zero()
+    }
+}
+
+/// [`marching_tetrahedra`] on any [`Marching`] field, and for each triangle the position in `tets`
+/// of the tetrahedron that made it.
+pub(crate) fn marching_with_sources(
+    field: &impl Marching,
     tets: &[Tet],
-    isovalues: &[f64],
     compute_normals: bool,
 ) -> Result<(IsoSurface, Vec<u32>)> {
-    let polygons = polygons(volume, tets, isovalues);
+    let polygons = polygons(field, tets);
     // Every polygon corner with its slot, sorted by edge: equal edges are neighbours.
     let slots: usize = polygons.par_iter().map(|poly| poly.n).sum();
     let mut corners: Vec<(EdgeKey, u32)> = memory::with_capacity(slots, "the isosurface corners")?;
@@ -147,10 +194,8 @@ pub(super) fn marching_with_sources<T: Sample>(
     drop(corners);
     let sample_of = |p: usize, i: usize| {
         let poly = &polygons[p];
-        (poly.at_sample[i] != NOT_AT_SAMPLE).then(|| {
-            let v = tets[poly.tet as usize][poly.at_sample[i] as usize];
-            volume.grid.index(v.x as usize, v.y as usize, v.z as usize)
-        })
+        (poly.at_sample[i] != NOT_AT_SAMPLE)
+            .then(|| field.index(tets[poly.tet as usize][poly.at_sample[i] as usize]) as usize)
     };
     let mut separate = FxHashSet::default();
     let (points, (triangles, sources)) = loop {
@@ -166,12 +211,11 @@ pub(super) fn marching_with_sources<T: Sample>(
         memory::with_capacity(points.first_edge.len(), "the isosurface points")?;
     interpolated.par_extend(points.first_edge.par_iter().map(|&e| {
         let (key, p) = keys[e as usize];
-        let (point, value, normal) = interpolate(volume, isovalues, key, compute_normals);
+        let (point, value, normal) = field.point(key, compute_normals);
         // Where the gradients vanish: the gradient of the tetrahedron, toward increasing values.
         let normal = normal.unwrap_or_else(|| {
             if compute_normals {
-                let t = &tets[polygons[p as usize].tet as usize];
-                tet_gradient(volume, t).normalize_or_zero()
+                field.tet_normal(&tets[polygons[p as usize].tet as usize])
             } else {
                 DVec3::ZERO
             }
@@ -328,69 +372,73 @@ struct Polygon {
 /// See [`Polygon::at_sample`].
 const NOT_AT_SAMPLE: u8 = u8::MAX;
 
-/// The polygons of `tets` for every isovalue.
-fn polygons<T: Sample>(volume: &Volume<'_, T>, tets: &[Tet], isovalues: &[f64]) -> Vec<Polygon> {
-    let grid = &volume.grid;
-    let index = |p: IVec3| grid.index(p.x as usize, p.y as usize, p.z as usize) as u32;
+/// The polygons of `tets` for every level of `field`.
+fn polygons(field: &impl Marching, tets: &[Tet]) -> Vec<Polygon> {
+    let index = |p: IVec3| field.index(p);
     tets.par_iter()
         .enumerate()
         .flat_map_iter(|(tet, t)| {
-            let f = t.map(|p| volume.at(p.x as usize, p.y as usize, p.z as usize));
-            isovalues.iter().enumerate().filter_map(move |(k, &v)| {
-                if !crosses(&f, v) {
-                    return None;
-                }
-                let mut above = [0usize; 4];
-                let mut below = [0usize; 4];
-                let (mut na, mut nb) = (0, 0);
-                for (i, &fi) in f.iter().enumerate() {
-                    if fi >= v {
-                        above[na] = i;
-                        na += 1;
-                    } else {
-                        below[nb] = i;
-                        nb += 1;
+            let f = field.values(t);
+            field
+                .levels()
+                .iter()
+                .enumerate()
+                .filter_map(move |(k, &v)| {
+                    if !crosses(&f, v) {
+                        return None;
                     }
-                }
-                // The crossed edges in cyclic order around the polygon.
-                let (mut edges, n) = match (na, nb) {
-                    (1, 3) => {
-                        let a = above[0];
-                        ([(a, below[0]), (a, below[1]), (a, below[2]), (0, 0)], 3)
+                    let mut above = [0usize; 4];
+                    let mut below = [0usize; 4];
+                    let (mut na, mut nb) = (0, 0);
+                    for (i, &fi) in f.iter().enumerate() {
+                        if fi >= v {
+                            above[na] = i;
+                            na += 1;
+                        } else {
+                            below[nb] = i;
+                            nb += 1;
+                        }
                     }
-                    (3, 1) => {
-                        let b = below[0];
-                        ([(above[0], b), (above[1], b), (above[2], b), (0, 0)], 3)
+                    // The crossed edges in cyclic order around the polygon.
+                    let (mut edges, n) = match (na, nb) {
+                        (1, 3) => {
+                            let a = above[0];
+                            ([(a, below[0]), (a, below[1]), (a, below[2]), (0, 0)], 3)
+                        }
+                        (3, 1) => {
+                            let b = below[0];
+                            ([(above[0], b), (above[1], b), (above[2], b), (0, 0)], 3)
+                        }
+                        _ => {
+                            let ([a, b], [c, d]) = ([above[0], above[1]], [below[0], below[1]]);
+                            ([(a, c), (a, d), (b, d), (b, c)], 4)
+                        }
+                    };
+                    // Orientation from the lattice alone, so that it holds even when points coincide
+                    // with samples (zero-area triangles): the polygon through the edges' midpoints, in
+                    // doubled integer coordinates, must face from the vertices below to those above.
+                    // (A positive diagonal scaling to world coordinates keeps the sign.)
+                    let mid2 = |(a, b): (usize, usize)| (t[a] + t[b]).as_i64vec3();
+                    let (q0, q1, q2) = (mid2(edges[0]), mid2(edges[1]), mid2(edges[2]));
+                    let sum = |vs: &[usize]| vs.iter().map(|&i| t[i].as_i64vec3()).sum::<I64Vec3>();
+                    let up = sum(&above[..na]) * nb as i64 - sum(&below[..nb]) * na as i64;
+                    if (q1 - q0).cross(q2 - q0).dot(up) < 0 {
+                        edges[..n].reverse();
                     }
-                    _ => {
-                        let ([a, b], [c, d]) = ([above[0], above[1]], [below[0], below[1]]);
-                        ([(a, c), (a, d), (b, d), (b, c)], 4)
-                    }
-                };
-                // Orientation from the lattice alone, so that it holds even when points coincide
-                // with samples (zero-area triangles): the polygon through the edges' midpoints, in
-                // doubled integer coordinates, must face from the vertices below to those above.
-                // (A positive diagonal scaling to world coordinates keeps the sign.)
-                let mid2 = |(a, b): (usize, usize)| (t[a] + t[b]).as_i64vec3();
-                let (q0, q1, q2) = (mid2(edges[0]), mid2(edges[1]), mid2(edges[2]));
-                let sum = |vs: &[usize]| vs.iter().map(|&i| t[i].as_i64vec3()).sum::<I64Vec3>();
-                let up = sum(&above[..na]) * nb as i64 - sum(&below[..nb]) * na as i64;
-                if (q1 - q0).cross(q2 - q0).dot(up) < 0 {
-                    edges[..n].reverse();
-                }
-                let keys = edges.map(|(a, b)| {
-                    let (ia, ib) = (index(t[a]), index(t[b]));
-                    (ia.min(ib), ia.max(ib), k as u32)
-                });
-                // Each edge runs from a vertex above (first) to one below.
-                let at_sample = edges.map(|(a, _)| if f[a] == v { a as u8 } else { NOT_AT_SAMPLE });
-                Some(Polygon {
-                    keys,
-                    at_sample,
-                    n,
-                    tet: tet as u32,
+                    let keys = edges.map(|(a, b)| {
+                        let (ia, ib) = (index(t[a]), index(t[b]));
+                        (ia.min(ib), ia.max(ib), k as u32)
+                    });
+                    // Each edge runs from a vertex above (first) to one below.
+                    let at_sample =
+                        edges.map(|(a, _)| if f[a] == v { a as u8 } else { NOT_AT_SAMPLE });
+                    Some(Polygon {
+                        keys,
+                        at_sample,
+                        n,
+                        tet: tet as u32,
+                    })
                 })
-            })
         })
         .collect()
 }
@@ -429,4 +477,4 @@ fn interpolate<T: Sample>(
 }
 
 /// A point of marching tetrahedra: the lower and higher point ids of its edge, the isovalue's index.
-type EdgeKey = (u32, u32, u32);
+pub(crate) type EdgeKey = (u32, u32, u32);

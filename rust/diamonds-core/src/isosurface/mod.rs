@@ -74,7 +74,8 @@ use crate::volume::{Sample, ScalarSlice, Volume};
 use crate::{Error, Result};
 use cache::IsoCache;
 use glam::{DMat3, DVec3, IVec3};
-use marching::{count_triangles, marching_with_sources};
+use marching::{count_triangles, OnVolume};
+pub(crate) use marching::{crosses, marching_with_sources, EdgeKey, Marching};
 
 /// An isosurface query.
 #[derive(Clone, Debug, PartialEq)]
@@ -239,8 +240,12 @@ impl<T: Sample> Extraction<'_, '_, T> {
         owner: Option<&CellOwner>,
     ) -> Result<IsoSurface> {
         let volume = self.volume;
+        let field = OnVolume {
+            volume,
+            isovalues: &query.isovalues,
+        };
         let (mut surface, sources) =
-            marching_with_sources(volume, carriers, &query.isovalues, query.compute_normals)?;
+            marching_with_sources(&field, carriers, query.compute_normals)?;
         let error = self.carrier_error(&query.isovalues, tolerance);
         surface.error_bound = carriers.iter().map(&error).fold(0.0, f64::max);
         let owned: Vec<Tet>;

@@ -109,6 +109,11 @@ impl IsoState {
     pub fn last(&self) -> Option<IsoStats> {
         self.last
     }
+
+    /// The split set of the last surface [`IsoState::extract`] refined, while it is kept.
+    pub(crate) fn current_split(&self) -> Option<&SplitSet> {
+        self.current.as_ref().map(|c| &c.split)
+    }
 }
 
 /// Does the refinement of `b` equal that of `a` except for the isovalues?
@@ -231,7 +236,8 @@ impl IsoState {
     /// What `keep` makes of the leaves of the mesh that [`IsoState::extract`] refines `query` to
     /// (no budget: `query.max_triangles` is ignored; the two-sided bound checked for every
     /// isovalue), skipping subtrees whose samples all lie outside `range`, and the isosurface
-    /// error bound of the carriers, as [`IsoSurface::error_bound`]. For extractions that read
+    /// error bound of the carriers, as [`IsoSurface::error_bound`], and the split set of the mesh.
+    /// For extractions that read
     /// more of the mesh than the surface: interval volumes ([`crate::interval`]) keep the leaves
     /// that meet their isorange. Uses the cache but keeps no mesh.
     ///
@@ -248,7 +254,7 @@ impl IsoState {
         query: &IsoQuery,
         range: [f64; 2],
         keep: impl Fn(&Tet) -> Option<X> + Sync,
-    ) -> Result<(Vec<X>, f64)> {
+    ) -> Result<(Vec<X>, f64, SplitSet)> {
         self.forget_mesh();
         if self.cache.as_ref().is_some_and(|c| !c.fits(&volume.grid)) {
             self.cache = None;
@@ -297,10 +303,8 @@ impl IsoState {
                 t[0].max(t[1]).max(t[2].max(t[3])),
             )
         };
-        Ok((
-            mesh::leaves_where(&lattice, &split, outside, keep),
-            error_bound,
-        ))
+        let leaves = mesh::leaves_where(&lattice, &split, outside, keep);
+        Ok((leaves, error_bound, split))
     }
 }
 

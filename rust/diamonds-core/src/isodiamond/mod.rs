@@ -1,0 +1,787 @@
+//! Isodiamond hierarchies (Weiss & De Floriani §5–§7): one isosurface `f = v` or one interval
+//! volume `α ≤ f ≤ β` encoded as the subset of the diamond hierarchy it needs, from which it is
+//! extracted at any resolution of a ladder of tolerances without the volume.
+//!
+//! **Classes and types (§5).** Every sample gets a class: below, at or above `v` (an isosurface), or
+//! below `α`, at `α`, inside, at `β`, above `β` (an interval volume); lattice points outside the grid
+//! have none. A tetrahedron is *active* when its patch is not empty, decided from the classes alone
+//! exactly as [`crate::isosurface`]'s marching tetrahedra and [`crate::interval`]'s clipping decide it
+//! from the values. A diamond is *active* when one of its tetrahedra is (then one of its children's
+//! is too); *creation* when none of its tetrahedra is but one of its subdivided tetrahedra (the
+//! bisected ones, `δ_s`) is — for an isosurface only its central vertex differs (Fig. 10);
+//! *relevant* when it is an ancestor of an active diamond and not active. The *RI* hierarchy (§6)
+//! stores the active and relevant diamonds (the creation ones are among the relevant), the *MI*
+//! hierarchy (§7) the active and creation diamonds only.
+//!
+//! **What a stored isodiamond carries**, so that extraction needs no field value: its central
+//! vertex (the key), the class of that vertex, its type, and one bit per rung of the ladder: whether
+//! the full-hierarchy extraction at that rung's tolerance splits it. Our extraction does not stop at
+//! Gregorski's error alone (the two-sided bound is checked and forces splits that depend on the
+//! tolerance, [`crate::isosurface`]), so a threshold per diamond would not reproduce it; the split
+//! set of each rung is stored instead (8 rungs: one byte, where the paper quantises an error to 14
+//! bits). A query at tolerance `τ` uses the finest rung whose tolerance is at most `τ`, so its result
+//! is the full hierarchy's at that rung (bound `≤ τ`) and the ladder's last rung, 0, is the
+//! full-resolution surface or volume. Each *crossing* (an edge of the hierarchy whose end classes
+//! lie strictly on both sides of a level, §5.1 "isovertices") is one byte, the position along the
+//! edge from its lower-index end quantised to 1/256 (at most 1/512 of the edge away); crossings are
+//! listed in the order of the isodiamond that creates their edge (its central vertex to each of its
+//! vertices) and found again from the classes, so they need no index. The MI hierarchy lacks some
+//! ancestors whose central vertices are vertices of stored diamonds; their classes are stored as
+//! *orphan* vertices (§7.3 assigns them the spine's class; storing them is exact and costs about two
+//! bytes each). Encoding: [`Isodiamonds::to_bytes`].
+//!
+//! **Selective refinement (§6.3, §7.3).** From the roots (RI: the root diamond; MI: the root when
+//! stored and every creation isodiamond, the local roots of §7), every stored diamond split at the
+//! rung is visited through its stored children that are split too; each child tetrahedron of a
+//! visited diamond that is active and whose own diamond is not split is a leaf of the extracted
+//! mesh. Because each rung's split set is closed under parents (it is the full hierarchy's), the
+//! closure of §7.3 on the children of a creation isodiamond holds by construction, and every
+//! active leaf's parent is active or creation (Theorem 7.1), so the MI walk reaches every leaf the
+//! RI walk reaches: both give the full hierarchy's leaves, and the surface or volume is made from
+//! them by the same marching tetrahedra or clipping (points named by edges, so crack-free).
+
+mod encode;
+#[cfg(test)]
+mod tests;
+
+use crate::diamond::{bisect, Diamond};
+use crate::hierarchy::Hierarchy;
+use crate::interval::{self, clip, IntervalQuery, IntervalVolume, PointKey, ALPHA, SAMPLE};
+use crate::isosurface::{crosses, marching_with_sources, EdgeKey, IsoState, Marching};
+use crate::lattice::{Lattice, Tet};
+use crate::refine::SplitSet;
+use crate::volume::{Grid, Sample, ScalarSlice, Volume};
+use crate::{with_volume, Error, IsoQuery, IsoSurface, Result};
+use glam::{DMat3, DVec3, IVec3};
+use rayon::prelude::*;
+use rustc_hash::{FxHashMap, FxHashSet};
+
+/// What an isodiamond hierarchy encodes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Target {
+    /// The isosurface `f = v`.
+    Isosurface(f64),
+    /// The interval volume `α ≤ f ≤ β` (`α < β`).
+    IntervalVolume([f64; 2]),
+}
+
+impl Target {
+    /// Refuses non-finite levels and empty ranges.
+    fn check(self) -> Result<()> {
+        match self {
+            Target::Isosurface(v) if !v.is_finite() => Err(Error::Parameter(format!(
+                "the isovalue must be a finite number (got {v})"
+            ))),
+            Target::IntervalVolume([a, b]) if !(a.is_finite() && b.is_finite() && a < b) => {
+                Err(Error::Parameter(format!(
+                    "the range must be two finite numbers with the lower below the upper (got [{a}, {b}])"
+                )))
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// The class of a sample value (see the module documentation).
+    fn class(self, f: f64) -> u8 {
+        match self {
+            Target::Isosurface(v) => (f >= v) as u8 + (f > v) as u8,
+            Target::IntervalVolume([a, b]) => {
+                (f >= a) as u8 + (f > a) as u8 + (f >= b) as u8 + (f > b) as u8
+            }
+        }
+    }
+
+    /// The levels, in data units.
+    fn levels(self) -> Vec<f64> {
+        match self {
+            Target::Isosurface(v) => vec![v],
+            Target::IntervalVolume(r) => r.to_vec(),
+        }
+    }
+
+    /// The levels in class units: classes compare with them as values with the levels.
+    fn class_levels(self) -> &'static [f64] {
+        match self {
+            Target::Isosurface(_) => &[1.0],
+            Target::IntervalVolume(_) => &[1.0, 3.0],
+        }
+    }
+
+    /// Is a tetrahedron with vertex classes `c` active (its patch not empty)? As marching
+    /// tetrahedra's `crosses` and [`clip`] decide from values.
+    fn active(self, c: [u8; 4]) -> bool {
+        if c.contains(&NONE) {
+            return false;
+        }
+        let f = c.map(f64::from);
+        match self {
+            Target::Isosurface(_) => crosses(&f, 1.0),
+            Target::IntervalVolume(_) => {
+                let (lo, hi) = (c.iter().min().unwrap(), c.iter().max().unwrap());
+                if lo == hi {
+                    (1..=3).contains(lo)
+                } else {
+                    *hi > 1 && *lo < 3
+                }
+            }
+        }
+    }
+}
+
+/// The two models of the paper.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Model {
+    /// Relevant Isodiamond hierarchy (§6): active and relevant isodiamonds.
+    Relevant,
+    /// Minimal Isodiamond hierarchy (§7): active and creation isodiamonds.
+    Minimal,
+}
+
+/// Rungs of the ladder at most, its last rung (tolerance 0) included: one split bit each.
+pub const MAX_RUNGS: usize = 8;
+
+/// The default ladder, fractions of the grid diagonal (then 0): 4 % down to 1/16 %.
+pub const DEFAULT_LADDER: [f64; 7] = [0.04, 0.02, 0.01, 0.005, 0.0025, 0.00125, 0.000625];
+
+/// Class of a lattice point outside the grid.
+const NONE: u8 = 7;
+/// Isodiamond types (§5).
+const ACTIVE: u8 = 1;
+const CREATION: u8 = 2;
+const RELEVANT: u8 = 3;
+
+/// A stored isodiamond.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Record {
+    /// Its central vertex as a [`key`].
+    key: u64,
+    /// The class of the central vertex ([`NONE`] outside the grid).
+    class: u8,
+    /// [`ACTIVE`], [`CREATION`] or [`RELEVANT`].
+    kind: u8,
+    /// Bit `k`: split by the full hierarchy at rung `k`.
+    split: u8,
+}
+
+/// How many isodiamonds of each type, crossings and orphan vertices a hierarchy stores.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Counts {
+    pub active: usize,
+    pub creation: usize,
+    /// Relevant isodiamonds that are not creation ones (0 in an MI hierarchy).
+    pub relevant: usize,
+    /// Crossings (isovertices), one byte each.
+    pub crossings: usize,
+    /// Classes of vertices whose isodiamond is not stored (MI only).
+    pub orphans: usize,
+}
+
+/// An RI or MI hierarchy for one isosurface or interval volume ([module documentation](self)).
+#[derive(Clone, Debug)]
+pub struct Isodiamonds {
+    grid: Grid,
+    target: Target,
+    model: Model,
+    /// Rung tolerances, world units, decreasing, the last 0.
+    ladder: Vec<f64>,
+    /// Sorted by key.
+    records: Vec<Record>,
+    /// `(key, class)`, sorted by key.
+    orphans: Vec<(u64, u8)>,
+    /// Quantised crossings in [`Isodiamonds::crossing_edges`] order.
+    crossings: Vec<u8>,
+    /// Derived: the lattice, record of each key, class of each grid point listed, crossing of each
+    /// edge and level.
+    lattice: Lattice,
+    index: FxHashMap<u64, u32>,
+    classes: FxHashMap<u32, u8>,
+    points: FxHashMap<(u32, u32, u8), u8>,
+}
+
+/// The key of a lattice point of the root cube.
+fn key(lattice: &Lattice, p: IVec3) -> u64 {
+    let n = lattice.size() as u64 + 1;
+    p.x as u64 + n * (p.y as u64 + n * p.z as u64)
+}
+
+/// The lattice point of a key.
+fn point(lattice: &Lattice, k: u64) -> IVec3 {
+    let n = lattice.size() as u64 + 1;
+    IVec3::new((k % n) as i32, (k / n % n) as i32, (k / (n * n)) as i32)
+}
+
+/// A corner of the root cube (no diamond has it as central vertex).
+fn is_corner(lattice: &Lattice, p: IVec3) -> bool {
+    let n = lattice.size();
+    (p.cmpeq(IVec3::ZERO) | p.cmpeq(IVec3::splat(n))).all()
+}
+
+/// The distinct vertices of a diamond's tetrahedra, in order of appearance.
+fn vertices(lattice: &Lattice, d: Diamond) -> Vec<IVec3> {
+    let mut out: Vec<IVec3> = Vec::with_capacity(10);
+    for t in d.tets(lattice) {
+        for p in t {
+            if !out.contains(&p) {
+                out.push(p);
+            }
+        }
+    }
+    out
+}
+
+/// The quantised position `t ∈ (0, 1)` of a crossing along its edge.
+fn quantise(t: f64) -> u8 {
+    (t * 256.0).floor().clamp(0.0, 255.0) as u8
+}
+
+/// The position a quantised crossing stands for (the middle of its 1/256 step).
+fn dequantise(q: u8) -> f64 {
+    (q as f64 + 0.5) / 256.0
+}
+
+/// Builds the `model` hierarchy of `target` from `hierarchy` and the samples it was built from
+/// (§6.2, §7.2): `ladder` holds the rung tolerances (world units, decreasing, positive, at most
+/// [`MAX_RUNGS`] − 1; the rung 0 is added), each rung's split set is the full hierarchy's
+/// ([`crate::isosurface::extract`] or [`crate::interval::extract`] at that tolerance).
+pub fn build(
+    hierarchy: &Hierarchy,
+    scalars: ScalarSlice<'_>,
+    target: Target,
+    model: Model,
+    ladder: &[f64],
+) -> Result<Isodiamonds> {
+    target.check()?;
+    if ladder.len() >= MAX_RUNGS
+        || ladder.iter().any(|t| !t.is_finite() || *t <= 0.0)
+        || ladder.windows(2).any(|w| w[0] <= w[1])
+    {
+        return Err(Error::Parameter(format!(
+            "the ladder must hold at most {} decreasing positive tolerances (got {ladder:?})",
+            MAX_RUNGS - 1
+        )));
+    }
+    if scalars.len() != hierarchy.grid().len() {
+        return Err(Error::Length {
+            len: scalars.len(),
+            expected: hierarchy.grid().len(),
+            dims: hierarchy.grid().dims,
+        });
+    }
+    let mut ladder = ladder.to_vec();
+    ladder.push(0.0);
+    with_volume!(*hierarchy.grid(), scalars, |v| build_from(
+        hierarchy, scalars, &v, target, model, ladder
+    ))
+}
+
+/// [`build`] on the typed samples (checked).
+fn build_from<T: Sample>(
+    hierarchy: &Hierarchy,
+    scalars: ScalarSlice<'_>,
+    volume: &Volume<'_, T>,
+    target: Target,
+    model: Model,
+    ladder: Vec<f64>,
+) -> Result<Isodiamonds> {
+    let grid = *hierarchy.grid();
+    let lattice = *hierarchy.lattice();
+    let classes: Vec<u8> = (0..grid.len())
+        .into_par_iter()
+        .map(|i| target.class(volume.at_index(i)))
+        .collect();
+    let class_at = |p: IVec3| {
+        if lattice.in_domain(p) {
+            classes[lattice.index(p)]
+        } else {
+            NONE
+        }
+    };
+    let tet_active = |t: &Tet| target.active(t.map(class_at));
+    // Types of the diamonds centred in the grid (§5); those centred outside have no class at their
+    // centre, so neither they nor their subdivided tetrahedra are active.
+    let mut kinds: Vec<u8> = (0..grid.len())
+        .into_par_iter()
+        .map(|i| {
+            let p = lattice.point(i);
+            if is_corner(&lattice, p) {
+                return 0;
+            }
+            let tets = Diamond::new(p).tets(&lattice);
+            if tets.iter().any(tet_active) {
+                ACTIVE
+            } else if tets.iter().flat_map(bisect).any(|t| tet_active(&t)) {
+                CREATION
+            } else {
+                0
+            }
+        })
+        .collect();
+    // RI: every ancestor of an active or creation diamond (§6; a finest diamond's subdivided
+    // tetrahedra belong to no diamond, so a creation one there has no active child diamond).
+    let mut outside: FxHashSet<IVec3> = FxHashSet::default();
+    if model == Model::Relevant {
+        let mut stack: Vec<Diamond> = (kinds.iter().enumerate())
+            .filter(|(_, &k)| k == ACTIVE || k == CREATION)
+            .map(|(i, _)| Diamond::new(lattice.point(i)))
+            .collect();
+        while let Some(d) = stack.pop() {
+            for p in d.parents(&lattice) {
+                let new = if lattice.in_domain(p.center) {
+                    let k = &mut kinds[lattice.index(p.center)];
+                    let new = *k == 0;
+                    if new {
+                        *k = RELEVANT;
+                    }
+                    new
+                } else {
+                    outside.insert(p.center)
+                };
+                if new {
+                    stack.push(p);
+                }
+            }
+        }
+    }
+    let mut records: Vec<Record> = (kinds.iter().enumerate())
+        .filter(|(_, &k)| k == ACTIVE || (k != 0 && model == Model::Relevant) || k == CREATION)
+        .map(|(i, &kind)| {
+            let p = lattice.point(i);
+            Record {
+                key: key(&lattice, p),
+                class: classes[i],
+                kind,
+                split: 0,
+            }
+        })
+        .chain(outside.iter().map(|&p| Record {
+            key: key(&lattice, p),
+            class: NONE,
+            kind: RELEVANT,
+            split: 0,
+        }))
+        .collect();
+    drop(kinds);
+    records.par_sort_unstable_by_key(|r| r.key);
+    // The split set of every rung, as the full hierarchy refines it.
+    for (rung, &tolerance) in ladder.iter().enumerate() {
+        let split = full_split_set(hierarchy, scalars, volume, target, tolerance)?;
+        records.par_iter_mut().for_each(|r| {
+            if split.contains(Diamond::new(point(&lattice, r.key))) {
+                r.split |= 1 << rung;
+            }
+        });
+    }
+    // Orphans: grid vertices of split isodiamonds (and of the root's tetrahedra) whose own
+    // isodiamond is not stored.
+    let stored: FxHashSet<u64> = records.iter().map(|r| r.key).collect();
+    let root = Diamond::root(&lattice);
+    let mut needed: Vec<IVec3> = Vec::new();
+    if stored.contains(&key(&lattice, root.center)) {
+        needed.extend(vertices(&lattice, root));
+    }
+    for r in records.iter().filter(|r| r.split != 0) {
+        needed.extend(vertices(&lattice, Diamond::new(point(&lattice, r.key))));
+    }
+    let mut orphans: Vec<(u64, u8)> = needed
+        .into_iter()
+        .filter(|&p| lattice.in_domain(p) && !stored.contains(&key(&lattice, p)))
+        .map(|p| (key(&lattice, p), class_at(p)))
+        .collect();
+    orphans.par_sort_unstable();
+    orphans.dedup();
+    let mut h = Isodiamonds::new(grid, target, model, ladder, records, orphans, Vec::new())?;
+    let levels = target.levels();
+    h.crossings = (h.crossing_edges().iter())
+        .map(|&(i, j, l)| {
+            let (fa, fb) = (volume.at_index(i as usize), volume.at_index(j as usize));
+            quantise((levels[l as usize] - fa) / (fb - fa))
+        })
+        .collect();
+    h.points = h.crossing_map()?;
+    Ok(h)
+}
+
+/// The split set of the full hierarchy's extraction of `target` at `tolerance`.
+fn full_split_set<T: Sample>(
+    hierarchy: &Hierarchy,
+    scalars: ScalarSlice<'_>,
+    volume: &Volume<'_, T>,
+    target: Target,
+    tolerance: f64,
+) -> Result<SplitSet> {
+    match target {
+        Target::Isosurface(v) => {
+            let mut state = IsoState::new();
+            let query = IsoQuery {
+                compute_normals: false,
+                ..IsoQuery::new(v, tolerance)
+            };
+            state.extract(hierarchy, scalars, &query)?;
+            Ok(state.current_split().expect("kept").clone())
+        }
+        Target::IntervalVolume(range) => {
+            interval::split_set(hierarchy, volume, &IntervalQuery::new(range, tolerance))
+        }
+    }
+}
+
+impl Isodiamonds {
+    /// Assembles a hierarchy from its stored parts and derives its lookups; refuses parts that do
+    /// not fit together (decoding).
+    fn new(
+        grid: Grid,
+        target: Target,
+        model: Model,
+        ladder: Vec<f64>,
+        records: Vec<Record>,
+        orphans: Vec<(u64, u8)>,
+        crossings: Vec<u8>,
+    ) -> Result<Self> {
+        let bad = |what: String| Err(Error::Isodiamonds(what));
+        grid.validate()?;
+        target.check()?;
+        let lattice = Lattice::new(grid.dims)?;
+        let n = lattice.size() as u64 + 1;
+        let max_class = match target {
+            Target::Isosurface(_) => 2,
+            Target::IntervalVolume(_) => 4,
+        };
+        if ladder.is_empty()
+            || ladder.len() > MAX_RUNGS
+            || ladder.last() != Some(&0.0)
+            || ladder
+                .windows(2)
+                .any(|w| !w[0].is_finite() || w[1].is_nan() || w[0] <= w[1])
+        {
+            return bad(format!("a ladder of {} rungs", ladder.len()));
+        }
+        let mut index = FxHashMap::default();
+        let mut classes = FxHashMap::default();
+        for (i, r) in records.iter().enumerate() {
+            let p = point(&lattice, r.key);
+            if r.key >= n * n * n || is_corner(&lattice, p) {
+                return bad(format!(
+                    "isodiamond {i} has no central vertex in the lattice"
+                ));
+            }
+            if i > 0 && records[i - 1].key >= r.key {
+                return bad(format!("isodiamond {i} is out of order"));
+            }
+            let expected_none = !lattice.in_domain(p);
+            if (r.class == NONE) != expected_none || (r.class != NONE && r.class > max_class) {
+                return bad(format!("isodiamond {i} has class {}", r.class));
+            }
+            let allowed = match model {
+                Model::Relevant => [ACTIVE, CREATION, RELEVANT].contains(&r.kind),
+                Model::Minimal => [ACTIVE, CREATION].contains(&r.kind),
+            };
+            if !allowed || (ladder.len() < 8 && r.split >> ladder.len() != 0) {
+                return bad(format!(
+                    "isodiamond {i} has type {} split {}",
+                    r.kind, r.split
+                ));
+            }
+            index.insert(r.key, i as u32);
+            if r.class != NONE {
+                classes.insert(lattice.index(p) as u32, r.class);
+            }
+        }
+        for (i, &(k, c)) in orphans.iter().enumerate() {
+            let p = point(&lattice, k);
+            if k >= n * n * n || !lattice.in_domain(p) || c > max_class {
+                return bad(format!("orphan vertex {i} ({k}, class {c})"));
+            }
+            classes.insert(lattice.index(p) as u32, c);
+        }
+        let mut h = Self {
+            grid,
+            target,
+            model,
+            ladder,
+            records,
+            orphans,
+            crossings,
+            lattice,
+            index,
+            classes,
+            points: FxHashMap::default(),
+        };
+        if !h.crossings.is_empty() {
+            h.points = h.crossing_map()?;
+        }
+        Ok(h)
+    }
+
+    /// The crossing of every edge and level, from [`Isodiamonds::crossings`].
+    fn crossing_map(&self) -> Result<FxHashMap<(u32, u32, u8), u8>> {
+        let edges = self.crossing_edges();
+        if edges.len() != self.crossings.len() {
+            return Err(Error::Isodiamonds(format!(
+                "{} crossings stored for {} crossed edges",
+                self.crossings.len(),
+                edges.len()
+            )));
+        }
+        Ok(edges
+            .into_iter()
+            .zip(self.crossings.iter().copied())
+            .collect())
+    }
+
+    /// The crossed edges and levels `(i, j, level)` (grid indices `i < j`, level index), in storage
+    /// order: the edges of the root's active tetrahedra, then for every isodiamond split at some
+    /// rung the edges from its central vertex in its active subdivided tetrahedra (§5.1: the edges
+    /// its subdivision creates that a patch can use).
+    fn crossing_edges(&self) -> Vec<(u32, u32, u8)> {
+        let lattice = &self.lattice;
+        let active = |t: &Tet| self.target.active(t.map(|p| self.class(p)));
+        let mut edges: Vec<(IVec3, IVec3)> = Vec::new();
+        let root = Diamond::root(lattice);
+        if self.index.contains_key(&key(lattice, root.center)) {
+            for t in root.tets(lattice).iter().filter(|t| active(t)) {
+                for (a, b) in [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)] {
+                    let e = (t[a].min(t[b]), t[a].max(t[b]));
+                    if !edges.contains(&e) {
+                        edges.push(e);
+                    }
+                }
+            }
+        }
+        for r in self.records.iter().filter(|r| r.split != 0) {
+            let d = Diamond::new(point(lattice, r.key));
+            let first = edges.len();
+            for t in d.tets(lattice).iter().flat_map(bisect).filter(active) {
+                for w in t.into_iter().filter(|&w| w != d.center) {
+                    if !edges[first..].contains(&(d.center, w)) {
+                        edges.push((d.center, w));
+                    }
+                }
+            }
+        }
+        let levels = self.target.class_levels();
+        let mut out = Vec::new();
+        for (a, b) in edges {
+            let (ca, cb) = (self.class(a), self.class(b));
+            if ca == NONE || cb == NONE {
+                continue;
+            }
+            let (ia, ib) = (self.grid_index(a), self.grid_index(b));
+            for (l, &level) in levels.iter().enumerate() {
+                let (fa, fb) = (ca as f64, cb as f64);
+                if (fa < level && fb > level) || (fa > level && fb < level) {
+                    out.push((ia.min(ib), ia.max(ib), l as u8));
+                }
+            }
+        }
+        out
+    }
+
+    /// The point index of a grid point.
+    fn grid_index(&self, p: IVec3) -> u32 {
+        self.lattice.index(p) as u32
+    }
+
+    /// The class of a lattice point ([`NONE`] outside the grid or not listed).
+    fn class(&self, p: IVec3) -> u8 {
+        if self.lattice.in_domain(p) {
+            *self.classes.get(&self.grid_index(p)).unwrap_or(&NONE)
+        } else {
+            NONE
+        }
+    }
+
+    /// Whether stored isodiamond `d` is split at `rung` (`None`: not stored).
+    fn split(&self, d: Diamond, rung: usize) -> Option<bool> {
+        let r = self.index.get(&key(&self.lattice, d.center))?;
+        Some(self.records[*r as usize].split >> rung & 1 == 1)
+    }
+
+    /// What the hierarchy encodes.
+    pub fn target(&self) -> Target {
+        self.target
+    }
+
+    /// RI or MI.
+    pub fn model(&self) -> Model {
+        self.model
+    }
+
+    /// The grid it was built on.
+    pub fn grid(&self) -> &Grid {
+        &self.grid
+    }
+
+    /// The rung tolerances, decreasing, the last 0.
+    pub fn ladder(&self) -> &[f64] {
+        &self.ladder
+    }
+
+    /// What it stores.
+    pub fn counts(&self) -> Counts {
+        let of = |kind| self.records.iter().filter(|r| r.kind == kind).count();
+        Counts {
+            active: of(ACTIVE),
+            creation: of(CREATION),
+            relevant: of(RELEVANT),
+            crossings: self.crossings.len(),
+            orphans: self.orphans.len(),
+        }
+    }
+
+    /// The rung a query at `tolerance` uses: the first whose tolerance is at most `tolerance`.
+    pub fn rung(&self, tolerance: f64) -> Result<usize> {
+        if !tolerance.is_finite() || tolerance < 0.0 {
+            return Err(Error::Parameter(format!(
+                "the tolerance must be a finite number ≥ 0 (got {tolerance})"
+            )));
+        }
+        Ok(self
+            .ladder
+            .iter()
+            .position(|&t| t <= tolerance)
+            .expect("the last rung is 0"))
+    }
+
+    /// The leaves of the mesh at `rung` whose patch is not empty, by selective refinement from the
+    /// roots (module documentation).
+    fn leaves(&self, rung: usize) -> Vec<Tet> {
+        let lattice = &self.lattice;
+        let active = |t: &Tet| self.target.active(t.map(|p| self.class(p)));
+        let mut out = Vec::new();
+        let root = Diamond::root(lattice);
+        let mut stack: Vec<Diamond> = Vec::new();
+        match self.split(root, rung) {
+            Some(true) => stack.push(root),
+            Some(false) => out.extend(root.tets(lattice).into_iter().filter(active)),
+            None => {}
+        }
+        if self.model == Model::Minimal {
+            stack.extend(
+                (self.records.iter())
+                    .filter(|r| r.kind == CREATION && r.split >> rung & 1 == 1)
+                    .map(|r| Diamond::new(point(lattice, r.key))),
+            );
+        }
+        let mut seen: FxHashSet<Diamond> = stack.iter().copied().collect();
+        while let Some(d) = stack.pop() {
+            for t in d.tets(lattice).iter().flat_map(bisect) {
+                if active(&t)
+                    && Diamond::of_tet(&t).is_none_or(|c| self.split(c, rung) != Some(true))
+                {
+                    out.push(t);
+                }
+            }
+            for c in d.children(lattice) {
+                if self.split(c, rung) == Some(true) && seen.insert(c) {
+                    stack.push(c);
+                }
+            }
+        }
+        out
+    }
+
+    /// The world position of a grid point.
+    fn world(&self, i: u32) -> DVec3 {
+        DVec3::from(self.grid.point(self.grid.ijk(i as usize)))
+    }
+
+    /// The position of the crossing of edge `(i, j)` (`i < j`) at level index `l`.
+    fn crossing(&self, i: u32, j: u32, l: u8) -> (DVec3, f64) {
+        let t = self.points.get(&(i, j, l)).map_or(0.5, |&q| dequantise(q));
+        let (a, b) = (self.world(i), self.world(j));
+        (a + t * (b - a), t)
+    }
+
+    /// The isosurface at `tolerance` (at the rung [`Isodiamonds::rung`] picks): marching tetrahedra
+    /// on the leaves, as [`crate::isosurface::extract`] draws it at that rung (same triangles on the
+    /// same edges; points within 1/512 of their edge). No normals; [`IsoSurface::error_bound`] is
+    /// the rung's tolerance (the full hierarchy's bound there).
+    pub fn isosurface(&self, tolerance: f64) -> Result<IsoSurface> {
+        let Target::Isosurface(_) = self.target else {
+            return Err(Error::Parameter(
+                "this isodiamond hierarchy encodes an interval volume, not an isosurface".into(),
+            ));
+        };
+        let rung = self.rung(tolerance)?;
+        let leaves = self.leaves(rung);
+        let (mut surface, _) = marching_with_sources(&OnClasses(self), &leaves, false)?;
+        surface.error_bound = self.ladder[rung];
+        Ok(surface)
+    }
+
+    /// The interval volume at `tolerance` (at the rung [`Isodiamonds::rung`] picks): every leaf
+    /// clipped as [`crate::interval::extract`] clips it at that rung (same tetrahedra on the same
+    /// points; new points within 1/512 of their edge). `values` is empty (no field values are
+    /// stored); `error_bound` and `tolerance` are the rung's.
+    pub fn interval_volume(&self, tolerance: f64) -> Result<IntervalVolume> {
+        let Target::IntervalVolume(range) = self.target else {
+            return Err(Error::Parameter(
+                "this isodiamond hierarchy encodes an isosurface, not an interval volume".into(),
+            ));
+        };
+        let rung = self.rung(tolerance)?;
+        let lattice = self.lattice;
+        let patches: Vec<interval::Patch> = (self.leaves(rung).par_iter())
+            .filter_map(|t| {
+                let ids = t.map(|p| self.grid_index(p));
+                let f = t.map(|p| self.class(p) as f64);
+                let mut out = Vec::new();
+                clip(ids, f, [1.0, 3.0], &mut out);
+                (!out.is_empty()).then(|| (out, interval::depth(&lattice, t)))
+            })
+            .collect();
+        let place = |(i, j, level): PointKey| {
+            if level == SAMPLE {
+                return (self.world(i), 0.0, 0.0);
+            }
+            let (p, w) = self.crossing(i, j, level - ALPHA);
+            (p, w, range[(level - ALPHA) as usize])
+        };
+        let mut result = interval::assemble(&patches, place)?;
+        result.values = Vec::new();
+        result.tolerance = self.ladder[rung];
+        result.error_bound = self.ladder[rung];
+        Ok(result)
+    }
+}
+
+/// Marching tetrahedra on the classes of an isosurface hierarchy: the same polygons as on the
+/// values (the classes compare with 1 as the values with the isovalue), points at the crossings.
+struct OnClasses<'a>(&'a Isodiamonds);
+
+impl Marching for OnClasses<'_> {
+    fn levels(&self) -> &[f64] {
+        self.0.target.class_levels()
+    }
+
+    fn values(&self, t: &Tet) -> [f64; 4] {
+        t.map(|p| self.0.class(p) as f64)
+    }
+
+    fn index(&self, p: IVec3) -> u32 {
+        self.0.grid_index(p)
+    }
+
+    fn point(&self, (ia, ib, l): EdgeKey, _: bool) -> (DVec3, f64, Option<DVec3>) {
+        let h = self.0;
+        let v = h.target.levels()[l as usize];
+        let at = |i: u32| h.classes.get(&i) == Some(&1);
+        // An end that holds the isovalue is the point, as on the values.
+        let p = if at(ib) {
+            h.world(ib)
+        } else if at(ia) {
+            h.world(ia)
+        } else {
+            h.crossing(ia, ib, l as u8).0
+        };
+        (p, v, None)
+    }
+
+    fn tet_normal(&self, t: &Tet) -> DVec3 {
+        let p = t.map(|q| self.0.world(self.0.grid_index(q)));
+        let f = self.values(t);
+        let m = DMat3::from_cols(p[1] - p[0], p[2] - p[0], p[3] - p[0]);
+        (m.transpose().inverse() * DVec3::new(f[1] - f[0], f[2] - f[0], f[3] - f[0]))
+            .normalize_or_zero()
+    }
+}
