@@ -24,8 +24,9 @@
 //! full-resolution surface or volume. Each *crossing* (an edge of the hierarchy whose end classes
 //! lie strictly on both sides of a level, §5.1 "isovertices") is one byte, the position along the
 //! edge from its lower-index end quantised to 1/256 (at most 1/512 of the edge away); crossings are
-//! listed in the order of the isodiamond that creates their edge (its central vertex to each of its
-//! vertices) and found again from the classes, so they need no index. The MI hierarchy lacks some
+//! listed once each, as the edges of the active subdivided tetrahedra of the split isodiamonds (the
+//! tetrahedra every extraction takes its leaves from) in isodiamond order, and found again from the
+//! classes, so they need no index. The MI hierarchy lacks some
 //! ancestors whose central vertices are vertices of stored diamonds; their classes are stored as
 //! *orphan* vertices (§7.3 assigns them the spine's class; storing them is exact and costs about two
 //! bytes each). Encoding: [`Isodiamonds::to_bytes`].
@@ -528,49 +529,43 @@ impl Isodiamonds {
             .collect())
     }
 
-    /// The crossed edges and levels `(i, j, level)` (grid indices `i < j`, level index), in storage
-    /// order: the edges of the root's active tetrahedra, then for every isodiamond split at some
-    /// rung the edges from its central vertex in its active subdivided tetrahedra (§5.1: the edges
-    /// its subdivision creates that a patch can use).
+    /// The crossed edges and levels `(i, j, level)` (grid indices `i < j`, level index), each once,
+    /// in storage order: those of the root's active tetrahedra, then those of the active subdivided
+    /// tetrahedra of every isodiamond split at some rung, in isodiamond order (§5.1: the leaves of
+    /// any extraction are among these tetrahedra). An edge is listed where it first appears, not
+    /// with the diamond that creates it: that one may be neither active nor creation (its
+    /// tetrahedra through the edge may straddle a far face of the grid) and missing from an MI
+    /// hierarchy.
     fn crossing_edges(&self) -> Vec<(u32, u32, u8)> {
         let lattice = &self.lattice;
         let active = |t: &Tet| self.target.active(t.map(|p| self.class(p)));
-        let mut edges: Vec<(IVec3, IVec3)> = Vec::new();
         let root = Diamond::root(lattice);
+        let mut tets: Vec<Tet> = Vec::new();
         if self.index.contains_key(&key(lattice, root.center)) {
-            for t in root.tets(lattice).iter().filter(|t| active(t)) {
-                for (a, b) in [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)] {
-                    let e = (t[a].min(t[b]), t[a].max(t[b]));
-                    if !edges.contains(&e) {
-                        edges.push(e);
-                    }
-                }
-            }
-        }
-        for r in self.records.iter().filter(|r| r.split != 0) {
-            let d = Diamond::new(point(lattice, r.key));
-            let first = edges.len();
-            for t in d.tets(lattice).iter().flat_map(bisect).filter(active) {
-                for w in t.into_iter().filter(|&w| w != d.center) {
-                    if !edges[first..].contains(&(d.center, w)) {
-                        edges.push((d.center, w));
-                    }
-                }
-            }
+            tets.extend(root.tets(lattice).into_iter().filter(active));
         }
         let levels = self.target.class_levels();
+        let mut seen = FxHashSet::default();
         let mut out = Vec::new();
-        for (a, b) in edges {
-            let (ca, cb) = (self.class(a), self.class(b));
-            if ca == NONE || cb == NONE {
-                continue;
-            }
-            let (ia, ib) = (self.grid_index(a), self.grid_index(b));
-            for (l, &level) in levels.iter().enumerate() {
-                let (fa, fb) = (ca as f64, cb as f64);
-                if (fa < level && fb > level) || (fa > level && fb < level) {
-                    out.push((ia.min(ib), ia.max(ib), l as u8));
+        let mut add = |t: &Tet| {
+            for (a, b) in [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)] {
+                let (ca, cb) = (self.class(t[a]) as f64, self.class(t[b]) as f64);
+                let (ia, ib) = (self.grid_index(t[a]), self.grid_index(t[b]));
+                for (l, &level) in levels.iter().enumerate() {
+                    let key = (ia.min(ib), ia.max(ib), l as u8);
+                    if ((ca < level && cb > level) || (ca > level && cb < level))
+                        && seen.insert(key)
+                    {
+                        out.push(key);
+                    }
                 }
+            }
+        };
+        tets.iter().for_each(&mut add);
+        for r in self.records.iter().filter(|r| r.split != 0) {
+            let d = Diamond::new(point(lattice, r.key));
+            for t in d.tets(lattice).iter().flat_map(bisect).filter(active) {
+                add(&t);
             }
         }
         out
