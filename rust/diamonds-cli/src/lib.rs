@@ -9,6 +9,8 @@
 //! - [`write`]: `.vti`, `.vtu` and `.vtp` output through [`vtkxml`].
 //! - [`commands`]: the `tetra`, `iso`, `generate`, `verify` and `verify-surface` subcommands as library
 //!   functions.
+//! - [`isodiamonds`]: the `isodiamonds build` and `extract` subcommands (one isosurface or interval
+//!   volume as a relevant or minimal isodiamond hierarchy, `.isd`, extracted without the volume).
 //! - [`progressive`]: the `progressive encode` and `decode` subcommands (progressive tetrahedral
 //!   meshes of `.vtu` grids, streams valid at any prefix).
 //! - [`view`]: the `view` subcommand (a view-dependent mesh for a camera, optionally in exact
@@ -18,6 +20,7 @@
 
 pub mod commands;
 pub mod interval;
+pub mod isodiamonds;
 pub mod material;
 pub mod progressive;
 pub mod read;

@@ -1,11 +1,13 @@
 //! `diamonds`: adaptive tetrahedral meshes of volumes by longest-edge bisection (diamond hierarchies).
 
 use clap::{Parser, Subcommand};
+use diamonds::isodiamond::Target;
 use diamonds::view::{Camera, Direction, Metric};
 use diamonds_cli::commands::{
     self, Field, IsoOptions, IsoTolerance, SampleType, TetraOptions, DEFAULT_ISO_TOLERANCE,
 };
 use diamonds_cli::interval::{self, IntervalOptions};
+use diamonds_cli::isodiamonds;
 use diamonds_cli::material::{self, MaterialOptions, IMPACT_DIMS};
 use diamonds_cli::progressive;
 use diamonds_cli::view::{self, ViewOptions};
@@ -285,6 +287,11 @@ enum Command {
     /// mesh plus vertex splits, decode any level.
     #[command(subcommand)]
     Progressive(ProgressiveCommand),
+    /// Isodiamond hierarchies (Weiss & De Floriani sections 5-7): store one isosurface or interval
+    /// volume of a volume as the diamonds it needs (.isd), extract it at any tolerance without the
+    /// volume.
+    #[command(subcommand)]
+    Isodiamonds(IsodiamondsCommand),
     /// Check a mesh written by `tetra` against its volume, independently of the hierarchy.
     ///
     /// Checks that the cells are tetrahedra at input sample positions, conforming (every interior face
@@ -656,6 +663,42 @@ fn run(cli: Cli) -> diamonds_cli::Result<ExitCode> {
                 progressive::decode(&input, level.unwrap_or(usize::MAX), &output)?
             );
         }
+        Command::Isodiamonds(IsodiamondsCommand::Build {
+            input,
+            output,
+            isovalue,
+            range,
+            minimal,
+            array,
+            ladder,
+        }) => {
+            let target = match (isovalue, range) {
+                (Some(v), _) => Target::Isosurface(v),
+                (None, Some(r)) => Target::IntervalVolume([r[0], r[1]]),
+                (None, None) => unreachable!("clap requires one"),
+            };
+            let summary = isodiamonds::build(&isodiamonds::BuildOptions {
+                input,
+                output: output.clone(),
+                array,
+                target,
+                minimal,
+                ladder,
+            })?;
+            println!("{}: {summary}", output.display());
+        }
+        Command::Isodiamonds(IsodiamondsCommand::Extract {
+            input,
+            output,
+            tolerance,
+        }) => {
+            let summary = isodiamonds::extract(&isodiamonds::ExtractOptions {
+                input,
+                output: output.clone(),
+                tolerance: tolerance.get(),
+            })?;
+            println!("{}: {summary}", output.display());
+        }
         Command::Verify {
             input,
             mesh,
@@ -692,6 +735,60 @@ fn run(cli: Cli) -> diamonds_cli::Result<ExitCode> {
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+#[derive(Subcommand, Debug)]
+enum IsodiamondsCommand {
+    /// Build the relevant (RI, default) or minimal (MI, --minimal) isodiamond hierarchy of an
+    /// isosurface or interval volume of a volume (.vti or legacy .vtk) and write it (.isd).
+    ///
+    /// Stores, per isodiamond, its central vertex's class and whether the full hierarchy (`iso` or
+    /// `interval`) splits it at each rung of a ladder of tolerances (the rung 0 included), and one
+    /// byte per edge crossing; `extract` then gives, at a tolerance, the full hierarchy's surface
+    /// or volume at the finest rung not above it (points within 1/512 of their mesh edge).
+    Build {
+        /// Input image: VTK XML ImageData (.vti) or legacy VTK STRUCTURED_POINTS (.vtk).
+        input: PathBuf,
+        /// Output hierarchy (.isd).
+        output: PathBuf,
+        /// The isovalue of an isosurface.
+        #[arg(
+            long,
+            value_name = "V",
+            allow_negative_numbers = true,
+            conflicts_with = "range",
+            required_unless_present = "range"
+        )]
+        isovalue: Option<f64>,
+        /// The range A B of an interval volume {A <= f <= B}, A < B.
+        #[arg(
+            long,
+            num_args = 2,
+            allow_negative_numbers = true,
+            value_names = ["A", "B"]
+        )]
+        range: Option<Vec<f64>>,
+        /// The minimal hierarchy (active and creation isodiamonds only) instead of the relevant one.
+        #[arg(long)]
+        minimal: bool,
+        /// Point-data array [default: the active scalars, else the first single-component array].
+        #[arg(long, value_name = "NAME")]
+        array: Option<String>,
+        /// Rung tolerances as fractions of the image's diagonal, decreasing, at most 7 (the rung 0
+        /// is added) [default: 0.04,0.02,0.01,0.005,0.0025,0.00125,0.000625].
+        #[arg(long, value_delimiter = ',', value_name = "R,...")]
+        ladder: Option<Vec<f64>>,
+    },
+    /// Extract the isosurface (.vtp) or interval volume (.vtu) an isodiamond hierarchy (.isd) holds,
+    /// at a tolerance (the finest rung not above it), without the volume.
+    Extract {
+        /// Input hierarchy (.isd).
+        input: PathBuf,
+        /// Output: triangles (.vtp) for an isosurface, tetrahedra (.vtu) for an interval volume.
+        output: PathBuf,
+        #[command(flatten)]
+        tolerance: SurfaceTolerance,
+    },
 }
 
 #[derive(Subcommand, Debug)]
