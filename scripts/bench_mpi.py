@@ -33,10 +33,10 @@ CASE = {
 }[ISO]
 HEADING, TOLERANCE, CELLS, COUNT, PER_RANK = CASE
 REPEATS = 2
-ISO_NOTE = ("Every rank with a piece fetches the points it does not hold (per point an 8-byte id asked for and "
-            "its sample sent back) and runs the whole serial extraction, then writes its share: exact, but no "
+ISO_NOTE = ("Every rank with a piece gathers the whole image (one all-gather of each rank's piece, "
+            "`Pieces::GatherWhole`) and runs the whole serial extraction, then writes its share: exact, but no "
             "speed-up and the whole image on every rank (see *Across MPI pieces* in docs/ARCHITECTURE.md); a "
-            "second query with the same input fetches nothing.")
+            "second query with the same input gathers nothing.")
 
 
 def measure():
