@@ -30,6 +30,7 @@ SHARED = os.path.join(ROOT, "..", "shared")
 HEADING = "## Progressive Tetrahedral Mesh (issue 15)"
 BONSAI_TETS = os.path.join(ROOT, "build", "bench", "bonsai_tolerance8.vtu")
 REDUCTIONS = (0.5, 0.9, 0.99)
+LOAD = os.getloadavg()  # at the start of the run, for the report
 # name, file, array, isovalue for the isosurface timings, repeats
 CASES = [
     ("blunt fin", os.path.join(SHARED, "data", "tets", "bluntfin_tets.vtu"), "Density", 1.0, 2),
@@ -267,8 +268,9 @@ def report(cases):
              "boundary moved) at the nearest point of the result's boundary surface, interpolated there; ours also "
              "reports the maximum it tracks over the "
              "removed vertices in field data (in brackets; an upper bound of the measured one). Hausdorff: boundary "
-             "surfaces, both ways, world units. Measured on the shared 2-core machine under the other sessions' "
-             "builds (load 6-11): seconds are upper bounds and their ratios noisy.", ""]
+             "surfaces, both ways, world units. Measured on the 2-core machine at a load average of "
+             f"{LOAD[0]:.1f} (start) to {os.getloadavg()[0]:.1f} (end of the run): the higher, the noisier the "
+             "seconds and their ratios.", ""]
     for name, runs, probed, streamed in cases:
         ours = runs["ours"]
         vtk = runs["vtk"]
