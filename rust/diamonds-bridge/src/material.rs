@@ -420,23 +420,35 @@ impl MaterialMesh {
     }
 
     fn interfaces_of(&self, owner: Option<&PositionOwner>) -> Result<Box<PolygonMesh>, String> {
-        let whole = self.mesh.interface_polygons();
-        let (polygons, global_ids) = match owner {
-            Some(o) => whole.piece(o),
-            None => (whole, Vec::new()),
-        };
-        check_core(check_polygon_arrays(
-            &polygons,
-            self.mesh.materials,
-            false,
-            0,
-        ))?;
+        let (polygons, global_ids) = self.share(self.mesh.interface_polygons(), owner, false)?;
         let arrays = OutputArrays::new(outputs::interface_arrays(&self.mesh, &polygons));
         Ok(Box::new(PolygonMesh {
             polygons,
             arrays,
             global_ids,
         }))
+    }
+
+    /// `whole` (interfaces, or the cut when `cut`), or the share of it `owner` owns with global
+    /// point ids, checked as C++ will index it.
+    fn share(
+        &self,
+        whole: material::PolygonMesh,
+        owner: Option<&PositionOwner>,
+        cut: bool,
+    ) -> Result<(material::PolygonMesh, Vec<u64>), String> {
+        let (polygons, global_ids) = match owner {
+            Some(o) => whole.piece(o),
+            None => (whole, Vec::new()),
+        };
+        let fields = if cut { self.mesh.fields } else { 0 };
+        check_core(check_polygon_arrays(
+            &polygons,
+            self.mesh.materials,
+            cut,
+            fields,
+        ))?;
+        Ok((polygons, global_ids))
     }
 
     /// The cut by `plane`, labelled by material, with each field (named by `fields`) of the
@@ -472,16 +484,7 @@ impl MaterialMesh {
             .mesh
             .slice(plane.origin, plane.normal)
             .map_err(|e| e.to_string())?;
-        let (polygons, global_ids) = match owner {
-            Some(o) => whole.piece(o),
-            None => (whole, Vec::new()),
-        };
-        check_core(check_polygon_arrays(
-            &polygons,
-            self.mesh.materials,
-            true,
-            self.mesh.fields,
-        ))?;
+        let (polygons, global_ids) = self.share(whole, owner, true)?;
         let arrays = OutputArrays::new(outputs::slice_arrays(
             &polygons,
             fields,

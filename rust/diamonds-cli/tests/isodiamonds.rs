@@ -10,24 +10,11 @@ mod common;
 
 use common::{diamonds, field_value, s, shared_volumes, TempDir};
 use diamonds::isodiamond::{self, Model, Target};
-use diamonds::validate::{check_interval_volume, check_surface};
+use diamonds::validate::{canonical_triangles, check_interval_volume, check_surface};
 use diamonds::{interval, isosurface, Hierarchy, IsoQuery};
 use diamonds_cli::read::{read_image, read_polydata, read_unstructured, tetrahedra};
 use diamonds_cli::AsScalarSlice;
 use std::path::Path;
-
-/// Triangles as sorted rotations (smallest index first), sorted.
-fn canonical(triangles: &[[u32; 3]]) -> Vec<[u32; 3]> {
-    let mut out: Vec<[u32; 3]> = triangles
-        .iter()
-        .map(|t| {
-            let k = (0..3).min_by_key(|&k| t[k]).unwrap();
-            [t[k], t[(k + 1) % 3], t[(k + 2) % 3]]
-        })
-        .collect();
-    out.sort_unstable();
-    out
-}
 
 fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
     (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt()
@@ -128,8 +115,8 @@ fn isosurfaces_from_isd_files_are_iso_surfaces() {
             let what = format!("minimal {minimal} at {asked}");
             assert_eq!(got.points.len(), want.points.len(), "{what}");
             assert_eq!(
-                canonical(&got_triangles),
-                canonical(&want_triangles),
+                canonical_triangles(&got_triangles),
+                canonical_triangles(&want_triangles),
                 "{what}"
             );
             for (p, q) in got.points.iter().zip(&want.points) {
@@ -311,8 +298,8 @@ fn shared_volumes_equal_the_full_hierarchy() {
                             assert!(!full.triangles.is_empty(), "{what}");
                             assert_eq!(got.points.len(), full.points.len(), "{what}");
                             assert_eq!(
-                                canonical(&got.triangles),
-                                canonical(&full.triangles),
+                                canonical_triangles(&got.triangles),
+                                canonical_triangles(&full.triangles),
                                 "{what}"
                             );
                             check_surface(&got.points, &got.triangles, Some(grid.bounds()))

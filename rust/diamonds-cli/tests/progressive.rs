@@ -13,7 +13,7 @@ mod common;
 use common::{diamonds, field_value, s, shared_file, TempDir};
 use diamonds::geometry::{point_triangle_distance, triangle_samples, triangle_tree};
 use diamonds::progressive::{simplify, Params, Replay, TetInput};
-use diamonds::validate::check_manifold_tets;
+use diamonds::validate::{boundary_faces, check_manifold_tets};
 use diamonds_cli::read::{read_unstructured, tetrahedra, Unstructured};
 use diamonds_cli::Values;
 use glam::DVec3;
@@ -333,27 +333,6 @@ fn barycentric(x: [[f64; 3]; 4], p: [f64; 3]) -> [f64; 4] {
     let d = det(e1, e2, e3);
     let (l1, l2, l3) = (det(q, e2, e3) / d, det(e1, q, e3) / d, det(e1, e2, q) / d);
     [1.0 - l1 - l2 - l3, l1, l2, l3]
-}
-
-/// The boundary faces of `tets` (corners as in their tetrahedron).
-fn boundary_faces(tets: &[[u32; 4]]) -> Vec<[u32; 3]> {
-    let mut faces: Vec<([u32; 3], [u32; 3])> = tets
-        .iter()
-        .flat_map(|t| {
-            [[0, 1, 2], [0, 1, 3], [0, 2, 3], [1, 2, 3]].map(|f| {
-                let c = f.map(|k| t[k]);
-                let mut key = c;
-                key.sort_unstable();
-                (key, c)
-            })
-        })
-        .collect();
-    faces.sort_unstable();
-    faces
-        .chunk_by(|a, b| a.0 == b.0)
-        .filter(|g| g.len() == 1)
-        .map(|g| g[0].1)
-        .collect()
 }
 
 /// Simplifies `path` as the filter does (the whole sequence) and checks the levels of 50, 90 and

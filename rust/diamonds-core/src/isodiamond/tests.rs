@@ -1,6 +1,6 @@
 use super::*;
 use crate::fields::{marschner_lobb, sample, sphere_distance, torus_distance, unit_grid};
-use crate::validate::{check_interval_volume, check_surface};
+use crate::validate::{canonical_triangles, check_interval_volume, check_surface};
 use crate::{interval, isosurface};
 
 fn hierarchy(grid: Grid, values: &[f32]) -> Hierarchy {
@@ -35,19 +35,6 @@ fn ladder(grid: &Grid) -> Vec<f64> {
     [0.04, 0.01, 0.0025].map(|f| f * grid.diagonal()).to_vec()
 }
 
-/// Triangles as sorted rotations (smallest index first), sorted.
-fn canonical(triangles: &[[u32; 3]]) -> Vec<[u32; 3]> {
-    let mut out: Vec<[u32; 3]> = triangles
-        .iter()
-        .map(|t| {
-            let k = (0..3).min_by_key(|&k| t[k]).unwrap();
-            [t[k], t[(k + 1) % 3], t[(k + 2) % 3]]
-        })
-        .collect();
-    out.sort_unstable();
-    out
-}
-
 fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
     DVec3::from(a).distance(DVec3::from(b))
 }
@@ -58,8 +45,8 @@ fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
 fn assert_same_surface(h: &Isodiamonds, full: &IsoSurface, got: &IsoSurface, what: &str) {
     assert_eq!(got.points.len(), full.points.len(), "{what}: points");
     assert_eq!(
-        canonical(&got.triangles),
-        canonical(&full.triangles),
+        canonical_triangles(&got.triangles),
+        canonical_triangles(&full.triangles),
         "{what}: triangles"
     );
     assert_eq!(got.values, full.values, "{what}: values");

@@ -3,7 +3,7 @@
 //! here by brute-force point location), replay equal to direct simplification, stops, bad input.
 
 use super::*;
-use crate::validate::check_manifold_tets;
+use crate::validate::{boundary_faces, check_manifold_tets};
 use crate::Error;
 use glam::DVec3;
 
@@ -123,23 +123,7 @@ fn measured_errors(g: &Generated, pm: &ProgressiveMesh, l: usize) -> (Vec<f64>, 
     let (points, tets, ids) = level(pm, l);
     let x = |t: &[u32; 4]| t.map(|v| DVec3::from_array(points[v as usize]));
     let value = |k: u32| g.scalars[ids[k as usize] as usize];
-    let mut faces: Vec<([u32; 3], [u32; 3])> = tets
-        .iter()
-        .flat_map(|t| {
-            [[0, 1, 2], [0, 1, 3], [0, 2, 3], [1, 2, 3]].map(|f| {
-                let c = f.map(|k| t[k]);
-                let mut key = c;
-                key.sort_unstable();
-                (key, c)
-            })
-        })
-        .collect();
-    faces.sort_unstable();
-    let boundary: Vec<[u32; 3]> = faces
-        .chunk_by(|a, b| a.0 == b.0)
-        .filter(|f| f.len() == 1)
-        .map(|f| f[0].1)
-        .collect();
+    let boundary = boundary_faces(&tets);
     let mut kept = vec![false; g.points.len()];
     for &v in &ids {
         kept[v as usize] = true;

@@ -16,7 +16,8 @@
 //! The `check_*_arrays` functions are *structural*: lengths and index ranges, what C++ relies on when it
 //! indexes VTK arrays with a result. They are cheap and the bridge runs them on every result it hands
 //! over. The others are *geometric* and used by the tests and the CLI's `verify` and `verify-surface`.
-//! Every check returns `Err` with a message naming the first violation found.
+//! Every check returns `Err` with a message naming the first violation found. Two helpers put meshes in a
+//! comparable form for tests: [`canonical_triangles`] and [`boundary_faces`].
 
 pub mod hausdorff;
 pub mod polygons;
@@ -26,10 +27,13 @@ pub mod visibility;
 
 pub use hausdorff::{surface_distances, Farthest, SurfaceDistances};
 pub use polygons::{check_crack_free, check_polygon_arrays};
-pub use surfaces::{check_isosurface_arrays, check_surface, check_unit_normals, SurfaceReport};
+pub use surfaces::{
+    canonical_triangles, check_isosurface_arrays, check_surface, check_unit_normals, SurfaceReport,
+};
 pub use tetrahedra::{
-    check_conforming, check_interval_arrays, check_interval_volume, check_manifold_tets,
-    check_material_mesh_arrays, check_mesh, check_mesh_arrays, check_tolerance, MeshReport,
+    boundary_faces, check_conforming, check_interval_arrays, check_interval_volume,
+    check_manifold_tets, check_material_mesh_arrays, check_mesh, check_mesh_arrays,
+    check_tolerance, MeshReport,
 };
 pub use visibility::{check_back_to_front, VisibilityReport};
 

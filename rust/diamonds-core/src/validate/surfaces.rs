@@ -97,6 +97,20 @@ pub fn check_surface(
     })
 }
 
+/// Triangles in a canonical form for comparing two surfaces on the same points: each rotated so
+/// its smallest index comes first (orientation kept), then sorted.
+pub fn canonical_triangles(triangles: &[[u32; 3]]) -> Vec<[u32; 3]> {
+    let mut out: Vec<[u32; 3]> = triangles
+        .iter()
+        .map(|t| {
+            let k = (0..3).min_by_key(|&k| t[k]).unwrap_or(0);
+            [t[k], t[(k + 1) % 3], t[(k + 2) % 3]]
+        })
+        .collect();
+    out.sort_unstable();
+    out
+}
+
 /// Checks that every normal has length 1 within `slack` (and is finite); returns how many there are.
 pub fn check_unit_normals(
     normals: impl IntoIterator<Item = [f64; 3]>,

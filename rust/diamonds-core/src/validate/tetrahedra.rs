@@ -236,6 +236,29 @@ pub fn check_interval_volume(
     })
 }
 
+/// The faces of `tets` used by only one of them, each with its corners in its tetrahedron's order
+/// (faces 012, 013, 023, 123), sorted by their sorted corners. A test helper: the boundary surface of
+/// a mesh that may not fill a box (a simplified mesh, an interval volume).
+pub fn boundary_faces(tets: &[[u32; 4]]) -> Vec<[u32; 3]> {
+    let mut faces: Vec<([u32; 3], [u32; 3])> = tets
+        .iter()
+        .flat_map(|t| {
+            [[0, 1, 2], [0, 1, 3], [0, 2, 3], [1, 2, 3]].map(|f| {
+                let corners = f.map(|k| t[k]);
+                let mut key = corners;
+                key.sort_unstable();
+                (key, corners)
+            })
+        })
+        .collect();
+    faces.sort_unstable();
+    faces
+        .chunk_by(|a, b| a.0 == b.0)
+        .filter(|g| g.len() == 1)
+        .map(|g| g[0].1)
+        .collect()
+}
+
 /// Checks that every face of `tets` (corners sorted) is shared by two of them, or by one when
 /// `on_boundary` says it lies on the boundary of the domain; `describe` names a face in the message.
 /// Returns the numbers of interior and boundary faces.
