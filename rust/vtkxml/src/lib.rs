@@ -30,6 +30,24 @@ macro_rules! bail {
     };
 }
 
+/// `$body` with `$v` bound to the vector of any variant of `$values`.
+macro_rules! with_values {
+    ($values:expr, $v:ident => $body:expr) => {
+        match $values {
+            $crate::Values::I8($v) => $body,
+            $crate::Values::U8($v) => $body,
+            $crate::Values::I16($v) => $body,
+            $crate::Values::U16($v) => $body,
+            $crate::Values::I32($v) => $body,
+            $crate::Values::U32($v) => $body,
+            $crate::Values::I64($v) => $body,
+            $crate::Values::U64($v) => $body,
+            $crate::Values::F32($v) => $body,
+            $crate::Values::F64($v) => $body,
+        }
+    };
+}
+
 mod read;
 mod write;
 
@@ -74,24 +92,6 @@ pub enum Values {
     U64(Vec<u64>),
     F32(Vec<f32>),
     F64(Vec<f64>),
-}
-
-/// `$body` with `$v` bound to the vector of any variant of `$values`.
-macro_rules! with_values {
-    ($values:expr, $v:ident => $body:expr) => {
-        match $values {
-            Values::I8($v) => $body,
-            Values::U8($v) => $body,
-            Values::I16($v) => $body,
-            Values::U16($v) => $body,
-            Values::I32($v) => $body,
-            Values::U32($v) => $body,
-            Values::I64($v) => $body,
-            Values::U64($v) => $body,
-            Values::F32($v) => $body,
-            Values::F64($v) => $body,
-        }
-    };
 }
 
 macro_rules! values_from {

@@ -176,6 +176,101 @@ fn written_meshes_read_back_exactly() {
     assert_eq!(mesh.field_data, field_data);
 }
 
+/// Arrays of several compressed blocks (256 KiB each, streamed a batch at a time) of every value
+/// size read back exactly, and so do the offsets of the arrays after them.
+#[test]
+fn written_meshes_of_many_blocks_read_back_exactly() {
+    let dir = tempfile::tempdir().unwrap();
+    let n = 200_003; // points: 4.6 MB of Float64, 19 blocks; connectivity 3.2 MB
+    let points: Vec<[f64; 3]> = (0..n)
+        .map(|i| {
+            let x = i as f64;
+            [x.sin(), x.cos() * 1e3, x / 7.0]
+        })
+        .collect();
+    let tets: Vec<[u32; 4]> = (0..n as u32 - 3)
+        .map(|i| [i, i + 1, i + 2, i + 3])
+        .collect();
+    let point_data = vec![
+        Array::scalars(
+            "u8",
+            (0..n).map(|i| (i * 7 % 251) as u8).collect::<Vec<_>>(),
+        ),
+        Array::scalars(
+            "i16",
+            (0..n).map(|i| (i % 60_000) as i16).collect::<Vec<_>>(),
+        ),
+    ];
+    let cell_data = vec![Array::scalars(
+        "f32",
+        (0..tets.len()).map(|i| i as f32 * 0.5).collect::<Vec<_>>(),
+    )];
+    let path = dir.path().join("many.vtu");
+    write_tets(
+        &path,
+        TetGrid {
+            points: &points,
+            tets: &tets,
+            point_data: point_data.clone(),
+            cell_data: cell_data.clone(),
+            field_data: Vec::new(),
+        },
+    )
+    .unwrap();
+    let mesh = read_unstructured(&path).unwrap();
+    assert_eq!(mesh.points, points);
+    let flat: Vec<usize> = tets.iter().flatten().map(|&v| v as usize).collect();
+    assert_eq!(mesh.connectivity, flat);
+    assert_eq!(
+        mesh.offsets,
+        (1..=tets.len()).map(|c| 4 * c).collect::<Vec<_>>()
+    );
+    assert!(mesh.types.iter().all(|&t| t == 10));
+    assert_eq!(mesh.types.len(), tets.len());
+    assert_eq!(mesh.point_data, point_data);
+    assert_eq!(mesh.cell_data, cell_data);
+    // Nothing but the file itself is left in the directory.
+    let names: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(names, ["many.vtu"]);
+}
+
+/// A write that fails (here: an array whose length does not match, or a directory that does not
+/// exist) leaves an earlier file at the path as it was, and no partial file.
+#[test]
+fn failed_writes_leave_earlier_files_untouched() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("kept.vtu");
+    std::fs::write(&path, b"earlier").unwrap();
+    let points = [[0.0; 3]; 4];
+    let bad = TetGrid {
+        points: &points,
+        tets: &[[0, 1, 2, 3]],
+        point_data: vec![Array::scalars("short", vec![1u8, 2])],
+        cell_data: Vec::new(),
+        field_data: Vec::new(),
+    };
+    assert!(write_tets(&path, bad).is_err());
+    assert_eq!(std::fs::read(&path).unwrap(), b"earlier");
+    let missing = dir.path().join("no such directory").join("mesh.vtu");
+    let grid = TetGrid {
+        points: &points,
+        tets: &[[0, 1, 2, 3]],
+        point_data: Vec::new(),
+        cell_data: Vec::new(),
+        field_data: Vec::new(),
+    };
+    let err = write_tets(&missing, grid).unwrap_err();
+    assert!(err.0.contains("cannot write"), "{err}");
+    let names: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(names, ["kept.vtu"]);
+}
+
 #[test]
 fn vtk_written_surfaces_read_the_same() {
     let ascii = read_polydata(&fixture("surface_ascii.vtp")).unwrap();
