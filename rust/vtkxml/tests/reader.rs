@@ -230,11 +230,15 @@ fn written_meshes_of_many_blocks_read_back_exactly() {
     assert_eq!(mesh.point_data, point_data);
     assert_eq!(mesh.cell_data, cell_data);
     // Nothing but the file itself is left in the directory.
-    let names: Vec<_> = std::fs::read_dir(dir.path())
+    assert_eq!(file_names(dir.path()), ["many.vtu"]);
+}
+
+/// The names of the files in `dir`.
+fn file_names(dir: &std::path::Path) -> Vec<std::ffi::OsString> {
+    std::fs::read_dir(dir)
         .unwrap()
         .map(|e| e.unwrap().file_name())
-        .collect();
-    assert_eq!(names, ["many.vtu"]);
+        .collect()
 }
 
 /// A write that fails (here: an array whose length does not match, or a directory that does not
@@ -245,30 +249,20 @@ fn failed_writes_leave_earlier_files_untouched() {
     let path = dir.path().join("kept.vtu");
     std::fs::write(&path, b"earlier").unwrap();
     let points = [[0.0; 3]; 4];
-    let bad = TetGrid {
+    let grid = |point_data| TetGrid {
         points: &points,
         tets: &[[0, 1, 2, 3]],
-        point_data: vec![Array::scalars("short", vec![1u8, 2])],
+        point_data,
         cell_data: Vec::new(),
         field_data: Vec::new(),
     };
-    assert!(write_tets(&path, bad).is_err());
+    let short = vec![Array::scalars("short", vec![1u8, 2])];
+    assert!(write_tets(&path, grid(short)).is_err());
     assert_eq!(std::fs::read(&path).unwrap(), b"earlier");
     let missing = dir.path().join("no such directory").join("mesh.vtu");
-    let grid = TetGrid {
-        points: &points,
-        tets: &[[0, 1, 2, 3]],
-        point_data: Vec::new(),
-        cell_data: Vec::new(),
-        field_data: Vec::new(),
-    };
-    let err = write_tets(&missing, grid).unwrap_err();
+    let err = write_tets(&missing, grid(Vec::new())).unwrap_err();
     assert!(err.0.contains("cannot write"), "{err}");
-    let names: Vec<_> = std::fs::read_dir(dir.path())
-        .unwrap()
-        .map(|e| e.unwrap().file_name())
-        .collect();
-    assert_eq!(names, ["kept.vtu"]);
+    assert_eq!(file_names(dir.path()), ["kept.vtu"]);
 }
 
 #[test]
