@@ -134,6 +134,36 @@ fn written_images_read_back_exactly() {
     assert_eq!(image.active_scalars.as_deref(), Some("u8"));
 }
 
+/// Writes a tetrahedral mesh to `path` and checks that it reads back exactly.
+fn assert_mesh_round_trip(
+    path: &std::path::Path,
+    points: &[[f64; 3]],
+    tets: &[[u32; 4]],
+    [point_data, cell_data, field_data]: [Vec<Array>; 3],
+) {
+    write_tets(
+        path,
+        TetGrid {
+            points,
+            tets,
+            point_data: point_data.clone(),
+            cell_data: cell_data.clone(),
+            field_data: field_data.clone(),
+        },
+    )
+    .unwrap();
+    let mesh = read_unstructured(path).unwrap();
+    assert_eq!(mesh.points, points);
+    let corners: Vec<usize> = tets.iter().flatten().map(|&v| v as usize).collect();
+    assert_eq!(mesh.connectivity, corners);
+    let offsets: Vec<usize> = (1..=tets.len()).map(|c| 4 * c).collect();
+    assert_eq!(mesh.offsets, offsets);
+    assert_eq!(mesh.types, vec![10; tets.len()]);
+    assert_eq!(mesh.point_data, point_data);
+    assert_eq!(mesh.cell_data, cell_data);
+    assert_eq!(mesh.field_data, field_data);
+}
+
 #[test]
 fn written_meshes_read_back_exactly() {
     let dir = tempfile::tempdir().unwrap();
@@ -144,7 +174,6 @@ fn written_meshes_read_back_exactly() {
         [0.0, 0.0, 1.0],
         [1.0, 1.0, 1.0],
     ];
-    let tets = [[0, 1, 2, 3], [1, 4, 2, 3]];
     let point_data = vec![Array::scalars("value", vec![1u8, 2, 3, 4, 5])];
     let cell_data = vec![
         Array::scalars("BisectionDepth", vec![3u8, 4]),
@@ -155,25 +184,8 @@ fn written_meshes_read_back_exactly() {
         Array::scalars("NumberOfTetrahedra", vec![2i64]),
     ];
     let path = dir.path().join("mesh.vtu");
-    write_tets(
-        &path,
-        TetGrid {
-            points: &points,
-            tets: &tets,
-            point_data: point_data.clone(),
-            cell_data: cell_data.clone(),
-            field_data: field_data.clone(),
-        },
-    )
-    .unwrap();
-    let mesh = read_unstructured(&path).unwrap();
-    assert_eq!(mesh.points, points);
-    assert_eq!(mesh.connectivity, [0, 1, 2, 3, 1, 4, 2, 3]);
-    assert_eq!(mesh.offsets, [4, 8]);
-    assert_eq!(mesh.types, [10, 10]);
-    assert_eq!(mesh.point_data, point_data);
-    assert_eq!(mesh.cell_data, cell_data);
-    assert_eq!(mesh.field_data, field_data);
+    let tets = [[0, 1, 2, 3], [1, 4, 2, 3]];
+    assert_mesh_round_trip(&path, &points, &tets, [point_data, cell_data, field_data]);
 }
 
 /// Arrays of several compressed blocks (256 KiB each, streamed a batch at a time) of every value
@@ -206,29 +218,7 @@ fn written_meshes_of_many_blocks_read_back_exactly() {
         (0..tets.len()).map(|i| i as f32 * 0.5).collect::<Vec<_>>(),
     )];
     let path = dir.path().join("many.vtu");
-    write_tets(
-        &path,
-        TetGrid {
-            points: &points,
-            tets: &tets,
-            point_data: point_data.clone(),
-            cell_data: cell_data.clone(),
-            field_data: Vec::new(),
-        },
-    )
-    .unwrap();
-    let mesh = read_unstructured(&path).unwrap();
-    assert_eq!(mesh.points, points);
-    let flat: Vec<usize> = tets.iter().flatten().map(|&v| v as usize).collect();
-    assert_eq!(mesh.connectivity, flat);
-    assert_eq!(
-        mesh.offsets,
-        (1..=tets.len()).map(|c| 4 * c).collect::<Vec<_>>()
-    );
-    assert!(mesh.types.iter().all(|&t| t == 10));
-    assert_eq!(mesh.types.len(), tets.len());
-    assert_eq!(mesh.point_data, point_data);
-    assert_eq!(mesh.cell_data, cell_data);
+    assert_mesh_round_trip(&path, &points, &tets, [point_data, cell_data, Vec::new()]);
     // Nothing but the file itself is left in the directory.
     assert_eq!(file_names(dir.path()), ["many.vtu"]);
 }
