@@ -349,6 +349,39 @@ def _max_interpolation_error(ijk, tets, lin, samples, dims, region, image):
     return worst, bool(covered.all()), int(in_region.sum())
 
 
+def material_sample_errors(image, ug, labels, own, values, chunk=50000):
+    """Whether every sample of `image` lies in a tetrahedron of `ug`, and the largest deviation of a
+    sample's value from the linear interpolation of its own material's vertex values (`own[m]`) over
+    every tetrahedron holding it (samples found by bounding box, barycentric coordinates): the field
+    bound of Material Interface Approximation at every sample, checked without the core."""
+    points, tets, _ = mesh_arrays(ug)
+    dims, origin, spacing = (np.array(v, dtype=np.float64) for v in (image.GetDimensions(), image.GetOrigin(), image.GetSpacing()))
+    u = (points - origin) / spacing  # sample index coordinates: barycentric coordinates are affine-invariant
+    covered = np.zeros(int(np.prod(dims)), bool)
+    worst = 0.0
+    for start in range(0, len(tets), chunk):
+        tt = tets[start : start + chunk]
+        V = u[tt]
+        lo = np.clip(np.ceil(V.min(axis=1) - 1e-6), 0, dims - 1).astype(np.int64)
+        ext = np.maximum(np.clip(np.floor(V.max(axis=1) + 1e-6), 0, dims - 1).astype(np.int64) - lo + 1, 0)
+        count = np.prod(ext, axis=1)
+        which = np.repeat(np.arange(len(tt)), count)
+        local = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
+        e = ext[which]
+        ijk = lo[which] + np.stack([local % e[:, 0], (local // e[:, 0]) % e[:, 1], local // (e[:, 0] * e[:, 1])], axis=1)
+        inv = np.linalg.inv(np.transpose(V[:, 1:] - V[:, :1], (0, 2, 1)))
+        l123 = np.einsum("nij,nj->ni", inv[which], ijk - V[which, 0])
+        lam = np.concatenate([1.0 - l123.sum(axis=1, keepdims=True), l123], axis=1)
+        inside = (lam >= -1e-7).all(axis=1)
+        which, ijk, lam = which[inside], ijk[inside], lam[inside]
+        s = ijk[:, 0] + int(dims[0]) * (ijk[:, 1] + int(dims[1]) * ijk[:, 2])
+        covered[s] = True
+        vertex_values = own[labels[s][:, None], tt[which]]
+        if len(s):
+            worst = max(worst, float(np.abs((lam * vertex_values).sum(axis=1) - values[s]).max()))
+    return bool(covered.all()), worst
+
+
 def programmable_image(simple, dims, script_body, origin=(0.0, 0.0, 0.0), spacing=(1.0, 1.0, 1.0)):
     """A ProgrammableSource producing a vtkImageData of `dims` points; `script_body` fills `out`
     (a vtkImageData already sized) using numpy; `x, y, z` are the point coordinates (x fastest)."""

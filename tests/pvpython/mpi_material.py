@@ -39,7 +39,7 @@ import diamonds_checks as dc  # noqa: E402
 from paraview import servermanager  # noqa: E402
 from vtkmodules.util.numpy_support import numpy_to_vtk, vtk_to_numpy  # noqa: E402
 from vtkmodules.vtkCommonDataModel import vtkRectilinearGrid  # noqa: E402
-from vtkmodules.vtkFiltersCore import vtkPointDataToCellData  # noqa: E402
+from vtkmodules.vtkFiltersCore import vtkAppendFilter, vtkPointDataToCellData  # noqa: E402
 from vtkmodules.vtkIOXML import (  # noqa: E402
     vtkXMLImageDataReader,
     vtkXMLImageDataWriter,
@@ -242,6 +242,28 @@ def check_case(source, path, label, fractions, fields, material_fields, interfac
         ie = max(row[4] for row in union)
         dc.check(fe <= field_tolerance * (1 + 1e-6) and ie <= interface_tolerance * (1 + 1e-6),
                  f"{label}: FieldError {fe:.4g} <= {field_tolerance}, InterfaceError {ie:.4g} <= {interface_tolerance} on every tetrahedron")
+    # The field bound at every input sample, probed independently in the union of the ranks' tetrahedra
+    # (an image with point data): each sample's own material's values interpolated where it lies, against
+    # the field (or, given per material, its own material's).
+    image = read(vtkXMLImageDataReader, path) if path.endswith(".vti") else None
+    if image is not None and union and all(image.GetPointData().GetArray(n) is not None for n in fractions + fields):
+        append = vtkAppendFilter()
+        for p in parts:
+            append.AddInputData(p[0])
+        append.Update()
+        together = append.GetOutput()
+        labels = np.argmax(np.stack([vtk_to_numpy(image.GetPointData().GetArray(n)) for n in fractions]), axis=0)
+        for field in fields:
+            own_names = [n for n in names if n.startswith(field + " (")]
+            own = np.stack([vtk_to_numpy(together.GetPointData().GetArray(n)) for n in own_names])
+            values = vtk_to_numpy(image.GetPointData().GetArray(field)).astype(np.float64)
+            if material_fields:  # the field given per material (in the fractions' order): the sample's own
+                per_material = np.stack([vtk_to_numpy(image.GetPointData().GetArray(n)) for n in material_fields])
+                values = per_material[labels, np.arange(len(labels))].astype(np.float64)
+            covered, worst = dc.material_sample_errors(image, together, labels, own, values)
+            dc.check(covered and len(own_names) == len(fractions) and worst <= field_tolerance * (1 + 1e-5) + 1e-3,
+                     f"{label}: every sample in a tetrahedron of some rank and {field} within {field_tolerance:g} of it "
+                     f"(own material: {', '.join(own_names)}) at every one of {len(labels)} samples (worst {worst:.4g})")
     for r, p in enumerate(parts):
         fd = p[0].GetFieldData()
         per = fd.GetArray("TetrahedraPerRank")

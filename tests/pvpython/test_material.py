@@ -553,38 +553,6 @@ TISSUE_CASES = [
 ]
 
 
-def sample_errors(image, ug, labels, own, values, chunk=50000):
-    """Whether every sample of `image` lies in a tetrahedron of `ug`, and the largest deviation of a
-    sample's value from the linear interpolation of its own material's vertex values (`own[m]`) over
-    every tetrahedron holding it (samples found by bounding box, barycentric coordinates)."""
-    points, tets, _ = dc.mesh_arrays(ug)
-    dims, origin, spacing = (np.array(v, dtype=np.float64) for v in (image.GetDimensions(), image.GetOrigin(), image.GetSpacing()))
-    u = (points - origin) / spacing  # sample index coordinates: barycentric coordinates are affine-invariant
-    covered = np.zeros(int(np.prod(dims)), bool)
-    worst = 0.0
-    for start in range(0, len(tets), chunk):
-        tt = tets[start : start + chunk]
-        V = u[tt]
-        lo = np.clip(np.ceil(V.min(axis=1) - 1e-6), 0, dims - 1).astype(np.int64)
-        ext = np.maximum(np.clip(np.floor(V.max(axis=1) + 1e-6), 0, dims - 1).astype(np.int64) - lo + 1, 0)
-        count = np.prod(ext, axis=1)
-        which = np.repeat(np.arange(len(tt)), count)
-        local = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
-        e = ext[which]
-        ijk = lo[which] + np.stack([local % e[:, 0], (local // e[:, 0]) % e[:, 1], local // (e[:, 0] * e[:, 1])], axis=1)
-        inv = np.linalg.inv(np.transpose(V[:, 1:] - V[:, :1], (0, 2, 1)))
-        l123 = np.einsum("nij,nj->ni", inv[which], ijk - V[which, 0])
-        lam = np.concatenate([1.0 - l123.sum(axis=1, keepdims=True), l123], axis=1)
-        inside = (lam >= -1e-7).all(axis=1)
-        which, ijk, lam = which[inside], ijk[inside], lam[inside]
-        s = ijk[:, 0] + int(dims[0]) * (ijk[:, 1] + int(dims[1]) * ijk[:, 2])
-        covered[s] = True
-        vertex_values = own[labels[s][:, None], tt[which]]
-        if len(s):
-            worst = bmax(worst, float(np.abs((lam * vertex_values).sum(axis=1) - values[s]).max()))
-    return bool(covered.all()), worst
-
-
 def check_tissue_map(title, image_path, interface_tolerance=1.0, field_tolerance=10.0):
     """Both tolerances at every sample, crack-free interfaces with one point per position, and no more
     tetrahedra than Adaptive Tetrahedra on T1 at the same tolerance plus the interface pass."""
@@ -607,7 +575,7 @@ def check_tissue_map(title, image_path, interface_tolerance=1.0, field_tolerance
     # tetrahedron holding it against its T1.
     labels = np.argmax(np.stack([get_array(image, n) for n in TISSUE_FRACTIONS]), axis=0)
     own = np.stack([get_array(t0, f"T1 ({name})") for name in ["Other", "Grey", "White"]])
-    covered, worst = sample_errors(image, t0, labels, own, get_array(image, "T1"))
+    covered, worst = dc.material_sample_errors(image, t0, labels, own, get_array(image, "T1"))
     dc.check(covered, f"{title}: every sample lies in a tetrahedron")
     dc.check(worst <= field_tolerance * (1 + 1e-5) + 1e-3, f"{title}: T1 within {field_tolerance:g} at every one of {len(labels)} samples (worst {worst:.4g})")
     # Interfaces: one point per position, every edge inside the box in two or more polygons.
