@@ -17,8 +17,19 @@
  * both written by vtkViewDependentTetrahedra. The order is rebuilt from them, so it does not
  * depend on cell ids: cells reordered, redistributed between processes, or a subset of them (a
  * threshold) are ordered exactly all the same. The tree is rebuilt when the input changes
- * (sorting the paths, O(n log n)); each traversal for a new camera is linear in the number of
- * cells.
+ * (one pass over paths in the order meshes are written, otherwise sorting them, O(n log n)); each
+ * traversal for a new camera is linear in the number of cells.
+ *
+ * Orders given by the producer. vtkViewDependentTetrahedra with SortCells 1 or 2 has the core write
+ * its tetrahedra in the exact order from its CameraPosition (the bisection tree walked far child
+ * first while writing, no tree built) and marks its output with ORDERED_FROM: the eye, the
+ * direction, the modification time of its "BisectionPath" array and the number of cells. When the
+ * input carries that mark, still true (same paths array, unmodified, same number of cells), and
+ * this sort's eye is that eye exactly, the order is the cells' own (or its reverse for the other
+ * direction): no tree is built and nothing is sorted. This is the path of the Adaptive Volume
+ * representation, whose refiner writes its mesh back to front from the camera of each render. The
+ * mark is information of that one data object (copies of the data do not carry it); anything else
+ * — another eye, a copy, reordered or filtered cells — is ordered from the paths as above.
  *
  * The eye is the camera position taken into the data's coordinates by the inverse of the model
  * transform. A parallel projection is handled as an eye 10^6 bounding-box diagonals away along
@@ -39,6 +50,8 @@
 #include "vtkDiamondsModule.h" // For export macro
 #include "vtkVisibilitySort.h"
 
+class vtkInformationDoubleVectorKey;
+
 class VTKDIAMONDS_EXPORT vtkDiamondsVisibilitySort : public vtkVisibilitySort
 {
 public:
@@ -50,9 +63,28 @@ public:
   vtkIdTypeArray* GetNextCells() override;
 
   /**
-   * Number of times the tree was rebuilt from the paths (once per new input).
+   * Number of times the tree was rebuilt from the paths (once per new input), and of traversals
+   * that took the order the input was written in (ORDERED_FROM).
    */
   vtkGetMacro(NumberOfTreeBuilds, vtkIdType);
+  vtkGetMacro(NumberOfGivenOrders, vtkIdType);
+
+  /**
+   * The mark of a mesh whose cells are in exact visibility order from an eye: 3 eye coordinates,
+   * the direction (vtkVisibilitySort::BACK_TO_FRONT or FRONT_TO_BACK), the modification time of
+   * its "BisectionPath" cell array and its number of cells. Set with MarkOrdered.
+   */
+  static vtkInformationDoubleVectorKey* ORDERED_FROM();
+
+  ///@{
+  /**
+   * Marks `mesh` (in the information of the data object) as written in exact visibility order from
+   * `eye` in `direction`, after its "BisectionPath" array was added (without that array, the mark
+   * is removed); Unmark removes the mark.
+   */
+  static void MarkOrdered(vtkDataSet* mesh, const double eye[3], int direction);
+  static void Unmark(vtkDataSet* mesh);
+  ///@}
 
   /**
    * Seconds of the last tree build and of the last traversal (InitTraversal).
@@ -65,6 +97,7 @@ protected:
   ~vtkDiamondsVisibilitySort() override;
 
   vtkIdType NumberOfTreeBuilds;
+  vtkIdType NumberOfGivenOrders;
   double LastBuildSeconds;
   double LastOrderSeconds;
 

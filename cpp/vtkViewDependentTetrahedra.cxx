@@ -1,18 +1,16 @@
 #include "vtkViewDependentTetrahedra.h"
 
-#include "vtkCellArray.h"
 #include "vtkCellData.h"
 #include "vtkDataArray.h"
 #include "vtkDataSetAttributes.h"
+#include "vtkDiamondsVisibilitySort.h"
 #include "vtkDoubleArray.h"
 #include "vtkFieldData.h"
-#include "vtkIdList.h"
 #include "vtkIdTypeArray.h"
 #include "vtkImageData.h"
 #include "vtkInformation.h"
 #include "vtkInformationVector.h"
 #include "vtkObjectFactory.h"
-#include "vtkSmartPointer.h"
 #include "vtkTypeUInt64Array.h"
 #include "vtkUnsignedCharArray.h"
 #include "vtkUnstructuredGrid.h"
@@ -28,8 +26,6 @@
 #include <cmath>
 #include <optional>
 #include <string>
-#include <type_traits>
-#include <vector>
 
 vtkStandardNewMacro(vtkViewDependentTetrahedra);
 
@@ -41,45 +37,6 @@ using vtkDiamonds::OneValue;
 const vtkDiamonds::FilterText Text = { "View Dependent Tetrahedra", "mesh", "meshes",
   "Scalars" };
 
-// Puts the cells of `output` (tetrahedra, 4 points each) and their cell data in `order`.
-void Reorder(vtkUnstructuredGrid* output, const rust::Vec<std::uint32_t>& order)
-{
-  const auto n = static_cast<vtkIdType>(order.size());
-  vtkCellArray* cells = output->GetCells();
-  const auto permute = [&](auto* connectivity) {
-    using T = std::remove_pointer_t<decltype(connectivity->GetPointer(0))>;
-    std::vector<T> old(connectivity->GetPointer(0), connectivity->GetPointer(0) + 4 * n);
-    T* out = connectivity->GetPointer(0);
-    for (vtkIdType k = 0; k < n; ++k)
-    {
-      std::copy_n(old.data() + 4 * static_cast<vtkIdType>(order[k]), 4, out + 4 * k);
-    }
-    connectivity->Modified();
-  };
-  if (cells->IsStorage64Bit())
-  {
-    permute(cells->GetConnectivityArray64());
-  }
-  else
-  {
-    permute(cells->GetConnectivityArray32());
-  }
-  cells->Modified();
-  vtkNew<vtkIdList> ids;
-  ids->SetNumberOfIds(n);
-  std::copy(order.begin(), order.end(), ids->GetPointer(0));
-  vtkCellData* cd = output->GetCellData();
-  for (int i = 0; i < cd->GetNumberOfArrays(); ++i)
-  {
-    vtkAbstractArray* in = cd->GetAbstractArray(i);
-    vtkSmartPointer<vtkAbstractArray> out = vtk::TakeSmartPointer(in->NewInstance());
-    out->SetName(in->GetName());
-    out->SetNumberOfComponents(in->GetNumberOfComponents());
-    vtkDiamonds::Allocate(out, n * in->GetNumberOfComponents());
-    in->GetTuples(ids, out);
-    in->DeepCopy(out);
-  }
-}
 } // namespace
 
 class vtkViewDependentTetrahedra::vtkInternals
@@ -134,6 +91,7 @@ try
     return 0;
   }
   output->Initialize(); // every error below leaves an empty output
+  vtkDiamondsVisibilitySort::Unmark(output); // marked again when sorted below
 
   // ---- Parameters (the camera itself is checked by the core).
   if (!std::isfinite(this->PixelTolerance) || this->PixelTolerance < 0.0)
@@ -201,6 +159,9 @@ try
     this->UpdateProgress(0.7);
     frame = (*view)->update_view(hierarchy, spec);
     plan.emplace((*view)->view_plan(hierarchy));
+    // With SortCells, the core writes the tetrahedra in that order (no tree, no reordering).
+    hierarchy.order_plan(**plan, static_cast<std::uint8_t>(this->SortCells),
+      rust::Slice<const double>(this->CameraPosition, 3));
   }
   catch (const rust::Error& e)
   {
@@ -209,7 +170,7 @@ try
   }
   this->UpdateProgress(0.8);
 
-  // ---- Output, written by the core, then each cell's bisection path and the order.
+  // ---- Output, written by the core (in the order asked), then each cell's bisection path.
   double maxError = 0.0;
   std::string error;
   if (!vtkDiamonds::PlanToUnstructuredGrid(hierarchy, **plan, input, output, maxError, error))
@@ -222,18 +183,15 @@ try
   vtkNew<vtkTypeUInt64Array> paths;
   paths->SetName("BisectionPath");
   vtkDiamonds::Allocate(paths, numTets);
-  rust::Vec<std::uint32_t> order;
   try
   {
-    order = hierarchy.order_plan(**plan, static_cast<std::uint8_t>(this->SortCells),
-      rust::Slice<const double>(this->CameraPosition, 3),
-      rust::Slice<std::uint64_t>(
-        reinterpret_cast<std::uint64_t*>(paths->GetPointer(0)), static_cast<std::size_t>(numTets)));
+    (*plan)->write_paths(rust::Slice<std::uint64_t>(
+      reinterpret_cast<std::uint64_t*>(paths->GetPointer(0)), static_cast<std::size_t>(numTets)));
   }
   catch (const rust::Error& e)
   {
     output->Initialize();
-    vtkErrorMacro(<< "View Dependent Tetrahedra could not order the tetrahedra: " << e.what());
+    vtkErrorMacro(<< "View Dependent Tetrahedra could not write the bisection paths: " << e.what());
     return 0;
   }
   plan.reset();
@@ -249,9 +207,11 @@ try
   }
   cd->AddArray(levels);
   cd->AddArray(paths);
-  if (!order.empty())
+  if (this->SortCells != 0)
   {
-    Reorder(output, order);
+    vtkDiamondsVisibilitySort::MarkOrdered(
+      output, this->CameraPosition, this->SortCells == 2 ? vtkVisibilitySort::FRONT_TO_BACK
+                                                         : vtkVisibilitySort::BACK_TO_FRONT);
   }
   this->UpdateProgress(0.95);
 

@@ -25,7 +25,11 @@
  * Order. SortCells 1 (2) writes the cells back to front (front to back) as seen from
  * CameraPosition, exactly: every bisection plane is a plane of a binary space partition of the
  * mesh (Marchesin §6), so visiting the far child of every bisection first orders any two
- * tetrahedra sharing a face correctly, under perspective and with the eye inside the volume.
+ * tetrahedra sharing a face correctly, under perspective and with the eye inside the volume. The
+ * core writes the mesh in that order directly (its walk of the bisection forest takes the far
+ * child first; no tree is built and nothing is reordered) and the output is marked
+ * (vtkDiamondsVisibilitySort::ORDERED_FROM), so that vtkDiamondsVisibilitySort, asked for the
+ * same eye, hands the cells out as they are: the Adaptive Volume representation's path.
  * Whatever SortCells, each cell carries its bisection path (cell data "BisectionPath", unsigned
  * 64-bit: root tetrahedron, child at each bisection, depth) and the field data "BisectionGrid"
  * (the hierarchy's grid: 3 dimensions, origin, spacing), from which vtkDiamondsVisibilitySort

@@ -10,9 +10,15 @@ Dependent Tetrahedra, the camera orbiting the volume by 6° per frame about the 
 its centre, 30° view angle, 400×300 pixels, Pixel Tolerance 0.5 so that the budget binds): the
 refinement's own time (the filter's FrameSeconds: re-evaluating the queued diamonds, splits and
 merges), its splits and merges, the filter's whole update (refinement and the VTK output with each
-cell's bisection path), and the exact sort (vtkDiamondsVisibilitySort: the BSP tree rebuilt from the
-cells' paths, then one traversal from the eye). Every 4th frame vtkCellCenterDepthSort (the default
-of vtkProjectedTetrahedraMapper) sorts the same mesh, alternating which sort goes first. Every 15th
+cell's bisection path), and the exact sort as the Adaptive Volume representation runs it: the filter
+with SortCells 1 (its setting there) writes the mesh back to front from the camera (the core walks
+the bisection forest far child first while writing), and vtkDiamondsVisibilitySort, given that
+output for that eye, hands the cells out as they are. What ordering costs in the write: every 4th
+frame the filter runs again on the same camera with SortCells 0 and 1 (alternating which first),
+its write time (update minus FrameSeconds) each way. Beside it, the exact sort of any mesh
+(vtkDiamondsVisibilitySort on a copy, which carries no order: the BSP tree rebuilt from the cells'
+paths, then one traversal from the eye). Every 4th frame vtkCellCenterDepthSort (the default of
+vtkProjectedTetrahedraMapper) sorts the same mesh, alternating which sort goes first. Every 15th
 frame the tetrahedra are rendered by vtkProjectedTetrahedraMapper in exact order (Mesa software
 rendering under xvfb: seconds per frame, hence not every frame) and compared with the
 full-resolution volume rendering of the image (vtkSmartVolumeMapper, the mapper of ParaView's Volume
@@ -42,12 +48,13 @@ PIXEL_TOLERANCE = 0.5
 COMPARE_EVERY = 15
 CENTER_SORT_EVERY = 4
 PADDED = os.path.join(ROOT, "build", "bonsai_padded_257.vti")
-# The previous run (commit cdff493, load 9.8), before meshes were written in bisection-path order and
-# the sort's tree was rebuilt in one pass over them (kept for comparison).
-BEFORE = ("Before (commit cdff493, the exact sort's tree rebuilt by sorting the paths; load 9.8): refinement "
-          "18.5 / 66.4 / 209.9 ms, exact sort 31.2 (14.4 + 14.9) / 125.8 (77.0 + 47.4) / 301.2 (184.9 + 114.2) ms "
-          "at 100 K / 400 K / 1 M; refinement + exact sort at 400 K 192.2 ms; vtkCellCenterDepthSort on the same "
-          "meshes 228 / 909 / 2606 ms (a yardstick of the machine's load in each run).")
+# The previous run (commit 21f0901, load 9.6), when the representation's sort rebuilt the tree from
+# the paths every frame (kept for comparison).
+BEFORE = ("Before (commit 21f0901, the representation's exact sort rebuilt the BSP tree from the cells' paths "
+          "every frame; load 9.6): refinement 20.7 / 81.5 / 196.3 ms, exact sort 31.1 (15.7 + 15.0) / 96.9 "
+          "(39.0 + 59.3) / 215.8 (94.1 + 117.8) ms at 100 K / 400 K / 1 M; refinement + exact sort at 400 K "
+          "178.4 ms; vtkCellCenterDepthSort on the same meshes 266 / 1242 / 2992 ms (a yardstick of the machine's "
+          "load in each run).")
 
 
 def padded_bonsai():
@@ -122,6 +129,7 @@ def measure(budget):
     from vtkmodules.vtkRenderingVolume import vtkProjectedTetrahedraMapper
     from vtkmodules.vtkRenderingVolumeOpenGL2 import vtkSmartVolumeMapper  # noqa: F401 (OpenGL overrides)
     from vtkmodules.vtkRenderingCore import vtkCellCenterDepthSort
+    from vtkmodules.vtkCommonDataModel import vtkUnstructuredGrid
     import vtkmodules.vtkRenderingOpenGL2  # noqa: F401
 
     reader = XMLImageDataReader(FileName=[padded_bonsai()])
@@ -130,14 +138,16 @@ def measure(budget):
     center = np.array(image.GetCenter())
     radius = 2.2 * image.GetLength()
     filt = ViewDependentTetrahedra(Input=reader, ViewportSize=list(SIZE), PixelTolerance=PIXEL_TOLERANCE,
-                                   MaximumNumberOfTetrahedra=budget, SortCells=0, ViewAngle=30.0,
+                                   MaximumNumberOfTetrahedra=budget, SortCells=1, ViewAngle=30.0,
                                    CameraFocalPoint=list(center), CameraViewUp=[0.0, 0.0, 1.0])
     sort_proxy = servermanager.misc.DiamondsVisibilitySort()
     exact = sort_proxy.GetClientSideObject()
+    paths_proxy = servermanager.misc.DiamondsVisibilitySort()
+    from_paths = paths_proxy.GetClientSideObject()
 
-    def sort_info(name):
-        sort_proxy.UpdatePropertyInformation()
-        return sort_proxy.GetProperty(name).GetElement(0)
+    def sort_info(name, proxy=sort_proxy):
+        proxy.UpdatePropertyInformation()
+        return proxy.GetProperty(name).GetElement(0)
 
     centers = vtkCellCenterDepthSort()
 
@@ -209,6 +219,25 @@ def measure(budget):
             centers_s, centers_n = drain(centers, mesh)
             exact_s, exact_n = drain(exact, mesh)
         assert exact_n == n and centers_n == n, (exact_n, centers_n, n)
+        given = sort_info("NumberOfGivenOrders")
+        assert given == frame + 1, f"frame {frame}: the sort did not take the filter's order ({given})"
+        copy = vtkUnstructuredGrid()
+        copy.ShallowCopy(mesh)  # no order mark: the tree is rebuilt from the paths
+        paths_s, paths_n = drain(from_paths, copy)
+        assert paths_n == n, (paths_n, n)
+        write = {}
+        if frame % CENTER_SORT_EVERY == 0:
+            # The write with and without the order, on the same camera (the refinement has nothing to do).
+            for sort_cells in ((0, 1) if frame % (2 * CENTER_SORT_EVERY) == 0 else (1, 0)):
+                filt.SortCells = sort_cells
+                t = time.perf_counter()
+                filt.UpdatePipeline()
+                elapsed = time.perf_counter() - t
+                again = filt.GetClientSideObject().GetOutputDataObject(0).GetFieldData()
+                write[sort_cells] = elapsed - again.GetArray("FrameSeconds").GetTuple1(0)
+            filt.SortCells = 1  # the representation's setting, for the rest of the frame and the next
+            filt.UpdatePipeline()
+            mesh = filt.GetClientSideObject().GetOutputDataObject(0)
         render = None
         if frame % COMPARE_EVERY == 0:
             mapper.SetInputData(mesh)
@@ -219,8 +248,9 @@ def measure(budget):
         record = {
             "frame": frame, "tets": n, "refine": value("FrameSeconds"), "splits": value("FrameSplits"),
             "merges": value("FrameMerges"), "tolerance": value("PixelToleranceReached"), "update": update,
-            "exact_sort": exact_s, "exact_build": sort_info("LastBuildSeconds"),
-            "exact_order": sort_info("LastOrderSeconds"), "center_sort": centers_s, "render": render,
+            "exact_sort": exact_s, "paths_sort": paths_s, "paths_build": sort_info("LastBuildSeconds", paths_proxy),
+            "paths_order": sort_info("LastOrderSeconds", paths_proxy), "center_sort": centers_s, "render": render,
+            "write_plain": write.get(0), "write_ordered": write.get(1),
         }
         if frame % COMPARE_EVERY == 0:
             ours = grab(window)
@@ -258,20 +288,27 @@ def report(results):
              "camera 2.2 diagonals from the centre, 20° above the equator), carried frame to frame by the split "
              "and merge queues; `scripts/bench_view.py`, each budget its own `xvfb-run -a pvbatch`, software "
              f"rendering (Mesa), 2 cores shared with other builds (load {load:.1f} when written). Medians over "
-             "frames 1-59 (frame 0 refines from the coarsest mesh: its time is given apart). The exact sort is "
-             "vtkDiamondsVisibilitySort on the filter's output (BSP tree rebuilt from the cells' bisection "
-             "paths, then one traversal), vtkCellCenterDepthSort the default sort of vtkProjectedTetrahedraMapper, "
-             "run on the same mesh and camera every 4th frame, alternating which goes first; both include their "
-             "per-mesh preparation, since the mesh changes every frame. Render: vtkProjectedTetrahedraMapper with the "
-             "exact sort, every 15th frame (median of frames 15, 30, 45); frame = filter update + exact sort + render. "
-             "RMSE: 8-bit RGB against vtkSmartVolumeMapper on the full image (the mapper of ParaView's "
+             "frames 1-59 (frame 0 refines from the coarsest mesh: its time is given apart). The exact sort as the "
+             "Adaptive Volume representation runs it: the filter with SortCells 1 (the representation's setting) "
+             "writes the mesh back to front from the camera (the core walks the bisection forest far child first "
+             "while writing: no tree), and vtkDiamondsVisibilitySort, given that output for that eye, hands the "
+             "cells out as they are (column *given*); what the order costs the write is measured every 4th frame by "
+             "running the filter again on the same camera with SortCells 0 and 1 (alternating which first; write = "
+             "update minus FrameSeconds). *From paths*: vtkDiamondsVisibilitySort on a copy of the mesh (no order "
+             "given: BSP tree rebuilt from the cells' bisection paths, then one traversal), the exact sort of any "
+             "mesh. vtkCellCenterDepthSort, the default sort of vtkProjectedTetrahedraMapper, runs on the same mesh "
+             "and camera every 4th frame, alternating with the exact sort; the sorts include their per-mesh "
+             "preparation, since the mesh changes every frame. Render: vtkProjectedTetrahedraMapper with the "
+             "exact sort, every 15th frame (median of frames 15, 30, 45); frame = filter update + exact sort (given) "
+             "+ render. RMSE: 8-bit RGB against vtkSmartVolumeMapper on the full image (the mapper of ParaView's "
              f"Volume representation; same transfer functions and camera), mean over frames 0, 15, 30, 45; it hardly "
              "changes with the budget: what remains is mostly the difference between cell projection of linear "
              "tetrahedra and ray casting, not the mesh.", "",
              "| budget | tetrahedra | frame 0 refinement ms | refinement ms | max refinement ms | splits / merges "
-             "per frame | filter update ms | exact sort ms (tree + order) | vtkCellCenterDepthSort ms | speed-up "
-             "| render ms | frame ms | RMSE |",
-             "|---:|---:|---:|---:|---:|---|---:|---|---:|---:|---:|---:|---:|"]
+             "per frame | filter update ms | write ms unordered / in order | exact sort ms, given | exact sort ms "
+             "from paths (tree + order) | vtkCellCenterDepthSort ms | speed-up (from paths) | render ms | frame ms "
+             "| RMSE |",
+             "|---:|---:|---:|---:|---:|---|---:|---|---:|---|---:|---:|---:|---:|---:|"]
     for budget, frames in results:
         rest = frames[1:]
         rmse = [f["rmse"] for f in frames if "rmse" in f]
@@ -280,22 +317,29 @@ def report(results):
             f"| {budget:,} | {int(median(frames, 'tets')):,} | {frames[0]['refine'] * 1e3:.0f} | "
             f"{median(frames, 'refine', 1e3):.1f} | {max(f['refine'] for f in rest) * 1e3:.1f} | "
             f"{statistics.mean(f['splits'] for f in rest):,.0f} / {statistics.mean(f['merges'] for f in rest):,.0f} | "
-            f"{median(frames, 'update', 1e3):.0f} | {median(frames, 'exact_sort', 1e3):.1f} "
-            f"({median(frames, 'exact_build', 1e3):.1f} + {median(frames, 'exact_order', 1e3):.1f}) | "
+            f"{median(frames, 'update', 1e3):.0f} | {median(frames, 'write_plain', 1e3, 0):.1f} / "
+            f"{median(frames, 'write_ordered', 1e3, 0):.1f} | {median(frames, 'exact_sort', 1e3):.2f} | "
+            f"{median(frames, 'paths_sort', 1e3):.1f} "
+            f"({median(frames, 'paths_build', 1e3):.1f} + {median(frames, 'paths_order', 1e3):.1f}) | "
             f"{median(frames, 'center_sort', 1e3):.1f} | "
-            f"{median(frames, 'center_sort') / median(frames, 'exact_sort'):.1f}× | "
+            f"{median(frames, 'center_sort') / median(frames, 'paths_sort'):.1f}× | "
             f"{median(frames, 'render', 1e3):.0f} | {frame_ms:.0f} | {statistics.mean(rmse):.2f} |")
     by = dict(results)
     if 400_000 in by and 1_000_000 in by:
         f4 = by[400_000]
-        refine_sort = median(f4, "refine", 1e3) + median(f4, "exact_sort", 1e3)
+        ordering = median(f4, "write_ordered", 1e3, 0) - median(f4, "write_plain", 1e3, 0)
+        refine_sort = median(f4, "refine", 1e3) + max(ordering, 0.0) + median(f4, "exact_sort", 1e3)
+        from_paths = median(f4, "refine", 1e3) + median(f4, "paths_sort", 1e3)
         rmse4 = statistics.mean(f["rmse"] for f in f4 if "rmse" in f)
         rmse1 = statistics.mean(f["rmse"] for f in by[1_000_000] if "rmse" in f)
-        ratio = median(f4, "center_sort") / median(f4, "exact_sort")
+        ratio = median(f4, "center_sort") / median(f4, "paths_sort")
         lines += ["", "Goals at 400 K:",
-                  f"- refinement + exact sort ≤ 30 ms per frame: {refine_sort:.1f} ms "
-                  f"({'met' if refine_sort <= 30 else 'not met'});",
-                  f"- exact sort ≥ 3× faster than vtkCellCenterDepthSort: {ratio:.1f}× "
+                  f"- refinement + exact sort ≤ 30 ms per frame, as the representation runs them (refinement "
+                  f"{median(f4, 'refine', 1e3):.1f} + ordering in the write {ordering:.1f} (counted as "
+                  f"{max(ordering, 0.0):.1f}) + the given order {median(f4, 'exact_sort', 1e3):.2f}): "
+                  f"{refine_sort:.1f} ms (**{'met' if refine_sort <= 30 else 'not met'}**); with the sort of any "
+                  f"mesh from its paths instead: {from_paths:.1f} ms ({'met' if from_paths <= 30 else 'not met'});",
+                  f"- exact sort ≥ 3× faster than vtkCellCenterDepthSort (from paths, tree included): {ratio:.1f}× "
                   f"({'met' if ratio >= 3 else 'not met'});",
                   f"- image RMSE within 2× of the RMSE at 1 M: {rmse4:.2f} vs {rmse1:.2f} "
                   f"({'met' if rmse4 <= 2 * rmse1 else 'not met'})."]

@@ -24,7 +24,9 @@ vtkAdaptiveVolumeRepresentation::vtkAdaptiveVolumeRepresentation()
 {
   this->Refiner->SetMaximumNumberOfTetrahedra(400000);
   this->Refiner->SetPixelTolerance(1.0);
-  this->Refiner->SetSortCells(0); // the mapper asks the sort for the order of every render
+  // The refiner writes each render's mesh back to front from that render's camera, and the sort
+  // hands that order to the mapper as it is (no tree, nothing sorted; see vtkDiamondsVisibilitySort).
+  this->Refiner->SetSortCells(1);
   this->Refiner->MeshLocalPieceOn(); // under MPI every rank refines and renders its own piece
   vtkNew<vtkCallbackCommand> counter; // counts the refiner's executions
   counter->SetClientData(this);
@@ -118,6 +120,11 @@ vtkIdType vtkAdaptiveVolumeRepresentation::GetNumberOfTetrahedra()
   return mesh ? mesh->GetNumberOfCells() : 0;
 }
 
+vtkIdType vtkAdaptiveVolumeRepresentation::GetNumberOfTreeBuilds()
+{
+  return this->Sort->GetNumberOfTreeBuilds();
+}
+
 //------------------------------------------------------------------------------
 void vtkAdaptiveVolumeRepresentation::PrintSelf(ostream& os, vtkIndent indent)
 {
@@ -126,4 +133,5 @@ void vtkAdaptiveVolumeRepresentation::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "MaximumNumberOfTetrahedra: " << this->Refiner->GetMaximumNumberOfTetrahedra()
      << "\n";
   os << indent << "NumberOfRefinements: " << this->NumberOfRefinements << "\n";
+  os << indent << "NumberOfTreeBuilds: " << this->Sort->GetNumberOfTreeBuilds() << "\n";
 }

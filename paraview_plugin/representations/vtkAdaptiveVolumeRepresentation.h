@@ -9,7 +9,8 @@
  * (vtkViewDependentTetrahedra: Gregorski et al. 2002, §4, §6.2, §8; the split and merge queues
  * carry the mesh from one render to the next) and draws the tetrahedra with
  * vtkProjectedTetrahedraMapper in the exact back-to-front order of the bisection tree
- * (vtkDiamondsVisibilitySort; Marchesin et al. 2004, §6). The hierarchy is built once per input
+ * (Marchesin et al. 2004, §6): the refiner writes the mesh in that order for the render's camera
+ * and vtkDiamondsVisibilitySort hands it to the mapper as it is. The hierarchy is built once per input
  * array; a render whose camera did not change refines nothing.
  *
  * Where it runs. The image is delivered to the rendering processes only (never to the client) and
@@ -66,6 +67,12 @@ public:
    */
   vtkIdType GetNumberOfTetrahedra();
   vtkGetMacro(NumberOfRefinements, vtkIdType);
+
+  /**
+   * How many times the visibility sort rebuilt a tree from the cells' bisection paths: none while
+   * every render's mesh comes written back to front for its camera (see vtkDiamondsVisibilitySort).
+   */
+  vtkIdType GetNumberOfTreeBuilds();
 
 protected:
   vtkAdaptiveVolumeRepresentation();

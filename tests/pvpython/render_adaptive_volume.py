@@ -16,6 +16,8 @@ transfer functions and cameras; checks:
 - the picture is close to the Volume representation's: the RMSE of the 8-bit RGB images is
   reported and bounded (the two differ by the mesh's approximation and by cell projection versus
   ray casting, not by sorting artifacts: the order is exact);
+- the mapper's sort never rebuilds a tree from the paths (NumberOfTreeBuilds 0): every render's mesh
+  comes written back to front for its camera and the sort takes that order;
 - a smaller budget gives a coarser mesh and a larger RMSE.
 In client-server mode the counters (information properties of the client's copy of the
 representation, which only shows the server's images) are not checked; the pictures are (under
@@ -120,6 +122,9 @@ ours35 = picture()
 if counted:
     check(info("NumberOfRefinements") == refinements + 1, "a render with a new camera refines once")
 check(rmse(ours, ours35) > 0.5, "a new camera shows the new view")
+if counted:
+    check(info("NumberOfTreeBuilds") == 0,
+          f"every render's mesh came written back to front for its camera: no tree built ({info('NumberOfTreeBuilds')})")
 
 rep.SetRepresentationType("Volume")
 look(35.0)

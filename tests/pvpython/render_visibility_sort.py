@@ -12,6 +12,10 @@ face shared by two tetrahedra, the one across the face's plane from the eye come
 - vtkProjectedTetrahedraMapper renders the mesh with the sort (it was asked for the order, the tree
   built once, the image not empty) and the picture equals one rendered from the cells written in
   exact order by the filter (SortCells) with the mapper's sort fed that order;
+- orders given by the filter: with SortCells 1 / 2 the output object is marked, and a sort asked for
+  that eye returns the cells' own order (or its reverse) without building a tree, equal to the order
+  rebuilt from the paths of an unmarked copy and exact face by face; another eye, or paths modified
+  since, are ordered from the paths; SortCells 0 leaves no mark;
 - an input without BisectionPath is a clear error and yields no cells.
 """
 
@@ -218,6 +222,52 @@ check(diff <= 1.0, f"the same picture whether the cells came in order or the sor
 approximate = render(fetch(f), vtkCellCenterDepthSort())
 print(f"   vtkCellCenterDepthSort's picture differs from the exact one by up to {np.abs(approximate - reference).max():.0f} "
       f"(RMSE {np.sqrt(((approximate - reference) ** 2).mean()):.2f}) of 255")
+
+# Orders given by the filter (the Adaptive Volume representation's path): with SortCells the cells
+# are written in exact order from CameraPosition and the output object is marked, so a sort asked for
+# that very eye hands them out as they are, without a tree; the order from their paths (a copy, which
+# carries no mark) is the same, and face by face exact. Eyes outside, inside, on lattice planes.
+given_proxy, given = new_sort()
+for name, eye in eyes.items():
+    f.CameraPosition = list(eye)
+    for sort_cells, back_to_front in ((1, True), (2, False)):
+        f.SortCells = sort_cells
+        f.UpdatePipeline()
+        out = f.GetClientSideObject().GetOutputDataObject(0)
+        n = out.GetNumberOfCells()
+        label = f"SortCells {sort_cells}, eye {name}"
+        builds, gifts = info(given_proxy, 'NumberOfTreeBuilds'), info(given_proxy, 'NumberOfGivenOrders')
+        for same_direction in (True, False):
+            bf = back_to_front == same_direction
+            order = order_of(given, out, eye, back_to_front=bf, chunk=n + 1)
+            expected = np.arange(n) if same_direction else np.arange(n)[::-1]
+            check(len(order) == n and (order == expected).all(),
+                  f"{label}: the cells' own order handed out {'as it is' if same_direction else 'reversed'} ({n} cells)")
+            check_sorted(f"{label}, given order {'back to front' if bf else 'front to back'}", out, order, eye, bf)
+        check(info(given_proxy, 'NumberOfGivenOrders') == gifts + 2 and info(given_proxy, 'NumberOfTreeBuilds') == builds,
+              f"{label}: no tree built for the eye the cells were written for")
+        copy = vtkUnstructuredGrid()
+        copy.ShallowCopy(out)
+        from_paths = order_of(given, copy, eye, back_to_front=back_to_front, chunk=n + 1)
+        check((from_paths == np.arange(n)).all() and info(given_proxy, 'NumberOfTreeBuilds') == builds + 1,
+              f"{label}: a copy (no mark) is ordered from its paths, in the same order")
+f.CameraPosition = list(eyes["outside"])
+f.SortCells = 1
+f.UpdatePipeline()
+out = f.GetClientSideObject().GetOutputDataObject(0)
+gifts = info(given_proxy, 'NumberOfGivenOrders')
+other = (-10.0, -35.0, 60.0)
+check_sorted("SortCells 1, another eye: ordered from the paths", out, order_of(given, out, other), other)
+out.GetCellData().GetArray("BisectionPath").Modified()  # as if the paths were rewritten in place
+check_sorted("SortCells 1, paths modified since: ordered from the paths", out,
+             order_of(given, out, eyes["outside"]), eyes["outside"])
+check(info(given_proxy, 'NumberOfGivenOrders') == gifts, "another eye or modified paths: the mark is not taken")
+f.SortCells = 0
+f.UpdatePipeline()
+out = f.GetClientSideObject().GetOutputDataObject(0)
+check_sorted("SortCells 0, the filter's eye: ordered from the paths", out,
+             order_of(given, out, eyes["outside"]), eyes["outside"])
+check(info(given_proxy, 'NumberOfGivenOrders') == gifts, "SortCells 0: the output carries no order for the sort to take")
 
 # Bad input: no BisectionPath.
 tetra = fetch(simple.Tetrahedralize(Input=wavelet))

@@ -721,16 +721,12 @@ mod ffi {
         fn view_plan(self: &ViewMesh, hierarchy: &Hierarchy) -> Result<Box<MeshPlan>>;
         /// The grid the hierarchy was built for.
         fn grid_spec(self: &Hierarchy) -> GridSpec;
-        /// Writes each tetrahedron's bisection path into `paths` (one per tetrahedron of `plan`)
-        /// and returns the visibility order from `eye` (3 coordinates): `sort` 1 back to front, 2
-        /// front to back, 0 none (empty).
-        fn order_plan(
-            self: &Hierarchy,
-            plan: &MeshPlan,
-            sort: u8,
-            eye: &[f64],
-            paths: &mut [u64],
-        ) -> Result<Vec<u32>>;
+        /// Has `plan` write its tetrahedra in exact visibility order from `eye` (3 coordinates):
+        /// `sort` 1 back to front, 2 front to back, 0 as planned (ascending bisection paths).
+        fn order_plan(self: &Hierarchy, plan: &mut MeshPlan, sort: u8, eye: &[f64]) -> Result<()>;
+        /// Writes each tetrahedron's bisection path into `paths` (one per tetrahedron of the plan,
+        /// in the order they are written).
+        fn write_paths(self: &MeshPlan, paths: &mut [u64]) -> Result<()>;
         /// The tree of cells whose bisection paths are `paths`, refined on `grid`.
         fn new_path_order(grid: &GridSpec, paths: &[u64]) -> Result<Box<PathOrder>>;
         fn number_of_cells(self: &PathOrder) -> usize;

@@ -111,42 +111,32 @@ impl Hierarchy {
         }
     }
 
-    /// Writes the bisection path of each tetrahedron of `plan` into `paths` and returns the
-    /// visibility order for an eye at `eye` (`sort` 1: back to front, 2: front to back), or
-    /// nothing for `sort` 0.
-    pub fn order_plan(
-        &self,
-        plan: &MeshPlan,
-        sort: u8,
-        eye: &[f64],
-        paths: &mut [u64],
-    ) -> Result<Vec<u32>, String> {
+    /// Has `plan` write its tetrahedra in exact visibility order from `eye` (`sort` 1: back to
+    /// front, 2: front to back; 0: in ascending bisection-path order, as planned)
+    /// ([`diamonds::mesh::MeshPlan::set_visibility_order`]).
+    pub fn order_plan(&self, plan: &mut MeshPlan, sort: u8, eye: &[f64]) -> Result<(), String> {
         guard("ordering the tetrahedra", || {
             if plan.hierarchy != self.id {
                 return Err("the mesh plan belongs to another hierarchy".into());
             }
             let direction = match sort {
-                0 => None,
-                1 => Some(Direction::BackToFront),
-                2 => Some(Direction::FrontToBack),
+                0 => return Ok(()),
+                1 => Direction::BackToFront,
+                2 => Direction::FrontToBack,
                 _ => return Err(format!("SortCells must be 0, 1 or 2 (got {sort})")),
             };
-            let eye = eye_of(eye)?;
-            let tree =
-                BspTree::new(&plan.plan, self.hierarchy.grid()).map_err(|e| e.to_string())?;
-            let all = tree.paths().map_err(|e| e.to_string())?;
-            if paths.len() != all.len() {
-                return Err(format!(
-                    "room for {} bisection paths, the mesh has {} tetrahedra",
-                    paths.len(),
-                    all.len()
-                ));
-            }
-            paths.copy_from_slice(&all);
-            match direction {
-                None => Ok(Vec::new()),
-                Some(d) => tree.order(eye, d).map_err(|e| e.to_string()),
-            }
+            plan.plan
+                .set_visibility_order(self.hierarchy.grid(), eye_of(eye)?, direction)
+                .map_err(|e| e.to_string())
+        })
+    }
+}
+
+impl MeshPlan {
+    /// Writes the bisection path of each tetrahedron, in the order the tetrahedra are written.
+    pub fn write_paths(&self, paths: &mut [u64]) -> Result<(), String> {
+        guard("writing the bisection paths", || {
+            self.plan.write_paths(paths).map_err(|e| e.to_string())
         })
     }
 }

@@ -5,6 +5,13 @@
 //! `cargo run --release -p diamonds-core --example probe -- file.u8 nx ny nz isoseq ISO1,ISO2,... TOL...`
 //!
 //! `cargo run --release -p diamonds-core --example probe -- file.u8 nx ny nz isochange ISO1,ISO2,... TOL[%]...`
+//! `cargo run --release -p diamonds-core --example probe -- file.u8 nx ny nz view BUDGET FRAMES`
+//!
+//! `view` runs bench_view.py's orbit (6° per frame, 2.2 diagonals away, 400×300 pixels, 30°, Pixel
+//! Tolerance 0.5) under a tetrahedron budget and prints, per frame, the milliseconds of the
+//! refinement, of the BSP tree built from the mesh plan, of the tree rebuilt from the bisection
+//! paths, of one traversal, and of writing the tetrahedra in bisection-path order and in
+//! visibility order, with their medians over frames 1 to the last.
 //!
 //! `isochange` builds the isosurface-only hierarchy and times the first extraction at ISO1 (build
 //! included) and then each change to the next isovalue (minimum over `REPEAT` rounds); with
@@ -29,6 +36,10 @@ fn main() {
     let parse = |s: &String| -> f64 { s.parse().expect("number") };
     if a[5] == "isochange" {
         iso_change(&data, dims, &a[6], &a[7..]);
+        return;
+    }
+    if a[5] == "view" {
+        view_orbit(&data, dims, parse(&a[6]) as usize, parse(&a[7]) as usize);
         return;
     }
     let t = Instant::now();
@@ -244,6 +255,102 @@ fn iso_change(data: &[u8], dims: [usize; 3], isovalues: &str, tolerances: &[Stri
             );
         }
     }
+}
+
+/// bench_view.py's orbit in the core (see the module's documentation).
+fn view_orbit(data: &[u8], dims: [usize; 3], budget: usize, frames: usize) {
+    use diamonds::view::{BspTree, Camera, Direction, Metric, ViewErrors, ViewQuery, ViewState};
+    let grid = Grid::new(dims);
+    let h = Hierarchy::build(grid, ScalarSlice::U8(data), &mut |_| true).expect("build");
+    let errors = ViewErrors::new(&h).expect("view errors");
+    let b = grid.bounds();
+    let center = [0, 2, 4].map(|a| 0.5 * (b[a] + b[a + 1]));
+    let radius = 2.2
+        * (0..3)
+            .map(|a| (b[2 * a + 1] - b[2 * a]).powi(2))
+            .sum::<f64>()
+            .sqrt();
+    let mut state = ViewState::new(&h);
+    let ms = |t: Instant| 1e3 * t.elapsed().as_secs_f64();
+    let mut rows = Vec::new();
+    for frame in 0..frames {
+        let a = (6.0 * frame as f64).to_radians();
+        let position = [
+            center[0] + radius * a.cos(),
+            center[1] + radius * a.sin(),
+            center[2] + 0.35 * radius,
+        ];
+        let query = ViewQuery {
+            camera: Camera {
+                position,
+                focal_point: center,
+                view_up: [0.0, 0.0, 1.0],
+                view_angle: 30.0,
+                viewport: [400, 300],
+            },
+            metric: Metric::ScreenSpace,
+            tolerance: 0.5,
+            max_tetrahedra: budget,
+        };
+        let t = Instant::now();
+        let stats = state.update(&h, &errors, &query).expect("update");
+        let refine = ms(t);
+        let plan = state.plan().expect("plan");
+        let t = Instant::now();
+        let tree = BspTree::new(&plan, &grid).expect("tree");
+        let tree_ms = ms(t);
+        let paths = tree.paths().expect("paths");
+        let t = Instant::now();
+        let rebuilt = BspTree::from_paths(&grid, &paths).expect("tree from paths");
+        let rebuilt_ms = ms(t);
+        let t = Instant::now();
+        let order = rebuilt
+            .order(position, Direction::BackToFront)
+            .expect("order");
+        let order_ms = ms(t);
+        assert_eq!(order.len(), stats.tets);
+        // Writing the tetrahedra as the filter does, in bisection-path order and in visibility
+        // order (alternating which goes first).
+        let n = plan.tets();
+        let (mut conn, mut depths, mut errs) = (vec![0i32; 4 * n], vec![0u8; n], vec![0f32; n]);
+        let mut ordered = plan.clone();
+        ordered
+            .set_visibility_order(&grid, position, Direction::BackToFront)
+            .expect("visibility order");
+        let mut write = |p: &diamonds::mesh::MeshPlan| {
+            let t = Instant::now();
+            h.write_tets(p, &mut conn, &mut [], &mut depths, &mut errs)
+                .expect("write");
+            ms(t)
+        };
+        let (plain_ms, ordered_ms) = if frame % 2 == 0 {
+            let plain = write(&plan);
+            (plain, write(&ordered))
+        } else {
+            let o = write(&ordered);
+            (write(&plan), o)
+        };
+        println!(
+            "frame {frame}: {} tets, {} splits, {} merges: refinement {refine:.1} ms, tree from plan {tree_ms:.1} ms, from paths {rebuilt_ms:.1} ms, order {order_ms:.1} ms, write {plain_ms:.1} ms, write in order {ordered_ms:.1} ms",
+            stats.tets, stats.splits, stats.merges
+        );
+        rows.push([refine, tree_ms, rebuilt_ms, order_ms, plain_ms, ordered_ms]);
+    }
+    let median = |k: usize| {
+        let mut v: Vec<f64> = rows.iter().skip(1).map(|r| r[k]).collect();
+        v.sort_by(f64::total_cmp);
+        v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+    };
+    println!(
+        "median over frames 1-{}: refinement {:.1} ms, tree from plan {:.1} ms, from paths {:.1} ms, order {:.1} ms, write {:.1} ms, write in order {:.1} ms",
+        frames.saturating_sub(1),
+        median(0),
+        median(1),
+        median(2),
+        median(3),
+        median(4),
+        median(5)
+    );
 }
 
 /// CPU time of every thread of this process so far, in seconds (Linux: `/proc/self/task/*/schedstat`;

@@ -13,9 +13,15 @@ use crate::diamond::{bisect, signed_volume6, Diamond};
 use crate::lattice::{Lattice, Placement, Tet};
 use crate::memory;
 use crate::refine::SplitSet;
+use crate::view::order::{
+    child_path, first_child_is_near, lattice_eye, max_path_depth, root_path, root_rank,
+};
+use crate::view::Direction;
 use crate::volume::Grid;
 use crate::{Error, Result};
+use glam::DVec3;
 use rayon::prelude::*;
+use rustc_hash::FxHashMap;
 
 /// The current mesh of a query: deduplicated input points and positively oriented tetrahedra.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -41,22 +47,25 @@ fn is_split(split: &SplitSet, t: &Tet) -> bool {
     Diamond::of_tet(t).is_some_and(|d| split.contains(d))
 }
 
-/// Visits the inside leaves below `t`, depth first, the first child of every bisection first
-/// (ascending bisection paths, [`crate::view::BspTree::paths`]), with their diamonds (`None` for a
-/// unit-cube tetrahedron), skipping the subtrees of the tetrahedra for which `prune` holds. The
+/// Visits the inside leaves below `t` (whose bisection path is `path`), depth first, with their
+/// diamonds (`None` for a unit-cube tetrahedron) and bisection paths, skipping the subtrees of the
+/// tetrahedra for which `prune` holds. At every bisection the first child comes first (ascending
+/// bisection paths, [`crate::view::BspTree::paths`]), or with `toward` = (eye in lattice
+/// coordinates, direction) the child that comes first in that visibility order (Marchesin §6). The
 /// children of an inside tetrahedron are inside: only the tetrahedra that straddle the domain's far
 /// faces are placed.
 #[inline]
 fn walk_pruned(
     lattice: &Lattice,
     split: &SplitSet,
-    t: Tet,
+    (t, path): (Tet, u64),
+    toward: Option<(DVec3, Direction)>,
     prune: impl Fn(&Tet) -> bool,
-    mut visit: impl FnMut(&Tet, Option<Diamond>),
+    mut visit: impl FnMut(&Tet, Option<Diamond>, u64),
 ) {
     let mut stack = Vec::with_capacity(4 * lattice.levels as usize + 4);
-    stack.push((t, false));
-    while let Some((t, inside)) = stack.pop() {
+    stack.push((t, path, false));
+    while let Some((t, path, inside)) = stack.pop() {
         let placement = if inside {
             Placement::Inside
         } else {
@@ -69,20 +78,37 @@ fn walk_pruned(
         if diamond.is_some_and(|d| split.contains(d)) {
             let inside = placement == Placement::Inside;
             let [first, second] = bisect(&t);
-            stack.push((second, inside));
-            stack.push((first, inside)); // popped first: the first child
+            let first = (first, child_path(path, false), inside);
+            let second = (second, child_path(path, true), inside);
+            // Back to front, the far child first; front to back, the near one.
+            let first_first = toward.is_none_or(|(eye, direction)| {
+                first_child_is_near(&t, eye) != (direction == Direction::BackToFront)
+            });
+            // Pushed last, popped first.
+            if first_first {
+                stack.extend([second, first]);
+            } else {
+                stack.extend([first, second]);
+            }
         } else if placement == Placement::Inside {
-            visit(&t, diamond);
+            visit(&t, diamond, path);
         } else {
             unreachable!("straddling diamonds are split in the base mesh");
         }
     }
 }
 
-/// Visits the inside leaves below `t`, depth first, with their diamonds.
+/// Visits the inside leaves below `t` in ascending bisection-path order, with their diamonds.
 #[inline]
-fn walk(lattice: &Lattice, split: &SplitSet, t: Tet, visit: impl FnMut(&Tet, Option<Diamond>)) {
-    walk_pruned(lattice, split, t, |_| false, visit);
+fn walk(lattice: &Lattice, split: &SplitSet, t: Tet, mut visit: impl FnMut(&Tet, Option<Diamond>)) {
+    walk_pruned(
+        lattice,
+        split,
+        (t, 0),
+        None,
+        |_| false,
+        |t, d, _| visit(t, d),
+    );
 }
 
 /// A leaf as the mesh writes it: positively oriented, with its bisection depth and the `error` of
@@ -118,20 +144,27 @@ fn output_leaf(
 /// Subtrees of the split set, in order, enough for parallel work: the tetrahedra of its first levels
 /// (breadth-first) until there are about a thousand; a leaf met on the way is its own subtree. In
 /// the order of [`walk`] (a leaf keeps its place among the split tetrahedra around it), so that the
-/// whole mesh is in ascending bisection-path order.
-fn subtrees(lattice: &Lattice, split: &SplitSet) -> Vec<Tet> {
-    let mut frontier: Vec<Tet> = Diamond::root(lattice).tets(lattice).to_vec();
+/// whole mesh is in ascending bisection-path order. Each with its bisection path.
+fn subtrees(lattice: &Lattice, split: &SplitSet) -> Vec<(Tet, u64)> {
+    let mut frontier: Vec<(Tet, u64)> = Diamond::root(lattice)
+        .tets(lattice)
+        .into_iter()
+        .enumerate()
+        .map(|(r, t)| (t, root_path(r)))
+        .collect();
     loop {
         let mut next = Vec::with_capacity(2 * frontier.len());
         let mut bisected = false;
-        for t in &frontier {
-            match lattice.place(t) {
+        for &(t, path) in &frontier {
+            match lattice.place(&t) {
                 Placement::Outside => {}
-                _ if is_split(split, t) => {
-                    next.extend(bisect(t));
+                _ if is_split(split, &t) => {
+                    let [first, second] = bisect(&t);
+                    next.push((first, child_path(path, false)));
+                    next.push((second, child_path(path, true)));
                     bisected = true;
                 }
-                _ => next.push(*t),
+                _ => next.push((t, path)),
             }
         }
         frontier = next;
@@ -151,7 +184,7 @@ pub(crate) fn leaves_where<X: Send>(
 ) -> Vec<X> {
     subtrees(lattice, split)
         .into_par_iter()
-        .flat_map_iter(|t| leaves_below(lattice, split, t, &prune, &keep))
+        .flat_map_iter(|(t, _)| leaves_below(lattice, split, t, &prune, &keep))
         .collect()
 }
 
@@ -166,7 +199,9 @@ pub(crate) fn leaves_below<X>(
     keep: &dyn Fn(&Tet) -> Option<X>,
 ) -> Vec<X> {
     let mut out = Vec::new();
-    walk_pruned(lattice, split, t, prune, |t, _| out.extend(keep(t)));
+    walk_pruned(lattice, split, (t, 0), None, prune, |t, _, _| {
+        out.extend(keep(t))
+    });
     out
 }
 
@@ -174,7 +209,7 @@ pub(crate) fn leaves_below<X>(
 pub(crate) fn count_tets(lattice: &Lattice, split: &SplitSet) -> usize {
     subtrees(lattice, split)
         .into_par_iter()
-        .map(|t| {
+        .map(|(t, _)| {
             let mut n = 0;
             walk(lattice, split, t, |_, _| n += 1);
             n
@@ -226,9 +261,14 @@ pub(crate) fn pieces<'a, T>(
 pub struct MeshPlan {
     lattice: Lattice,
     split: SplitSet,
-    roots: Vec<Tet>,
+    /// The subtrees in ascending bisection-path order, each with its path.
+    roots: Vec<(Tet, u64)>,
     /// Number of inside leaves below each root.
     counts: Vec<usize>,
+    /// The order the subtrees are written in (indices into `roots`).
+    sequence: Vec<usize>,
+    /// The visibility order the tetrahedra are written in (eye in lattice coordinates), if any.
+    visibility: Option<(DVec3, Direction)>,
     tets: usize,
     points: PointSet,
 }
@@ -295,7 +335,7 @@ impl MeshPlan {
     pub(crate) fn new(lattice: &Lattice, split: SplitSet) -> Result<Self> {
         let roots = subtrees(lattice, &split);
         let mut counts = memory::with_capacity(roots.len(), "the mesh's subtrees")?;
-        counts.par_extend(roots.par_iter().map(|&t| {
+        counts.par_extend(roots.par_iter().map(|&(t, _)| {
             let mut n = 0;
             walk(lattice, &split, t, |_, _| n += 1);
             n
@@ -313,10 +353,99 @@ impl MeshPlan {
             lattice: *lattice,
             tets: counts.iter().sum(),
             split,
+            sequence: (0..roots.len()).collect(),
+            visibility: None,
             roots,
             counts,
             points: PointSet::new(used)?,
         })
+    }
+
+    /// Has every later [`MeshPlan::write_tets`], [`MeshPlan::write_paths`] and
+    /// [`MeshPlan::to_mesh`] write the tetrahedra in the exact visibility order from `eye` (world
+    /// coordinates on `grid`, the grid of the plan's hierarchy; anywhere, inside the volume or on a
+    /// plane too), `direction`'s end first: Marchesin's Algorithm 2 (§6), the bisection tree walked
+    /// with the far child of every bisection first, as [`crate::view::BspTree::order`] does, but
+    /// while writing, so that no tree is built. The subtrees are put in that order first (a walk
+    /// of the tree's first levels), then each is walked in parallel into its slice. The points are
+    /// unchanged.
+    pub fn set_visibility_order(
+        &mut self,
+        grid: &Grid,
+        eye: [f64; 3],
+        direction: Direction,
+    ) -> Result<()> {
+        if grid.dims != self.grid_dims() {
+            return Err(Error::Parameter(format!(
+                "the mesh was planned for a grid of {:?} points, not {:?}",
+                self.grid_dims(),
+                grid.dims
+            )));
+        }
+        let eye = lattice_eye(grid, eye)?;
+        let back_to_front = direction == Direction::BackToFront;
+        let unit: FxHashMap<u64, usize> = self
+            .roots
+            .iter()
+            .enumerate()
+            .map(|(i, &(_, path))| (path, i))
+            .collect();
+        let lattice = &self.lattice;
+        let mut tops: Vec<(Tet, u64)> = Diamond::root(lattice)
+            .tets(lattice)
+            .into_iter()
+            .enumerate()
+            .map(|(r, t)| (t, root_path(r)))
+            .collect();
+        tops.sort_by_key(|(t, _)| root_rank(t, eye));
+        if !back_to_front {
+            tops.reverse();
+        }
+        let mut sequence = Vec::with_capacity(self.roots.len());
+        let mut stack = Vec::with_capacity(64);
+        for top in tops {
+            stack.push(top);
+            while let Some((t, path)) = stack.pop() {
+                if let Some(&i) = unit.get(&path) {
+                    sequence.push(i);
+                    continue;
+                }
+                if lattice.place(&t) == Placement::Outside || !is_split(&self.split, &t) {
+                    continue;
+                }
+                let [first, second] = bisect(&t);
+                let first = (first, child_path(path, false));
+                let second = (second, child_path(path, true));
+                // Pushed last, popped first: back to front, the far child first.
+                if first_child_is_near(&t, eye) != back_to_front {
+                    stack.extend([second, first]);
+                } else {
+                    stack.extend([first, second]);
+                }
+            }
+        }
+        if sequence.len() != self.roots.len() {
+            return Err(Error::Parameter(
+                "internal error: the visibility order misses subtrees of the mesh".into(),
+            ));
+        }
+        self.sequence = sequence;
+        self.visibility = Some((eye, direction));
+        Ok(())
+    }
+
+    /// The direction of the visibility order the tetrahedra are written in, if one was set
+    /// ([`MeshPlan::set_visibility_order`]); otherwise they are in ascending bisection-path order.
+    pub fn visibility(&self) -> Option<Direction> {
+        self.visibility.map(|(_, direction)| direction)
+    }
+
+    /// The subtrees in the order they are written in, with their numbers of tetrahedra.
+    fn writing_order(&self) -> (Vec<(Tet, u64)>, Vec<usize>) {
+        self.sequence
+            .iter()
+            .map(|&i| (self.roots[i], self.counts[i]))
+            .unzip()
     }
 
     /// Number of tetrahedra.
@@ -345,6 +474,7 @@ impl MeshPlan {
     pub(crate) fn subtrees(&self) -> impl Iterator<Item = (&Tet, usize)> {
         self.roots
             .iter()
+            .map(|(t, _)| t)
             .zip(self.counts.iter().scan(0, |first, &n| {
                 let this = *first;
                 *first += n;
@@ -394,33 +524,75 @@ impl MeshPlan {
                 .for_each(|(i, o)| *o = I::from_usize(4 * i));
         }
         let lattice = &self.lattice;
-        let jobs: Vec<_> = self
-            .roots
-            .iter()
-            .zip(pieces(connectivity, &self.counts, 4))
-            .zip(pieces(depths, &self.counts, 1))
-            .zip(pieces(errors, &self.counts, 1))
-            .map(|(((root, c), d), e)| (*root, c, d, e))
+        let (roots, counts) = self.writing_order();
+        let jobs: Vec<_> = roots
+            .into_iter()
+            .zip(pieces(connectivity, &counts, 4))
+            .zip(pieces(depths, &counts, 1))
+            .zip(pieces(errors, &counts, 1))
+            .map(|(((root, c), d), e)| (root, c, d, e))
             .collect();
         let max = jobs
             .into_par_iter()
             .map(|(root, c, d, e)| {
                 let mut k = 0;
                 let mut max = 0.0f32;
-                walk(lattice, &self.split, root, |leaf, diamond| {
-                    let (leaf, depth, err) = output_leaf(lattice, leaf, diamond, &error);
-                    for (slot, p) in c[4 * k..4 * k + 4].iter_mut().zip(leaf) {
-                        *slot = I::from_usize(self.points.id(lattice.index(p)));
-                    }
-                    d[k] = depth;
-                    e[k] = err;
-                    max = max.max(err);
-                    k += 1;
-                });
+                let (split, order) = (&self.split, self.visibility);
+                walk_pruned(
+                    lattice,
+                    split,
+                    root,
+                    order,
+                    |_| false,
+                    |leaf, diamond, _| {
+                        let (leaf, depth, err) = output_leaf(lattice, leaf, diamond, &error);
+                        for (slot, p) in c[4 * k..4 * k + 4].iter_mut().zip(leaf) {
+                            *slot = I::from_usize(self.points.id(lattice.index(p)));
+                        }
+                        d[k] = depth;
+                        e[k] = err;
+                        max = max.max(err);
+                        k += 1;
+                    },
+                );
                 max
             })
             .reduce(|| 0.0, f32::max);
         Ok(max as f64)
+    }
+
+    /// Writes each tetrahedron's bisection path ([`crate::view::BspTree::paths`]: from it,
+    /// [`crate::view::BspTree::from_paths`] orders the cells wherever they went) in the order of
+    /// [`MeshPlan::write_tets`], in parallel; `paths` has exactly one slot per tetrahedron.
+    pub fn write_paths(&self, paths: &mut [u64]) -> Result<()> {
+        Self::check_len(paths.len(), self.tets, 1, "bisection paths")?;
+        // Unit-cube tetrahedra, the deepest, are 3 bisections per level below the root.
+        if 3 * self.lattice.levels >= max_path_depth() {
+            return Err(Error::Parameter(format!(
+                "the mesh is too deep for bisection paths ({} levels)",
+                max_path_depth()
+            )));
+        }
+        let (roots, counts) = self.writing_order();
+        roots
+            .into_par_iter()
+            .zip(pieces(paths, &counts, 1))
+            .for_each(|(root, slice)| {
+                let mut k = 0;
+                let (split, order) = (&self.split, self.visibility);
+                walk_pruned(
+                    &self.lattice,
+                    split,
+                    root,
+                    order,
+                    |_| false,
+                    |_, _, path| {
+                        slice[k] = path;
+                        k += 1;
+                    },
+                );
+            });
+        Ok(())
     }
 
     /// Calls `write(i, chunk)` in parallel for consecutive chunks of `out` (`per` elements per
@@ -549,7 +721,7 @@ mod tests {
     fn reference(plan: &MeshPlan, grid: &Grid, error: impl Fn(Diamond) -> f64) -> TetMesh {
         let lattice = &plan.lattice;
         let mut leaves = Vec::new();
-        for t in subtrees(lattice, &plan.split) {
+        for (t, _) in subtrees(lattice, &plan.split) {
             walk(lattice, &plan.split, t, |t, _| leaves.push(*t));
         }
         let set: BTreeSet<usize> = leaves.iter().flatten().map(|&p| lattice.index(p)).collect();

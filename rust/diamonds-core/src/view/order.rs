@@ -55,6 +55,59 @@ fn path_depth(path: u64) -> u32 {
     (path & ((1 << DEPTH_BITS) - 1)) as u32
 }
 
+/// The bisection path of the `r`-th root tetrahedron.
+pub(crate) fn root_path(r: usize) -> u64 {
+    (r as u64) << ROOT_SHIFT
+}
+
+/// The bisection path of the first (`second` false) or second child of the tetrahedron whose path is
+/// `path`; only meaningful while its depth is below [`max_path_depth`].
+#[inline]
+pub(crate) fn child_path(path: u64, second: bool) -> u64 {
+    let depth = path_depth(path);
+    let bit = u64::from(second) << (DEPTH_BITS + PATH_BITS - 1).saturating_sub(depth);
+    (path | bit) + 1
+}
+
+/// The deepest bisection a path can hold.
+pub(crate) fn max_path_depth() -> u32 {
+    PATH_BITS
+}
+
+/// Whether the first child of `t`'s bisection (the one holding the spine's first end, as
+/// [`bisect`] returns them) lies on the eye's side of the bisection plane (`eye` in lattice
+/// coordinates), so that back to front visits the second child first. An eye on the plane gets
+/// `false` (neither child can hide the other). Every visibility order of the crate decides with
+/// this one test, so that they agree even there.
+#[inline]
+pub(crate) fn first_child_is_near(t: &Tet, eye: DVec3) -> bool {
+    let m = (t[0] + t[1]) / 2;
+    let normal = wide(t[2] - m).cross(wide(t[3] - m));
+    let first_side = normal.dot(wide(t[0] - m)).signum();
+    let eye_side = normal.as_dvec3().dot(eye - m.as_dvec3());
+    eye_side * first_side as f64 > 0.0
+}
+
+/// The rank of a root tetrahedron back to front from `eye` (lattice coordinates): the six root
+/// tetrahedra sorted by it are in back-to-front order, the BSP of the planes `x = y`, `x = z`,
+/// `y = z` (each root tetrahedron is one cell `x_i ≥ x_j ≥ x_k` of it), far side first at each level.
+pub(crate) fn root_rank(t: &Tet, eye: DVec3) -> [bool; 3] {
+    const PLANES: [(usize, usize); 3] = [(0, 1), (0, 2), (1, 2)];
+    let centroid = t.iter().fold(IVec3::ZERO, |a, &p| a + p); // 4 × the centroid
+    PLANES.map(|(a, b)| (centroid[a] > centroid[b]) == (eye[a] > eye[b]))
+}
+
+/// `eye` (world coordinates) in the lattice coordinates of `grid` (a positive scaling per axis keeps
+/// every side of every plane), refused when not finite.
+pub(crate) fn lattice_eye(grid: &Grid, eye: [f64; 3]) -> Result<DVec3> {
+    if eye.iter().any(|c| !c.is_finite()) {
+        return Err(Error::Parameter(format!(
+            "the eye position must be finite (got {eye:?})"
+        )));
+    }
+    Ok((DVec3::from(eye) - DVec3::from(grid.origin)) / DVec3::from(grid.spacing))
+}
+
 /// The binary space partition of a mesh's tetrahedra by their bisection planes (Marchesin §6).
 #[derive(Clone, Debug)]
 pub struct BspTree {
@@ -83,6 +136,11 @@ impl BspTree {
                 plan.grid_dims(),
                 grid.dims
             )));
+        }
+        if plan.visibility().is_some() {
+            return Err(Error::Parameter(
+                "the mesh plan writes its tetrahedra in a visibility order already".into(),
+            ));
         }
         let split = plan.split();
         // Each subtree of the plan with the index of its first tetrahedron and its count.
@@ -263,26 +321,25 @@ impl BspTree {
     /// [`BspTree::from_paths`] rebuilds its tree wherever its cells went.
     pub fn paths(&self) -> Result<Vec<u64>> {
         let mut out = vec![u64::MAX; self.tets];
-        let mut stack: Vec<(u32, u64, u32)> = Vec::with_capacity(128);
+        let mut stack: Vec<(u32, u64)> = Vec::with_capacity(128);
         for (r, &(_, node)) in self.roots.iter().enumerate() {
-            stack.push((node, (r as u64) << ROOT_SHIFT, 0));
-            while let Some((node, code, depth)) = stack.pop() {
+            stack.push((node, root_path(r)));
+            while let Some((node, path)) = stack.pop() {
                 let v = self.nodes[node as usize];
                 if v == EMPTY {
                     continue;
                 }
                 if v & LEAF != 0 {
-                    out[(v & !LEAF) as usize] = code | u64::from(depth);
+                    out[(v & !LEAF) as usize] = path;
                     continue;
                 }
-                if depth >= PATH_BITS {
+                if path_depth(path) >= PATH_BITS {
                     return Err(Error::Parameter(format!(
                         "the mesh is too deep for bisection paths ({PATH_BITS} levels)"
                     )));
                 }
-                let bit = 1u64 << (DEPTH_BITS + PATH_BITS - 1 - depth);
-                stack.push((node + 1, code, depth + 1));
-                stack.push((v, code | bit, depth + 1));
+                stack.push((node + 1, child_path(path, false)));
+                stack.push((v, child_path(path, true)));
             }
         }
         Ok(out)
@@ -309,11 +366,7 @@ impl BspTree {
     /// [`BspTree::order`] written into `out` (exactly one slot per tetrahedron): the subtrees in
     /// order first, then each subtree's tetrahedra into its slice, in parallel.
     pub fn order_into(&self, eye: [f64; 3], direction: Direction, out: &mut [u32]) -> Result<()> {
-        if eye.iter().any(|c| !c.is_finite()) {
-            return Err(Error::Parameter(format!(
-                "the eye position must be finite (got {eye:?})"
-            )));
-        }
+        let eye = lattice_eye(&self.grid, eye)?;
         if out.len() != self.tets {
             return Err(Error::Parameter(format!(
                 "visibility order: room for {} tetrahedra, the mesh has {}",
@@ -321,9 +374,6 @@ impl BspTree {
                 self.tets
             )));
         }
-        // The eye in lattice coordinates (a positive scaling per axis keeps every side of every plane).
-        let eye =
-            (DVec3::from(eye) - DVec3::from(self.grid.origin)) / DVec3::from(self.grid.spacing);
         let mut tops = Vec::with_capacity(self.subtrees.len());
         for (t, node) in self.root_order(eye) {
             self.far_first((node, t), eye, |node, t| match self.subtrees.get(&node) {
@@ -370,13 +420,8 @@ impl BspTree {
             }
             let [c0, c1] = bisect(&t);
             let (n0, n1) = ((node + 1, c0), (second_child, c1));
-            // The first child holds the spine's first end: the side of the eye decides.
-            let m = (t[0] + t[1]) / 2;
-            let normal = wide(t[2] - m).cross(wide(t[3] - m));
-            let first_side = normal.dot(wide(t[0] - m)).signum();
-            let eye_side = normal.as_dvec3().dot(eye - m.as_dvec3());
             // Pushed last, visited first: the far child.
-            if eye_side * first_side as f64 > 0.0 {
+            if first_child_is_near(&t, eye) {
                 stack.extend([n0, n1]);
             } else {
                 stack.extend([n1, n0]);
@@ -387,12 +432,8 @@ impl BspTree {
     /// The six root tetrahedra back to front: the BSP of the planes `x = y`, `x = z`, `y = z`
     /// (each root tetrahedron is one cell `x_i ≥ x_j ≥ x_k` of it), far side first at each level.
     fn root_order(&self, eye: DVec3) -> Vec<(Tet, u32)> {
-        const PLANES: [(usize, usize); 3] = [(0, 1), (0, 2), (1, 2)];
         let mut roots = self.roots.clone();
-        roots.sort_by_key(|(t, _)| {
-            let centroid = t.iter().fold(IVec3::ZERO, |a, &p| a + p); // 4 × the centroid
-            PLANES.map(|(a, b)| (centroid[a] > centroid[b]) == (eye[a] > eye[b]))
-        });
+        roots.sort_by_key(|(t, _)| root_rank(t, eye));
         roots
     }
 }
@@ -654,6 +695,55 @@ mod tests {
     }
 
     #[test]
+    fn plans_written_in_visibility_order_are_the_trees_order() {
+        // A plan set to a visibility order writes its tetrahedra, depths, errors and paths in the
+        // order the tree gives (built from the plan, and rebuilt from the written paths), which
+        // passes the face-by-face check: eyes outside, inside, on planes, both directions.
+        let cases = [
+            ([17, 17, 17], [0.0; 3], [1.0; 3]),
+            ([20, 13, 9], [1.0, -2.0, 3.0], [0.5, 2.0, 1.5]),
+        ];
+        for (dims, origin, spacing) in cases {
+            let h = hierarchy(dims, origin, spacing);
+            let g = *h.grid();
+            let budget = Query {
+                max_tetrahedra: 3000,
+                ..Query::tolerance(0.0)
+            };
+            for q in [Query::tolerance(0.0), Query::tolerance(6.0), budget] {
+                let plan = h.plan(&q).unwrap();
+                let mesh = plan.to_mesh(&g, |d| h.error(d)).unwrap();
+                let tree = BspTree::new(&plan, &g).unwrap();
+                let n = mesh.tets.len();
+                let mut paths = vec![0u64; n];
+                plan.write_paths(&mut paths).unwrap();
+                assert_eq!(paths, tree.paths().unwrap(), "{dims:?} {q:?}");
+                let identity: Vec<u32> = (0..n as u32).collect();
+                for eye in eyes(&g) {
+                    for direction in [Direction::BackToFront, Direction::FrontToBack] {
+                        let label = format!("{dims:?} {q:?} eye {eye:?} {direction:?}");
+                        let mut ordered = plan.clone();
+                        ordered.set_visibility_order(&g, eye, direction).unwrap();
+                        assert_eq!(ordered.visibility(), Some(direction));
+                        let written = ordered.to_mesh(&g, |d| h.error(d)).unwrap();
+                        let order = tree.order(eye, direction).unwrap();
+                        let expected = sorted(mesh.clone(), &order).unwrap();
+                        assert!(written == expected, "{label}: not the tree's order");
+                        let mut written_paths = vec![0u64; n];
+                        ordered.write_paths(&mut written_paths).unwrap();
+                        let rebuilt = BspTree::from_paths(&g, &written_paths).unwrap();
+                        assert_eq!(rebuilt.order(eye, direction).unwrap(), identity, "{label}");
+                        check(&written, &identity, eye, direction)
+                            .unwrap_or_else(|e| panic!("{label}: {e}"));
+                        // A tree is not built from a plan that writes in a visibility order.
+                        assert!(BspTree::new(&ordered, &g).is_err());
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
     fn bad_paths_are_refused() {
         let h = hierarchy([9, 9, 9], [0.0; 3], [1.0; 3]);
         let plan = h.plan(&Query::tolerance(2.0)).unwrap();
@@ -694,6 +784,20 @@ mod tests {
             .is_err());
         let other = Grid::new([9, 9, 10]);
         assert!(BspTree::new(&plan, &other).is_err());
+        // The same checks when a plan is set to a visibility order, which is left unset.
+        let mut ordered = plan.clone();
+        assert!(ordered
+            .set_visibility_order(&other, [1.0; 3], Direction::BackToFront)
+            .is_err());
+        assert!(ordered
+            .set_visibility_order(h.grid(), [f64::NAN, 0.0, 0.0], Direction::BackToFront)
+            .unwrap_err()
+            .to_string()
+            .contains("finite"));
+        assert_eq!(ordered.visibility(), None);
+        assert!(ordered
+            .write_paths(&mut short.iter().map(|&i| u64::from(i)).collect::<Vec<_>>())
+            .is_err());
         // `sorted` takes permutations only, and reorders every per-tetrahedron array alike.
         let mesh = plan.to_mesh(h.grid(), |d| h.error(d)).unwrap();
         let n = mesh.tets.len() as u32;
