@@ -495,9 +495,23 @@ mod tests {
             state.update(&h, &e, &q).unwrap();
             last = Some(q);
         }
-        let (reference, _) = fresh(&h, &e, &last.unwrap());
+        let last = last.unwrap();
+        let (reference, _) = fresh(&h, &e, &last);
         assert_eq!(state.split_set(), reference.split_set());
         check_mesh(&mesh(&h, &state), h.grid()).unwrap();
+        // The mesh written in visibility order after the hundred frames (the representation's
+        // path) is the fresh refinement's, in the same order, exact face by face.
+        let eye = last.camera.position;
+        let ordered = |s: &ViewState| {
+            let mut plan = s.plan().unwrap();
+            plan.set_visibility_order(h.grid(), eye, Direction::BackToFront)
+                .unwrap();
+            plan.to_mesh(h.grid(), |d| h.error(d)).unwrap()
+        };
+        let written = ordered(&state);
+        assert!(written == ordered(&reference), "not the fresh mesh's order");
+        let order: Vec<u32> = (0..written.tets.len() as u32).collect();
+        check_back_to_front(&written.points, &written.tets, &order, eye).unwrap();
     }
 
     #[test]
