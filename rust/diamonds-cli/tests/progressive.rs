@@ -2,7 +2,7 @@
 //! volume: every decoded level is a manifold tetrahedralisation equal to the library's replay of that
 //! level, point data passes through, any prefix of the stream decodes to a valid level, bad input is
 //! a clean error. And the shared blunt fin (`../shared/data/tets`): its levels of 50, 90 and 99 %
-//! reduction checked independently (manifold, field error at every removed vertex — at the nearest
+//! reduction checked independently (manifold, no two tetrahedra overlapping, field error at every removed vertex — at the nearest
 //! point of the level for one outside it — within the reported maximum, boundary surface within the
 //! boundary tolerance of the original's).
 //! Without `../shared` that test passes after printing "skipped", except under `CI=true` or
@@ -13,7 +13,7 @@ mod common;
 use common::{diamonds, field_value, s, shared_file, TempDir};
 use diamonds::geometry::{point_triangle_distance, triangle_samples, triangle_tree};
 use diamonds::progressive::{simplify, Params, Replay, TetInput};
-use diamonds::validate::{boundary_faces, check_manifold_tets};
+use diamonds::validate::{boundary_faces, check_manifold_tets, check_no_overlap};
 use diamonds_cli::read::{read_unstructured, tetrahedra, Unstructured};
 use diamonds_cli::Values;
 use glam::DVec3;
@@ -336,10 +336,11 @@ fn barycentric(x: [[f64; 3]; 4], p: [f64; 3]) -> [f64; 4] {
 }
 
 /// Simplifies `path` as the filter does (the whole sequence) and checks the levels of 50, 90 and
-/// 99 % reduction, each reached by replay, independently: manifold; the error of every removed
-/// vertex — at its place if a tetrahedron holds it (exact barycentric coordinates), else at the
-/// nearest point of the level's boundary surface — within the level's reported maximum, which is
-/// their maximum; at 90 %, the boundary surface within the boundary tolerance of the original's.
+/// 99 % reduction, each reached by replay, independently: manifold; no two tetrahedra overlapping
+/// (generalized winding number ≤ 1 at every original point); the error of every removed vertex —
+/// at its place if a tetrahedron holds it (exact barycentric coordinates), else at the nearest
+/// point of the level's boundary surface — within the level's reported maximum, which is their
+/// maximum; at 90 %, the boundary surface within the boundary tolerance of the original's.
 /// Returns a report line.
 fn check_shared(path: &Path, array: &str) -> String {
     let grid = read_unstructured(path).unwrap();
@@ -382,6 +383,13 @@ fn check_shared(path: &Path, array: &str) -> String {
             .map(|&v| grid.points[v as usize])
             .collect();
         check_manifold_tets(&points, &mesh.tets).unwrap();
+        // No two tetrahedra overlap, probed at every original point besides the level's own.
+        let originals: Vec<[f64; 3]> = (0..grid.points.len())
+            .filter(|&v| used[v])
+            .map(|v| grid.points[v])
+            .collect();
+        check_no_overlap(&points, &mesh.tets, &originals)
+            .unwrap_or_else(|e| panic!("{reduction}: {e}"));
         let reported = pm.error(level);
         assert_eq!(reported.tets, mesh.tets.len());
         let value = |k: u32| values[mesh.point_ids[k as usize] as usize];

@@ -144,3 +144,153 @@ pub fn triangle_samples(corners: [DVec3; 3], spacing: f64) -> impl Iterator<Item
         })
     })
 }
+
+/// Do the triangles `s` and `t`, two faces of one triangulated surface, meet other than in the
+/// corners they share (given by index: corners with equal ids are the same point)? Sharing an edge,
+/// they do when they lie in one plane on the same side of it (folded onto each other); sharing a
+/// corner or nothing, when an edge of one not through a shared corner meets the other (the segment
+/// where two triangles meet ends on such edges: Möller's test by edges, closed, in the plane for
+/// coplanar pairs). Distances below `1e-9` of the longer triangle's longest edge count as 0.
+pub fn triangles_meet(s: ([u32; 3], [DVec3; 3]), t: ([u32; 3], [DVec3; 3])) -> bool {
+    let longest = |x: &[DVec3; 3]| {
+        x[0].distance(x[1])
+            .max(x[1].distance(x[2]))
+            .max(x[2].distance(x[0]))
+    };
+    let eps = 1e-9 * longest(&s.1).max(longest(&t.1));
+    let shared: Vec<(usize, usize)> = (0..3)
+        .flat_map(|a| (0..3).map(move |b| (a, b)))
+        .filter(|&(a, b)| s.0[a] == t.0[b])
+        .collect();
+    match shared.len() {
+        3 => true,
+        2 => {
+            // The corners not on the shared edge: folded if `t`'s lies in `s`'s plane on `c`'s side.
+            let c = (0..3).find(|&a| shared.iter().all(|p| p.0 != a)).unwrap();
+            let d = (0..3).find(|&b| shared.iter().all(|p| p.1 != b)).unwrap();
+            let (a, b) = (s.1[shared[0].0], s.1[shared[1].0]);
+            let (pc, pd) = (s.1[c], t.1[d]);
+            let n = (b - a).cross(pc - a);
+            let n_len = n.length();
+            n_len > 0.0
+                && ((pd - a).dot(n) / n_len).abs() <= eps
+                && n.dot((b - a).cross(pd - a)) > 0.0
+        }
+        _ => {
+            // The edges of `x` through no shared corner (`mine` its shared corners) against `y`.
+            let edges_hit = |x: &[DVec3; 3], mine: &[usize], y: [DVec3; 3]| {
+                (0..3).any(|e| {
+                    let (a, b) = (e, (e + 1) % 3);
+                    !mine.contains(&a)
+                        && !mine.contains(&b)
+                        && segment_meets_triangle(x[a], x[b], y, eps)
+                })
+            };
+            let (in_s, in_t): (Vec<usize>, Vec<usize>) = shared.into_iter().unzip();
+            edges_hit(&s.1, &in_s, t.1) || edges_hit(&t.1, &in_t, s.1)
+        }
+    }
+}
+
+/// Does the segment `pq` meet the closed triangle `x` (distances below `eps` counting as 0)?
+fn segment_meets_triangle(p: DVec3, q: DVec3, x: [DVec3; 3], eps: f64) -> bool {
+    let n = (x[1] - x[0]).cross(x[2] - x[0]);
+    let n_len = n.length();
+    if n_len == 0.0 {
+        return false;
+    }
+    let n = n / n_len;
+    let (dp, dq) = ((p - x[0]).dot(n), (q - x[0]).dot(n));
+    if (dp > eps && dq > eps) || (dp < -eps && dq < -eps) {
+        return false;
+    }
+    // Project onto the plane's dominant axes; the triangle counter-clockwise there.
+    let axis = n.abs().max_position();
+    let flat = |v: DVec3| {
+        let (u, w) = ((axis + 1) % 3, (axis + 2) % 3);
+        glam::DVec2::new(v[u], v[w])
+    };
+    let mut t = x.map(flat);
+    let cross = |o: glam::DVec2, a: glam::DVec2, b: glam::DVec2| (a - o).perp_dot(b - o);
+    if cross(t[0], t[1], t[2]) < 0.0 {
+        t.swap(1, 2);
+    }
+    // Distances in the plane: the projection shrinks lengths by at most √3.
+    let inside = |v: glam::DVec2| {
+        (0..3).all(|e| {
+            let (a, b) = (t[e], t[(e + 1) % 3]);
+            cross(a, b, v) >= -eps * a.distance(b)
+        })
+    };
+    if dp.abs() > eps || dq.abs() > eps {
+        // Crossing the plane (or touching it at one end): test the crossing point.
+        let at = if dp.abs() <= eps {
+            p
+        } else if dq.abs() <= eps {
+            q
+        } else {
+            p + (q - p) * (dp / (dp - dq))
+        };
+        return inside(flat(at));
+    }
+    // In the plane: an end inside, or the segment crossing an edge.
+    let (a2, b2) = (flat(p), flat(q));
+    if inside(a2) || inside(b2) {
+        return true;
+    }
+    (0..3).any(|e| {
+        let (c, d) = (t[e], t[(e + 1) % 3]);
+        let (o1, o2) = (cross(a2, b2, c), cross(a2, b2, d));
+        let (o3, o4) = (cross(c, d, a2), cross(c, d, b2));
+        o1 * o2 <= 0.0 && o3 * o4 <= 0.0
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tri(ids: [u32; 3], x: [[f64; 3]; 3]) -> ([u32; 3], [DVec3; 3]) {
+        (ids, x.map(DVec3::from_array))
+    }
+
+    #[test]
+    fn triangles_meet_beyond_shared_corners_only_when_they_cross_or_fold() {
+        let base = tri([0, 1, 2], [[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
+        // Disjoint, crossing, touching at a corner of one.
+        let above = tri(
+            [3, 4, 5],
+            [[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 1.0, 1.0]],
+        );
+        assert!(!triangles_meet(base, above));
+        let crossing = tri(
+            [3, 4, 5],
+            [[0.2, 0.2, -1.0], [0.2, 0.2, 1.0], [0.3, 0.1, 1.0]],
+        );
+        assert!(triangles_meet(base, crossing));
+        assert!(triangles_meet(crossing, base));
+        // Coplanar: overlapping or apart.
+        let overlapping = tri(
+            [3, 4, 5],
+            [[0.2, 0.2, 0.0], [2.0, 0.2, 0.0], [0.2, 2.0, 0.0]],
+        );
+        assert!(triangles_meet(base, overlapping));
+        let apart = tri(
+            [3, 4, 5],
+            [[2.0, 2.0, 0.0], [3.0, 2.0, 0.0], [2.0, 3.0, 0.0]],
+        );
+        assert!(!triangles_meet(base, apart));
+        // Sharing corner 0: apart, or the other's far edge crossing the first.
+        let fan = tri([0, 4, 5], [[0.0; 3], [0.0, 0.0, 1.0], [-1.0, 0.0, 1.0]]);
+        assert!(!triangles_meet(base, fan));
+        let through = tri([0, 4, 5], [[0.0; 3], [0.3, 0.3, 1.0], [0.3, 0.3, -1.0]]);
+        assert!(triangles_meet(base, through));
+        // Sharing the edge 0–1: a hinge, or folded onto the first in its plane.
+        let hinge = tri([0, 1, 5], [[0.0; 3], [1.0, 0.0, 0.0], [0.5, 0.0, 1.0]]);
+        assert!(!triangles_meet(base, hinge));
+        let unfolded = tri([0, 1, 5], [[0.0; 3], [1.0, 0.0, 0.0], [0.5, -1.0, 0.0]]);
+        assert!(!triangles_meet(base, unfolded));
+        let folded = tri([1, 0, 5], [[1.0, 0.0, 0.0], [0.0; 3], [0.5, 0.3, 0.0]]);
+        assert!(triangles_meet(base, folded));
+    }
+}

@@ -31,7 +31,7 @@ use super::cost::{interpolate, shape_measure, Frame, Quadric};
 use super::record::{LevelError, ProgressiveMesh, VertexSplit};
 use super::validity::{feature_edges_at, is_feature_edge, link_condition, Link};
 use super::{Params, TetInput};
-use crate::geometry::{closest_point_on_triangle, point_triangle_distance};
+use crate::geometry::{closest_point_on_triangle, point_triangle_distance, triangles_meet};
 use crate::hierarchy::Progress;
 use crate::{Error, Result};
 use glam::DVec3;
@@ -266,9 +266,9 @@ impl Around {
         }
     }
 
-    /// Is the tetrahedron with `i` moved to `pj` proper: positively oriented, six times its volume
-    /// above a millionth of a millionth of the cube of its longest edge (§3.2, no flipped or
-    /// degenerate tetrahedra)?
+    /// Is the tetrahedron with `i` moved to `pj` proper: positively oriented, its volume above a
+    /// millionth of a millionth of the cube of its longest edge (§3.2, no flipped or degenerate
+    /// tetrahedra; the bound `validate::check_manifold_tets` checks)?
     #[inline]
     fn proper_at(&self, pj: DVec3) -> bool {
         let v = (pj - self.o).dot(self.n);
@@ -276,7 +276,8 @@ impl Around {
         for d in 1..4 {
             l2 = l2.max(pj.distance_squared(self.x[(self.slot + d) % 4]));
         }
-        v > 1e-12 * l2 * l2.sqrt()
+        // `v` is six times the volume.
+        v > 6e-12 * l2 * l2.sqrt()
     }
 
     /// With `i` moved to `pj` (a proper place, [`Self::proper_at`]): the barycentric coordinates
@@ -434,20 +435,17 @@ impl<'a> Simplifier<'a> {
                 },
             )
             .collect();
-        // Each boundary face once, from its lowest corner's link.
-        let faces = RTree::bulk_load(
-            links
-                .iter()
-                .enumerate()
-                .flat_map(|(v, l)| {
-                    let v = v as u32;
-                    l.boundary_faces()
-                        .filter(move |&(a, b, _)| v < a && v < b)
-                        .map(move |(a, b, _)| [v, a, b])
-                })
-                .map(|f| BoundaryFace::new(f, &pos))
-                .collect(),
-        );
+        // Each boundary face once, from its lowest corner's link. Inserted one by one, not
+        // bulk-loaded: rstar 0.12's bulk load can leave leaves at different depths, and a later
+        // insertion (a collapse's new faces) then panics ("This is a bug in rstar", georust/rstar
+        // PR #239; met on a generated mesh with a jittered boundary).
+        let mut faces = RTree::new();
+        for (v, l) in links.iter().enumerate() {
+            let v = v as u32;
+            for (a, b, _) in l.boundary_faces().filter(|&(a, b, _)| v < a && v < b) {
+                faces.insert(BoundaryFace::new([v, a, b], &pos));
+            }
+        }
         // Q_v: the planes of the boundary faces around v (Eq. 3).
         let quadric = links
             .par_iter()
@@ -660,9 +658,33 @@ impl<'a> Simplifier<'a> {
             });
         }
         candidates.sort_by(|a, b| a.cost.total_cmp(&b.cost).then(a.target.cmp(&b.target)));
-        candidates
-            .into_iter()
-            .find(|c| self.link_ok(i, &link, c.target))
+        candidates.into_iter().find(|c| {
+            self.link_ok(i, &link, c.target)
+                && (!on_boundary || self.boundary_stays_embedded(i, &link, c.target))
+        })
+    }
+
+    /// Does the boundary surface stay embedded under `hec(i → j)`, `i` on it (`link` its link):
+    /// do the faces at `j` replacing those at `i` meet no other boundary face, nor each other,
+    /// beyond their shared corners and edges ([`triangles_meet`])? With every tetrahedron
+    /// positively oriented, tetrahedra cover each point as often as the boundary surface winds
+    /// around it, so an embedded boundary (winding 0 or 1) means no two tetrahedra overlap; the
+    /// orientation tests alone let the new faces fold over the boundary next to them (the blunt
+    /// fin's near-coincident points along its singular axis at 90 % reduction).
+    fn boundary_stays_embedded(&self, i: u32, link: &Link, j: u32) -> bool {
+        let new: Vec<BoundaryFace> = link
+            .boundary_faces()
+            .filter(|&(a, b, _)| a != j && b != j)
+            .map(|(a, b, _)| BoundaryFace::new([j, a, b], &self.pos))
+            .collect();
+        new.iter().enumerate().all(|(k, f)| {
+            let meets = |g: &BoundaryFace| triangles_meet((f.corners, f.x), (g.corners, g.x));
+            !new[k + 1..].iter().any(meets)
+                && !self
+                    .faces
+                    .locate_in_envelope_intersecting(&f.envelope())
+                    .any(|g| !g.corners.contains(&i) && meets(g))
+        })
     }
 
     /// The link condition of `hec(i → j)`.
@@ -681,7 +703,9 @@ impl<'a> Simplifier<'a> {
     fn still_valid(&self, i: u32, j: u32) -> bool {
         !self.removed[j as usize] && {
             let link = Link::of(&self.tets, &self.star[i as usize], i);
-            link.verts().binary_search(&j).is_ok() && self.link_ok(i, &link, j)
+            link.verts().binary_search(&j).is_ok()
+                && self.link_ok(i, &link, j)
+                && (!link.on_boundary() || self.boundary_stays_embedded(i, &link, j))
         }
     }
 

@@ -3,7 +3,7 @@
 //! here by brute-force point location), replay equal to direct simplification, stops, bad input.
 
 use super::*;
-use crate::validate::{boundary_faces, check_manifold_tets};
+use crate::validate::{boundary_faces, check_manifold_tets, check_no_overlap};
 use crate::Error;
 use glam::DVec3;
 
@@ -104,11 +104,13 @@ fn level(pm: &ProgressiveMesh, l: usize) -> (Vec<[f64; 3]>, Vec<[u32; 4]>, Vec<u
     (points, mesh.tets, mesh.point_ids)
 }
 
-/// Checks level `l` independently: manifold with positive volumes, the volume of the unit cube
+/// Checks level `l` independently: manifold with positive volumes, no two tetrahedra overlapping
+/// (probed at every original point), the volume of the unit cube
 /// (the boundary is kept exactly), and the field errors ([`check_errors`]).
 fn check_level(g: &Generated, pm: &ProgressiveMesh, l: usize) {
     let (points, tets, _) = level(pm, l);
     check_manifold_tets(&points, &tets).unwrap_or_else(|e| panic!("level {l}: {e}"));
+    check_no_overlap(&points, &tets, &g.points).unwrap_or_else(|e| panic!("level {l}: {e}"));
     let x = |t: &[u32; 4]| t.map(|v| DVec3::from_array(points[v as usize]));
     let volume: f64 = tets.iter().map(|t| cost::volume6(&x(t)) / 6.0).sum();
     assert!((volume - 1.0).abs() < 1e-9, "level {l}: volume {volume}");
@@ -544,6 +546,7 @@ fn removed_vertices_outside_a_curved_boundary_are_within_the_reported_error() {
     for l in 0..=pm.levels() {
         let (points, tets, _) = level(&pm, l);
         check_manifold_tets(&points, &tets).unwrap_or_else(|e| panic!("level {l}: {e}"));
+        check_no_overlap(&points, &tets, &g.points).unwrap_or_else(|e| panic!("level {l}: {e}"));
         outside += check_errors(&g, &pm, l);
     }
     assert!(

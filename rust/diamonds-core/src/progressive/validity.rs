@@ -2,7 +2,9 @@
 //! vertex moves only along a boundary edge), the link condition (the mesh stays a manifold
 //! tetrahedralisation: Dey et al.'s `Lk(i) ∩ Lk(j) = Lk(ij)`, with the boundary closed by a vertex at
 //! infinity) and feature edges. Flipped or degenerate tetrahedra are tested where the cost is
-//! computed (`Around::proper_at` in [`super::simplify`]).
+//! computed (`Around::proper_at` in [`super::simplify`]), and for a boundary vertex that the new
+//! boundary faces meet no other boundary face (`Simplifier::boundary_stays_embedded`: with positive
+//! tetrahedra, an embedded boundary means no two tetrahedra overlap).
 
 use glam::DVec3;
 

@@ -33,7 +33,7 @@ pub use surfaces::{
 pub use tetrahedra::{
     boundary_faces, check_conforming, check_interval_arrays, check_interval_volume,
     check_manifold_tets, check_material_mesh_arrays, check_mesh, check_mesh_arrays,
-    check_tolerance, MeshReport,
+    check_no_overlap, check_tolerance, MeshReport,
 };
 pub use visibility::{check_back_to_front, VisibilityReport};
 

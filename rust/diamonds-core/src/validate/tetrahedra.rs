@@ -168,6 +168,90 @@ pub fn check_manifold_tets(points: &[[f64; 3]], tets: &[[u32; 4]]) -> Result<Mes
     })
 }
 
+/// Checks that no two of `tets` (corners indexing `points`) overlap, independently of how they are
+/// connected: at every probe point `p` — each point of `points`, the centroid of each tetrahedron and
+/// each of `extra` — the tetrahedra's generalized winding number `W(p) = Σ_t w_t(p)` is at most 1,
+/// and exactly 1 at the centroids. `w_t(p)` is the solid angle of `t`'s boundary seen from `p` over
+/// 4π (Van Oosterom–Strackee per face), a face whose plane holds `p` counting 0: 1 inside `t`, ½ on
+/// a face, the dihedral angle over 2π on an edge, the corner's solid angle over 4π at a corner, 0
+/// outside. Tetrahedra whose interiors are disjoint cover any point at most once, so `W ≤ 1`;
+/// where two overlap, every point of the overlap has `W ≥ 2` and a point where one's edge crosses
+/// another's interior or face has `W > 1`. Returns the number of probes.
+pub fn check_no_overlap(
+    points: &[[f64; 3]],
+    tets: &[[u32; 4]],
+    extra: &[[f64; 3]],
+) -> Result<usize, String> {
+    use rstar::primitives::GeomWithData;
+    use rstar::{RTree, AABB};
+    check_corners(tets, points.len(), "tetrahedron")?;
+    let x = |t: &[u32; 4]| t.map(|v| DVec3::from_array(points[v as usize]));
+    let tree = RTree::bulk_load(
+        tets.iter()
+            .enumerate()
+            .map(|(k, t)| {
+                let x = x(t);
+                let lo = x[0].min(x[1]).min(x[2]).min(x[3]);
+                let hi = x[0].max(x[1]).max(x[2]).max(x[3]);
+                GeomWithData::new(
+                    rstar::primitives::Rectangle::from_corners(lo.to_array(), hi.to_array()),
+                    k as u32,
+                )
+            })
+            .collect(),
+    );
+    let winding = |p: DVec3| -> f64 {
+        let at = p.to_array();
+        tree.locate_in_envelope_intersecting(&AABB::from_point(at))
+            .map(|r| tet_winding(&x(&tets[r.data as usize]), p))
+            .sum()
+    };
+    let centroids: Vec<DVec3> = tets
+        .iter()
+        .map(|t| x(t).iter().sum::<DVec3>() / 4.0)
+        .collect();
+    if let Some((c, w)) = centroids.par_iter().enumerate().find_map_first(|(c, &p)| {
+        let w = winding(p);
+        ((w - 1.0).abs() > 1e-6).then_some((c, w))
+    }) {
+        return Err(format!(
+            "the centroid of tetrahedron {c} {:?} is covered {w:.6} times: tetrahedra overlap there",
+            x(&tets[c]).map(|p| p.to_array())
+        ));
+    }
+    if let Some((p, w)) = points.par_iter().chain(extra).find_map_first(|&p| {
+        let w = winding(DVec3::from_array(p));
+        (w > 1.0 + 1e-6).then_some((p, w))
+    }) {
+        return Err(format!(
+            "the point {p:?} is covered {w:.6} times: tetrahedra overlap there"
+        ));
+    }
+    Ok(centroids.len() + points.len() + extra.len())
+}
+
+/// The generalized winding number of the tetrahedron `x` at `p` (see [`check_no_overlap`]): its
+/// faces' solid angles seen from `p` over 4π, a face whose plane holds `p` (to a relative 1e-13)
+/// counting 0.
+fn tet_winding(x: &[DVec3; 4], p: DVec3) -> f64 {
+    let volume6 = (x[1] - x[0]).dot((x[2] - x[0]).cross(x[3] - x[0]));
+    let sign = if volume6 < 0.0 { -1.0 } else { 1.0 };
+    // Faces oriented outward for a positive tetrahedron.
+    let faces = [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]];
+    let mut omega = 0.0;
+    for f in faces {
+        let [a, b, c] = f.map(|k| x[k] - p);
+        let (la, lb, lc) = (a.length(), b.length(), c.length());
+        let det = a.dot(b.cross(c));
+        if det.abs() <= 1e-13 * la * lb * lc {
+            continue;
+        }
+        let den = la * lb * lc + a.dot(b) * lc + a.dot(c) * lb + b.dot(c) * la;
+        omega += 2.0 * det.atan2(den);
+    }
+    sign * omega / (4.0 * std::f64::consts::PI)
+}
+
 /// Checks that every tetrahedron has a volume above `relative` times the cube of its longest edge
 /// (so inverted and flat ones are named).
 fn check_positive(points: &[[f64; 3]], tets: &[[u32; 4]], relative: f64) -> Result<(), String> {
@@ -637,5 +721,53 @@ mod tests {
         let mut bad = good;
         bad.interface_distance.push(vec![0.0; 4]);
         assert!(check_material_mesh_arrays(&bad, 2, 1, true).is_err());
+    }
+
+    #[test]
+    fn winding_numbers_count_cover_and_overlap() {
+        let x = [DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z];
+        let w = |p: [f64; 3]| tet_winding(&x, DVec3::from_array(p));
+        assert!((w([0.1, 0.1, 0.1]) - 1.0).abs() < 1e-12);
+        assert!((w([0.2, 0.2, 0.0]) - 0.5).abs() < 1e-12);
+        assert!(w([2.0, 0.1, 0.1]).abs() < 1e-12);
+        // On the edge along x, where the faces meet at a right angle.
+        assert!((w([0.5, 0.0, 0.0]) - 0.25).abs() < 1e-12);
+        // At the right-angled corner: an eighth of the sphere.
+        assert!((w([0.0, 0.0, 0.0]) - 0.125).abs() < 1e-12);
+        // The unit cube in six tetrahedra around its diagonal: no overlap.
+        let points: Vec<[f64; 3]> = (0..8)
+            .map(|k| [k & 1, (k >> 1) & 1, k >> 2].map(|c| c as f64))
+            .collect();
+        let tets = [
+            [0, 1, 3, 7],
+            [0, 1, 7, 5],
+            [0, 2, 7, 3],
+            [0, 2, 6, 7],
+            [0, 4, 5, 7],
+            [0, 4, 7, 6],
+        ];
+        check_manifold_tets(&points, &tets).unwrap();
+        assert_eq!(check_no_overlap(&points, &tets, &[]), Ok(8 + 6));
+        // Two positive tetrahedra on a shared face, the second folded back over the first: manifold
+        // and positive, but overlapping.
+        let points = [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [0.2, 0.2, 0.5],
+        ];
+        let tets = [[0, 1, 2, 3], [0, 2, 1, 4]];
+        let tets = tets.map(|t| {
+            let x = t.map(|v| DVec3::from_array(points[v as usize]));
+            if (x[1] - x[0]).dot((x[2] - x[0]).cross(x[3] - x[0])) < 0.0 {
+                [t[0], t[2], t[1], t[3]]
+            } else {
+                t
+            }
+        });
+        check_manifold_tets(&points, &tets).unwrap();
+        let e = check_no_overlap(&points, &tets, &[]).unwrap_err();
+        assert!(e.contains("overlap"), "{e}");
     }
 }
