@@ -27,6 +27,7 @@
 #include <cstddef>
 #include <optional>
 #include <string>
+#include <vector>
 
 vtkStandardNewMacro(vtkAdaptiveIntervalVolume);
 
@@ -88,7 +89,9 @@ vtkAdaptiveIntervalVolume::vtkAdaptiveIntervalVolume()
   , MaximumNumberOfTetrahedra(0)
   , UseRegionOfInterest(0)
   , RegionOfInterest{ 0.0, 1.0, 0.0, 1.0, 0.0, 1.0 }
+  , Hierarchy(HIERARCHY_FULL)
   , NumberOfHierarchyBuilds(0)
+  , NumberOfIsodiamondBuilds(0)
   , Internals(new vtkInternals)
 {
   // Default: the active point scalars.
@@ -179,7 +182,27 @@ try
     return result;
   }
 
-  // ---- Extraction, with the isosurface state kept with the hierarchy (its cache serves).
+  // ---- The isodiamond hierarchy of the range (Relevant, Minimal), kept while the range, the
+  // choice and the input stay; dropped with Full.
+  const bridge::Isodiamonds* isodiamonds = nullptr;
+  if (this->Hierarchy != HIERARCHY_FULL)
+  {
+    const std::vector<double> range(this->ThresholdRange, this->ThresholdRange + 2);
+    isodiamonds = cache.PrepareIsodiamonds(
+      this, Text, range, this->Hierarchy == HIERARCHY_MINIMAL, this->NumberOfIsodiamondBuilds);
+    if (!isodiamonds)
+    {
+      return 0;
+    }
+  }
+  else
+  {
+    cache.ReleaseIsodiamonds();
+  }
+  this->UpdateProgress(0.5);
+
+  // ---- Extraction, with the isosurface state kept with the hierarchy (its cache serves), or
+  // from the isodiamond hierarchy (no sample read).
   bridge::IntervalSpec spec;
   spec.range = { this->ThresholdRange[0], this->ThresholdRange[1] };
   spec.tolerance = this->Tolerance;
@@ -192,8 +215,9 @@ try
   std::optional<rust::Box<bridge::IntervalVolume>> volume;
   try
   {
-    volume.emplace(cache.GetHierarchy().interval_volume(
-      cache.GetIsoState(), cache.GetSampleType(), cache.GetSamples(), spec));
+    volume.emplace(isodiamonds ? isodiamonds->interval_volume(spec)
+                               : cache.GetHierarchy().interval_volume(cache.GetIsoState(),
+                                   cache.GetSampleType(), cache.GetSamples(), spec));
     for (const rust::String& warning : (*volume)->warnings())
     {
       vtkWarningMacro(<< "Adaptive Interval Volume, array \"" << array->GetName()
@@ -226,6 +250,13 @@ try
   fieldData->AddArray(OneValue<vtkIdTypeArray>("NumberOfPoints", output->GetNumberOfPoints()));
   fieldData->AddArray(
     OneValue<vtkIdTypeArray>("NumberOfLeaves", static_cast<vtkIdType>((*volume)->leaves())));
+  fieldData->AddArray(OneValue<vtkIdTypeArray>("HierarchyMemorySize", cache.GetMemorySize()));
+  if (isodiamonds)
+  {
+    const rust::Slice<const double> ladder = isodiamonds->ladder();
+    fieldData->AddArray(NamedArray<vtkDoubleArray>(
+      "HierarchyLadder", static_cast<vtkIdType>(ladder.size()), ladder.data()));
+  }
   this->UpdateProgress(1.0);
   return 1;
 }
@@ -249,6 +280,12 @@ void vtkAdaptiveIntervalVolume::PrintSelf(ostream& os, vtkIndent indent)
      << this->RegionOfInterest[1] << ", " << this->RegionOfInterest[2] << ", "
      << this->RegionOfInterest[3] << ", " << this->RegionOfInterest[4] << ", "
      << this->RegionOfInterest[5] << ")\n";
+  os << indent << "Hierarchy: "
+     << (this->Hierarchy == HIERARCHY_FULL ? "Full"
+                                             : this->Hierarchy == HIERARCHY_RELEVANT ? "Relevant"
+                                                                                     : "Minimal")
+     << "\n";
   os << indent << "NumberOfHierarchyBuilds: " << this->NumberOfHierarchyBuilds << "\n";
+  os << indent << "NumberOfIsodiamondBuilds: " << this->NumberOfIsodiamondBuilds << "\n";
   os << indent << "HierarchyMemorySize: " << this->GetHierarchyMemorySize() << "\n";
 }

@@ -123,12 +123,44 @@ public:
   ///@}
 
   /**
+   * Which hierarchy the interval volume is extracted from (Weiss & De Floriani, "Isodiamond
+   * Hierarchies"): HIERARCHY_FULL (default) the diamond hierarchy of the whole image, read from the
+   * samples; HIERARCHY_RELEVANT or HIERARCHY_MINIMAL an isodiamond hierarchy (RI: active and
+   * relevant isodiamonds, §6; MI: active and creation isodiamonds only, §7) of ThresholdRange, built
+   * when the range (or the input) changes and kept, from which every Tolerance is extracted
+   * without reading the samples. It stores the full hierarchy's split set at each rung of a ladder
+   * of tolerances (4 % down to 0.0625 % of the image diagonal, halving, then 0): a Tolerance gives
+   * the tetrahedra Full gives at the finest rung at or below it (exactly Full's at a rung, finer
+   * between rungs); MaximumNumberOfTetrahedra picks the finest rung at or above Tolerance that
+   * fits. New points lie at the stored crossing positions (quantised to 1/256 of their edge, at
+   * most 1/512 of the edge from Full's), and the input point arrays are interpolated there. Not
+   * available with it (error): a region of interest.
+   */
+  enum HierarchyChoice
+  {
+    HIERARCHY_FULL = 0,
+    HIERARCHY_RELEVANT = 1,
+    HIERARCHY_MINIMAL = 2
+  };
+  vtkSetClampMacro(Hierarchy, int, HIERARCHY_FULL, HIERARCHY_MINIMAL);
+  vtkGetMacro(Hierarchy, int);
+
+  /**
    * Number of times this filter has built a diamond hierarchy.
    */
   vtkGetMacro(NumberOfHierarchyBuilds, vtkIdType);
 
   /**
-   * Bytes of per-diamond records held by the cached hierarchy: 0 (isosurface-only hierarchy).
+   * Number of times this filter has built an isodiamond hierarchy (Hierarchy RELEVANT or MINIMAL:
+   * once per range, choice or input; none when only Tolerance or the budget changed).
+   */
+  vtkGetMacro(NumberOfIsodiamondBuilds, vtkIdType);
+
+  /**
+   * Bytes of the hierarchy in use (also field data "HierarchyMemorySize"). Full: the processed
+   * array's values, which the extraction reads again (a reference to the input array, not a
+   * copy), plus what it keeps between executions (errors, gradients, brick ranges). Relevant or
+   * Minimal: the isodiamond hierarchy.
    */
   vtkIdType GetHierarchyMemorySize();
 
@@ -151,7 +183,9 @@ protected:
   vtkIdType MaximumNumberOfTetrahedra;
   vtkTypeBool UseRegionOfInterest;
   double RegionOfInterest[6];
+  int Hierarchy;
   vtkIdType NumberOfHierarchyBuilds;
+  vtkIdType NumberOfIsodiamondBuilds;
 
 private:
   vtkAdaptiveIntervalVolume(const vtkAdaptiveIntervalVolume&) = delete;

@@ -99,7 +99,9 @@ vtkAdaptiveIsosurface::vtkAdaptiveIsosurface()
   , ComputeNormals(1)
   , ComputeScalars(0)
   , GenerateCarrierTetrahedra(0)
+  , Hierarchy(HIERARCHY_FULL)
   , NumberOfHierarchyBuilds(0)
+  , NumberOfIsodiamondBuilds(0)
   , NumberOfReusedMeshes(0)
   , Internals(new vtkInternals)
 {
@@ -315,9 +317,35 @@ try
     return result;
   }
 
+  // ---- The isodiamond hierarchy of the one isovalue (Relevant, Minimal), kept while the value,
+  // the choice and the input stay; dropped with Full.
+  const bridge::Isodiamonds* isodiamonds = nullptr;
+  if (this->Hierarchy != HIERARCHY_FULL)
+  {
+    if (isovalues->size() != 1)
+    {
+      vtkErrorMacro(<< "Hierarchy " << (this->Hierarchy == HIERARCHY_MINIMAL ? "Minimal" : "Relevant")
+                    << " encodes one isosurface, but " << isovalues->size()
+                    << " contour values are set: keep one value, or choose Hierarchy Full.");
+      return 0;
+    }
+    isodiamonds = cache.PrepareIsodiamonds(
+      this, Text, *isovalues, this->Hierarchy == HIERARCHY_MINIMAL, this->NumberOfIsodiamondBuilds);
+    if (!isodiamonds)
+    {
+      return 0;
+    }
+  }
+  else
+  {
+    cache.ReleaseIsodiamonds();
+  }
+  this->UpdateProgress(0.75);
+
   // ---- Extraction. The cache's isosurface state belongs to its hierarchy (recreated with every
   // build): the adaptive mesh of the previous execution is reused when only ComputeNormals,
   // ComputeScalars or GenerateCarrierTetrahedra changed; otherwise it is refined from the root.
+  // An isodiamond hierarchy reads no sample.
   bridge::IsoSpec spec = this->Internals->Spec(this);
   if (!vtkDiamonds::SetRegionOfInterest(
         this, this->UseRegionOfInterest, this->RegionOfInterest, inputVector, input, spec))
@@ -327,8 +355,11 @@ try
   std::optional<rust::Box<bridge::Surface>> surface;
   try
   {
-    surface.emplace(cache.GetHierarchy().isosurface(cache.GetIsoState(), cache.GetSampleType(),
-      cache.GetSamples(), rust::Slice<const double>(isovalues->data(), isovalues->size()), spec));
+    const rust::Slice<const double> values(isovalues->data(), isovalues->size());
+    surface.emplace(isodiamonds
+        ? isodiamonds->isosurface(values, spec)
+        : cache.GetHierarchy().isosurface(
+            cache.GetIsoState(), cache.GetSampleType(), cache.GetSamples(), values, spec));
   }
   catch (const rust::Error& e)
   {
@@ -349,7 +380,7 @@ try
     vtkErrorMacro(<< "Adaptive Isosurface: " << e.what());
     return 0;
   }
-  if (cache.GetIsoState().reused())
+  if (!isodiamonds && cache.GetIsoState().reused())
   {
     ++this->NumberOfReusedMeshes;
   }
@@ -368,6 +399,13 @@ try
   fieldData->AddArray(OneValue<vtkIdTypeArray>("NumberOfTriangles", output->GetNumberOfCells()));
   fieldData->AddArray(OneValue<vtkDoubleArray>("Tolerance", this->Tolerance));
   fieldData->AddArray(OneValue<vtkDoubleArray>("RelativeTolerance", relativeTolerance));
+  fieldData->AddArray(OneValue<vtkIdTypeArray>("HierarchyMemorySize", cache.GetMemorySize()));
+  if (isodiamonds)
+  {
+    const rust::Slice<const double> ladder = isodiamonds->ladder();
+    fieldData->AddArray(NamedArray<vtkDoubleArray>(
+      "HierarchyLadder", static_cast<vtkIdType>(ladder.size()), ladder.data()));
+  }
 
   // ---- Output port 1: the tetrahedra carrying the surface.
   if (this->GenerateCarrierTetrahedra)
@@ -427,6 +465,12 @@ int vtkAdaptiveIsosurface::RequestDistributed(vtkMultiProcessController* control
   vtkSmartPointer<vtkDataArray> samples;
   bridge::ScalarType type = bridge::ScalarType::F64;
   bool ok = isovalues.has_value();
+  if (ok && this->Hierarchy != HIERARCHY_FULL)
+  {
+    vtkErrorMacro(<< "Hierarchy Relevant and Minimal run on one process: choose Hierarchy Full "
+                     "for distributed (MPI) execution.");
+    ok = false;
+  }
   if (ok && !empty)
   {
     int association = vtkDataObject::FIELD_ASSOCIATION_POINTS;
@@ -562,6 +606,7 @@ int vtkAdaptiveIsosurface::RequestDistributed(vtkMultiProcessController* control
   fieldData->AddArray(OneValue<vtkIdTypeArray>("NumberOfTriangles", total));
   fieldData->AddArray(OneValue<vtkDoubleArray>("Tolerance", this->Tolerance));
   fieldData->AddArray(OneValue<vtkDoubleArray>("RelativeTolerance", relativeTolerance));
+  fieldData->AddArray(OneValue<vtkIdTypeArray>("HierarchyMemorySize", cache.GetMemorySize()));
   pieces.AddFigures(fieldData, "TrianglesPerRank", numTriangles, started);
   this->UpdateProgress(1.0);
   return 1;
@@ -584,7 +629,13 @@ void vtkAdaptiveIsosurface::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "ComputeScalars: " << (this->ComputeScalars ? "On" : "Off") << "\n";
   os << indent << "GenerateCarrierTetrahedra: " << (this->GenerateCarrierTetrahedra ? "On" : "Off")
      << "\n";
+  os << indent << "Hierarchy: "
+     << (this->Hierarchy == HIERARCHY_FULL ? "Full"
+                                             : this->Hierarchy == HIERARCHY_RELEVANT ? "Relevant"
+                                                                                     : "Minimal")
+     << "\n";
   os << indent << "NumberOfHierarchyBuilds: " << this->NumberOfHierarchyBuilds << "\n";
+  os << indent << "NumberOfIsodiamondBuilds: " << this->NumberOfIsodiamondBuilds << "\n";
   os << indent << "NumberOfReusedMeshes: " << this->NumberOfReusedMeshes << "\n";
   os << indent << "HierarchyMemorySize: " << this->GetHierarchyMemorySize() << "\n";
 }

@@ -247,11 +247,41 @@ public:
   ///@}
 
   /**
+   * Which hierarchy the surface is extracted from (Weiss & De Floriani, "Isodiamond Hierarchies"):
+   * HIERARCHY_FULL (default) the diamond hierarchy of the whole image, any contour values, read
+   * from the samples; HIERARCHY_RELEVANT or HIERARCHY_MINIMAL an isodiamond hierarchy (RI: active
+   * and relevant isodiamonds, §6; MI: active and creation isodiamonds only, §7) of the one contour
+   * value, built when the value (or the input) changes and kept, from which every Tolerance is
+   * extracted without reading the samples. It stores the split set of the full hierarchy at each
+   * rung of a ladder of tolerances (4 %, 2 %, 1 %, 0.5 %, 0.25 %, 0.125 % and 0.0625 % of the
+   * image diagonal, then 0): a Tolerance gives the surface Full gives at the finest rung at or
+   * below it (exactly Full's at a rung; finer than Full's between rungs). Normals are those of the
+   * surface (the area-weighted mean of its triangles' normals at each point), not the gradient;
+   * MaximumNumberOfTriangles picks the finest rung at or above Tolerance whose surface fits. Not
+   * available with it (error): more than one contour value, a region of interest, carrier
+   * tetrahedra, distributed (MPI) execution.
+   */
+  enum HierarchyChoice
+  {
+    HIERARCHY_FULL = 0,
+    HIERARCHY_RELEVANT = 1,
+    HIERARCHY_MINIMAL = 2
+  };
+  vtkSetClampMacro(Hierarchy, int, HIERARCHY_FULL, HIERARCHY_MINIMAL);
+  vtkGetMacro(Hierarchy, int);
+
+  /**
    * Number of times this filter has built a diamond hierarchy (one per execution whose input array
    * or geometry changed; none when only the contour values, Tolerance, the budget or the region
    * changed).
    */
   vtkGetMacro(NumberOfHierarchyBuilds, vtkIdType);
+
+  /**
+   * Number of times this filter has built an isodiamond hierarchy (Hierarchy RELEVANT or MINIMAL:
+   * once per contour value, choice or input; none when only Tolerance or the budget changed).
+   */
+  vtkGetMacro(NumberOfIsodiamondBuilds, vtkIdType);
 
   /**
    * Number of executions that reused the adaptive mesh of the previous one instead of refining:
@@ -263,10 +293,11 @@ public:
   vtkGetMacro(NumberOfReusedMeshes, vtkIdType);
 
   /**
-   * Bytes of per-diamond records held by the cached hierarchy: always 0, since the filter builds
-   * the isosurface-only hierarchy, which has none. Not counted: the isosurface errors of the last
-   * isovalues (2 bytes and 1 bit per input point, measured again when the isovalues change), the
-   * cached smallest gradients (2 bytes per point) and the input array it keeps a reference to.
+   * Bytes of the hierarchy in use (also field data "HierarchyMemorySize"). Full: the processed
+   * array's values, which the extraction reads again (a reference to the input array, not a
+   * copy), plus what it keeps between executions (the isosurface errors of the last isovalues, the
+   * smallest gradients, the brick ranges and the adaptive mesh). Relevant or Minimal: the
+   * isodiamond hierarchy (its isodiamonds, crossings and lookups).
    */
   vtkIdType GetHierarchyMemorySize();
 
@@ -296,7 +327,9 @@ protected:
   vtkTypeBool ComputeNormals;
   vtkTypeBool ComputeScalars;
   vtkTypeBool GenerateCarrierTetrahedra;
+  int Hierarchy;
   vtkIdType NumberOfHierarchyBuilds;
+  vtkIdType NumberOfIsodiamondBuilds;
   vtkIdType NumberOfReusedMeshes;
 
 private:

@@ -159,11 +159,58 @@ rust::Slice<const std::uint8_t> HierarchyCache::GetSamples() const
 
 vtkIdType HierarchyCache::GetMemorySize() const
 {
-  return this->Hierarchy ? static_cast<vtkIdType>((*this->Hierarchy)->metadata_bytes()) : 0;
+  if (this->Isodiamonds)
+  {
+    return static_cast<vtkIdType>((*this->Isodiamonds)->memory_bytes());
+  }
+  if (!this->Hierarchy)
+  {
+    return 0;
+  }
+  std::size_t bytes = (*this->Hierarchy)->metadata_bytes();
+  if (this->Purpose == Use::Isosurfaces)
+  {
+    bytes += this->GetSamples().size() + (*this->IsoState)->memory_bytes();
+  }
+  return static_cast<vtkIdType>(bytes);
+}
+
+void HierarchyCache::ReleaseIsodiamonds()
+{
+  this->Isodiamonds.reset();
+  this->IsodiamondLevels.clear();
+}
+
+const bridge::Isodiamonds* HierarchyCache::PrepareIsodiamonds(vtkAlgorithm* filter,
+  const FilterText& text, const std::vector<double>& levels, bool minimal, vtkIdType& builds)
+{
+  if (this->Isodiamonds && this->IsodiamondLevels == levels && this->IsodiamondMinimal == minimal)
+  {
+    return &**this->Isodiamonds;
+  }
+  this->ReleaseIsodiamonds();
+  try
+  {
+    this->Isodiamonds.emplace((*this->Hierarchy)
+                                ->build_isodiamonds(this->SampleType, this->GetSamples(),
+                                  rust::Slice<const double>(levels.data(), levels.size()), minimal));
+  }
+  catch (const rust::Error& e)
+  {
+    vtkErrorWithObjectMacro(filter,
+      << text.Name << " cannot build the " << (minimal ? "minimal" : "relevant")
+      << " isodiamond hierarchy: " << e.what());
+    return nullptr;
+  }
+  this->IsodiamondLevels = levels;
+  this->IsodiamondMinimal = minimal;
+  ++builds;
+  return &**this->Isodiamonds;
 }
 
 void HierarchyCache::Release()
 {
+  this->ReleaseIsodiamonds();
   this->IsoState.reset();
   this->Hierarchy.reset();
   this->Built = InputKey{};

@@ -19,6 +19,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
 
 class vtkAlgorithm;
 class vtkDataArray;
@@ -83,9 +84,20 @@ public:
   rust::Slice<const std::uint8_t> GetSamples() const;
   bridge::ScalarType GetSampleType() const { return this->SampleType; }
 
-  // Bytes of per-diamond data held by the hierarchy (0 when none).
+  // Bytes of the hierarchy in use. Tetrahedra: the per-diamond records. Isosurfaces: the
+  // isodiamond hierarchy's when one is kept (PrepareIsodiamonds); else what the full hierarchy's
+  // extraction holds: the samples it reads again and the isosurface state's caches and mesh.
   vtkIdType GetMemorySize() const;
   void Release();
+
+  // Makes the kept isodiamond hierarchy (Weiss & De Floriani §6-§7) that of `levels` (one isovalue,
+  // or the two bounds of an interval volume), relevant or `minimal`, building it from the cached
+  // hierarchy and samples when they, `levels` or `minimal` changed, counting the build in `builds`.
+  // Returns null after reporting an error on `filter`.
+  const bridge::Isodiamonds* PrepareIsodiamonds(vtkAlgorithm* filter, const FilterText& text,
+    const std::vector<double>& levels, bool minimal, vtkIdType& builds);
+  // Drops the isodiamond hierarchy (the full hierarchy is in use again).
+  void ReleaseIsodiamonds();
 
 private:
   enum class Status
@@ -103,6 +115,9 @@ private:
   Use Purpose;
   std::optional<rust::Box<bridge::Hierarchy>> Hierarchy;
   std::optional<rust::Box<bridge::IsoState>> IsoState;
+  std::optional<rust::Box<bridge::Isodiamonds>> Isodiamonds;
+  std::vector<double> IsodiamondLevels;
+  bool IsodiamondMinimal = false;
   InputKey Built;
   vtkSmartPointer<vtkDataArray> Samples;
   bridge::ScalarType SampleType = bridge::ScalarType::F64;

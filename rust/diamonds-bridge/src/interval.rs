@@ -12,7 +12,7 @@ use crate::{check_core, guard, Hierarchy, IsoState};
 
 /// Opaque handle on a [`diamonds::interval::IntervalVolume`] for C++, its sources flattened.
 pub struct IntervalVolume {
-    volume: interval::IntervalVolume,
+    pub(crate) volume: interval::IntervalVolume,
 }
 
 impl Hierarchy {

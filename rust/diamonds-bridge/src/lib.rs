@@ -510,6 +510,43 @@ mod ffi {
         fn warnings(self: &IntervalVolume) -> Result<Vec<String>>;
     }
 
+    // ---- Isodiamond hierarchies (Weiss & De Floriani §5–§7), see `isodiamonds.rs`.
+    extern "Rust" {
+        /// A relevant (RI) or minimal (MI) isodiamond hierarchy of one isosurface or one interval
+        /// volume: extracted at any rung of its ladder of tolerances without the samples.
+        type Isodiamonds;
+
+        /// Builds the RI (`minimal` false) or MI hierarchy of the isosurface `levels[0]` (one
+        /// level) or of the interval volume `[levels[0], levels[1]]` (two) from this hierarchy and
+        /// `samples` (of `scalar_type`), the very samples it was built from. Its ladder is the
+        /// default one: 4 % down to 1/16 % of the image diagonal, halving, then 0.
+        fn build_isodiamonds(
+            self: &Hierarchy,
+            scalar_type: ScalarType,
+            samples: &[u8],
+            levels: &[f64],
+            minimal: bool,
+        ) -> Result<Box<Isodiamonds>>;
+        /// The isosurface of `spec` (`isovalues`: this hierarchy's one isovalue) at the finest rung
+        /// whose tolerance is at most `spec.tolerance`, raised to the finest that fits a triangle
+        /// budget; normals of the surface itself. Refuses a region of interest and carrier
+        /// tetrahedra.
+        fn isosurface(
+            self: &Isodiamonds,
+            isovalues: &[f64],
+            spec: &IsoSpec,
+        ) -> Result<Box<Surface>>;
+        /// The interval volume of `spec` (its range: this hierarchy's) as `isosurface` picks the
+        /// rung, its sources and weights from the stored crossings. Refuses a region of interest.
+        fn interval_volume(self: &Isodiamonds, spec: &IntervalSpec) -> Result<Box<IntervalVolume>>;
+        /// Bytes the hierarchy holds in memory.
+        fn memory_bytes(self: &Isodiamonds) -> usize;
+        /// The rung tolerances, world units, decreasing, the last 0.
+        fn ladder(self: &Isodiamonds) -> &[f64];
+        /// Bytes an isosurface state holds between queries (caches and the kept adaptive mesh).
+        fn memory_bytes(self: &IsoState) -> usize;
+    }
+
     // ---- Material interfaces (Gregorski §5), see `material.rs`.
     extern "Rust" {
         /// Collects the input of a material model (copies of the arrays).
@@ -751,6 +788,9 @@ pub use progressive::{build_progressive, Progressive};
 
 pub mod interval;
 pub use interval::IntervalVolume;
+
+pub mod isodiamonds;
+pub use isodiamonds::Isodiamonds;
 
 pub mod material;
 pub mod piece;

@@ -113,6 +113,13 @@ impl SplitSet {
         self.len() == 0
     }
 
+    /// Bytes held: one bit per lattice point of the grid and the diamonds centred outside it (a
+    /// hash table at its capacity, one control byte per slot).
+    pub fn bytes(&self) -> usize {
+        self.bits.capacity() * std::mem::size_of::<u64>()
+            + self.outside.capacity() * (std::mem::size_of::<IVec3>() + 1)
+    }
+
     /// The lattice the set lives on.
     pub fn lattice(&self) -> &Lattice {
         &self.lattice

@@ -191,12 +191,27 @@ pub struct Isodiamonds {
     orphans: Vec<(u64, u8)>,
     /// Quantised crossings in [`Isodiamonds::crossing_edges`] order.
     crossings: Vec<u8>,
-    /// Derived: the lattice, record of each key, class of each grid point listed, crossing of each
-    /// edge and level.
+    /// Derived: the lattice, record of each key, crossing of each edge and level.
     lattice: Lattice,
     index: FxHashMap<u64, u32>,
-    classes: FxHashMap<u32, u8>,
-    points: FxHashMap<(u32, u32, u8), u8>,
+    points: Vec<Crossing>,
+}
+
+/// A crossing looked up by its edge (grid indices `i < j`) and level index: 12 bytes, sorted by
+/// edge and level (looked up once per output point, by binary search).
+#[derive(Clone, Copy, Debug)]
+struct Crossing {
+    i: u32,
+    j: u32,
+    level: u8,
+    /// Quantised position ([`quantise`]).
+    q: u8,
+}
+
+impl Crossing {
+    fn edge(&self) -> (u32, u32, u8) {
+        (self.i, self.j, self.level)
+    }
 }
 
 /// The key of a lattice point of the root cube.
@@ -457,7 +472,6 @@ impl Isodiamonds {
             return bad(format!("a ladder of {} rungs", ladder.len()));
         }
         let mut index = FxHashMap::default();
-        let mut classes = FxHashMap::default();
         for (i, r) in records.iter().enumerate() {
             let p = point(&lattice, r.key);
             if r.key >= n * n * n || is_corner(&lattice, p) {
@@ -483,16 +497,15 @@ impl Isodiamonds {
                 ));
             }
             index.insert(r.key, i as u32);
-            if r.class != NONE {
-                classes.insert(lattice.index(p) as u32, r.class);
-            }
         }
         for (i, &(k, c)) in orphans.iter().enumerate() {
             let p = point(&lattice, k);
             if k >= n * n * n || !lattice.in_domain(p) || c > max_class {
                 return bad(format!("orphan vertex {i} ({k}, class {c})"));
             }
-            classes.insert(lattice.index(p) as u32, c);
+            if i > 0 && orphans[i - 1].0 >= k {
+                return bad(format!("orphan vertex {i} is out of order"));
+            }
         }
         let mut h = Self {
             grid,
@@ -504,8 +517,7 @@ impl Isodiamonds {
             crossings,
             lattice,
             index,
-            classes,
-            points: FxHashMap::default(),
+            points: Vec::new(),
         };
         if !h.crossings.is_empty() {
             h.points = h.crossing_map()?;
@@ -513,8 +525,8 @@ impl Isodiamonds {
         Ok(h)
     }
 
-    /// The crossing of every edge and level, from [`Isodiamonds::crossings`].
-    fn crossing_map(&self) -> Result<FxHashMap<(u32, u32, u8), u8>> {
+    /// The crossings by edge and level, from [`Isodiamonds::crossings`].
+    fn crossing_map(&self) -> Result<Vec<Crossing>> {
         let edges = self.crossing_edges();
         if edges.len() != self.crossings.len() {
             return Err(Error::Isodiamonds(format!(
@@ -523,10 +535,11 @@ impl Isodiamonds {
                 edges.len()
             )));
         }
-        Ok(edges
-            .into_iter()
-            .zip(self.crossings.iter().copied())
-            .collect())
+        let mut points: Vec<Crossing> = (edges.into_iter().zip(self.crossings.iter()))
+            .map(|((i, j, level), &q)| Crossing { i, j, level, q })
+            .collect();
+        points.par_sort_unstable_by_key(Crossing::edge);
+        Ok(points)
     }
 
     /// The crossed edges and levels `(i, j, level)` (grid indices `i < j`, level index), each once,
@@ -576,12 +589,18 @@ impl Isodiamonds {
         self.lattice.index(p) as u32
     }
 
-    /// The class of a lattice point ([`NONE`] outside the grid or not listed).
+    /// The class of a lattice point ([`NONE`] outside the grid or not listed): its isodiamond's,
+    /// or its orphan class.
     fn class(&self, p: IVec3) -> u8 {
-        if self.lattice.in_domain(p) {
-            *self.classes.get(&self.grid_index(p)).unwrap_or(&NONE)
-        } else {
-            NONE
+        if !self.lattice.in_domain(p) {
+            return NONE;
+        }
+        match self.index.get(&key(&self.lattice, p)) {
+            Some(&r) => self.records[r as usize].class,
+            None => {
+                let k = key(&self.lattice, p);
+                (self.orphans.binary_search_by_key(&k, |o| o.0)).map_or(NONE, |o| self.orphans[o].1)
+            }
         }
     }
 
@@ -609,6 +628,19 @@ impl Isodiamonds {
     /// The rung tolerances, decreasing, the last 0.
     pub fn ladder(&self) -> &[f64] {
         &self.ladder
+    }
+
+    /// Bytes it holds in memory: the stored isodiamonds, orphan classes and crossings, and the
+    /// lookups derived from them (hash tables at their capacity, one control byte per slot).
+    pub fn memory_bytes(&self) -> usize {
+        fn table<K, V>(map: &FxHashMap<K, V>) -> usize {
+            map.capacity() * (std::mem::size_of::<(K, V)>() + 1)
+        }
+        self.records.capacity() * std::mem::size_of::<Record>()
+            + self.orphans.capacity() * std::mem::size_of::<(u64, u8)>()
+            + self.crossings.capacity()
+            + table(&self.index)
+            + self.points.capacity() * std::mem::size_of::<Crossing>()
     }
 
     /// What it stores.
@@ -682,7 +714,8 @@ impl Isodiamonds {
 
     /// The position of the crossing of edge `(i, j)` (`i < j`) at level index `l`.
     fn crossing(&self, i: u32, j: u32, l: u8) -> (DVec3, f64) {
-        let t = self.points.get(&(i, j, l)).map_or(0.5, |&q| dequantise(q));
+        let t = (self.points.binary_search_by_key(&(i, j, l), Crossing::edge))
+            .map_or(0.5, |c| dequantise(self.points[c].q));
         let (a, b) = (self.world(i), self.world(j));
         (a + t * (b - a), t)
     }
@@ -692,16 +725,117 @@ impl Isodiamonds {
     /// same edges; points within 1/512 of their edge). No normals; [`IsoSurface::error_bound`] is
     /// the rung's tolerance (the full hierarchy's bound there).
     pub fn isosurface(&self, tolerance: f64) -> Result<IsoSurface> {
+        self.isosurface_at(self.rung(tolerance)?)
+    }
+
+    /// [`Isodiamonds::isosurface`] at `rung`.
+    fn isosurface_at(&self, rung: usize) -> Result<IsoSurface> {
         let Target::Isosurface(_) = self.target else {
             return Err(Error::Parameter(
                 "this isodiamond hierarchy encodes an interval volume, not an isosurface".into(),
             ));
         };
-        let rung = self.rung(tolerance)?;
         let leaves = self.leaves(rung);
         let (mut surface, _) = marching_with_sources(&OnClasses(self), &leaves, false)?;
         surface.error_bound = self.ladder[rung];
         Ok(surface)
+    }
+
+    /// The isosurface of `query` as a filter asks for it: its one isovalue must be this
+    /// hierarchy's. [`Isodiamonds::isosurface`] at its tolerance; with a triangle budget, the
+    /// finest rung at or above that tolerance whose surface fits (the coarsest rung, with a warning,
+    /// when none does); with normals, those of the surface itself (the area-weighted mean of its
+    /// triangles' normals at each point, toward increasing values: no field values are stored to
+    /// take the gradient from). Refuses a region of interest and carrier tetrahedra.
+    pub fn isosurface_query(&self, query: &IsoQuery) -> Result<IsoSurface> {
+        let Target::Isosurface(v) = self.target else {
+            return self.isosurface_at(0); // refused there
+        };
+        if query.isovalues.len() != 1 || query.isovalues[0].to_bits() != v.to_bits() {
+            return Err(Error::Parameter(format!(
+                "this isodiamond hierarchy encodes the isosurface {v}, not {:?}",
+                query.isovalues
+            )));
+        }
+        self.refuse_unsupported(query.region_of_interest.is_some(), query.carrier_tetrahedra)?;
+        let (mut surface, warning) = self.within_budget(
+            query.tolerance,
+            query.max_triangles,
+            |rung| self.isosurface_at(rung),
+            |s| s.triangles.len(),
+        )?;
+        surface.warnings.extend(warning);
+        if query.compute_normals {
+            surface.normals = area_weighted_normals(&surface.points, &surface.triangles);
+        }
+        Ok(surface)
+    }
+
+    /// The interval volume of `query` as a filter asks for it: its range must be this hierarchy's.
+    /// [`Isodiamonds::interval_volume`] at its tolerance; with a tetrahedron budget, the finest rung
+    /// at or above that tolerance whose volume fits (the coarsest rung, with a warning, when none
+    /// does), as [`crate::interval::extract`] raises the tolerance. Refuses a region of interest.
+    pub fn interval_volume_query(&self, query: &IntervalQuery) -> Result<IntervalVolume> {
+        let Target::IntervalVolume(range) = self.target else {
+            return self.interval_volume_at(0); // refused there
+        };
+        if query.range.map(f64::to_bits) != range.map(f64::to_bits) {
+            return Err(Error::Parameter(format!(
+                "this isodiamond hierarchy encodes the interval volume {range:?}, not {:?}",
+                query.range
+            )));
+        }
+        self.refuse_unsupported(query.region_of_interest.is_some(), false)?;
+        let (mut volume, warning) = self.within_budget(
+            query.tolerance,
+            query.max_tetrahedra,
+            |rung| self.interval_volume_at(rung),
+            |v| v.tets.len(),
+        )?;
+        volume.warnings.extend(warning);
+        Ok(volume)
+    }
+
+    /// What isodiamond extraction does not offer.
+    fn refuse_unsupported(&self, region: bool, carrier: bool) -> Result<()> {
+        let what = if region {
+            "a region of interest"
+        } else if carrier {
+            "carrier tetrahedra"
+        } else {
+            return Ok(());
+        };
+        Err(Error::Parameter(format!(
+            "{what} is not available with an isodiamond hierarchy (it stores one split set per rung of its ladder, for the whole image): use the full hierarchy"
+        )))
+    }
+
+    /// `extract` at the rung of `tolerance`, or with a `budget` (> 0) at the finest rung from there
+    /// toward the coarsest whose result's `size` fits, with a warning when even the coarsest does
+    /// not.
+    fn within_budget<R>(
+        &self,
+        tolerance: f64,
+        budget: usize,
+        extract: impl Fn(usize) -> Result<R>,
+        size: impl Fn(&R) -> usize,
+    ) -> Result<(R, Option<String>)> {
+        let mut rung = self.rung(tolerance)?;
+        loop {
+            let out = extract(rung)?;
+            if budget == 0 || size(&out) <= budget {
+                return Ok((out, None));
+            }
+            if rung == 0 {
+                let warning = format!(
+                    "the budget of {budget} cannot be met: the coarsest rung of the isodiamond hierarchy (tolerance {}) gives {}",
+                    self.ladder[0],
+                    size(&out)
+                );
+                return Ok((out, Some(warning)));
+            }
+            rung -= 1;
+        }
     }
 
     /// The interval volume at `tolerance` (at the rung [`Isodiamonds::rung`] picks): every leaf
@@ -709,12 +843,16 @@ impl Isodiamonds {
     /// points; new points within 1/512 of their edge). `values` is empty (no field values are
     /// stored); `error_bound` and `tolerance` are the rung's.
     pub fn interval_volume(&self, tolerance: f64) -> Result<IntervalVolume> {
+        self.interval_volume_at(self.rung(tolerance)?)
+    }
+
+    /// [`Isodiamonds::interval_volume`] at `rung`.
+    fn interval_volume_at(&self, rung: usize) -> Result<IntervalVolume> {
         let Target::IntervalVolume(range) = self.target else {
             return Err(Error::Parameter(
                 "this isodiamond hierarchy encodes an isosurface, not an interval volume".into(),
             ));
         };
-        let rung = self.rung(tolerance)?;
         let lattice = self.lattice;
         let patches: Vec<interval::Patch> = (self.leaves(rung).par_iter())
             .filter_map(|t| {
@@ -740,6 +878,23 @@ impl Isodiamonds {
     }
 }
 
+/// Unit point normals of a surface: at each point the sum of its triangles' normals weighted by
+/// their areas (the cross product of two edges), so they point where the triangles do; a point
+/// whose triangles are all degenerate gets no direction (zero).
+fn area_weighted_normals(points: &[[f64; 3]], triangles: &[[u32; 3]]) -> Vec<[f32; 3]> {
+    let mut sums = vec![DVec3::ZERO; points.len()];
+    for t in triangles {
+        let [a, b, c] = t.map(|i| DVec3::from(points[i as usize]));
+        let n = (b - a).cross(c - a);
+        for &i in t {
+            sums[i as usize] += n;
+        }
+    }
+    sums.iter()
+        .map(|n| n.normalize_or_zero().as_vec3().to_array())
+        .collect()
+}
+
 /// Marching tetrahedra on the classes of an isosurface hierarchy: the same polygons as on the
 /// values (the classes compare with 1 as the values with the isovalue), points at the crossings.
 struct OnClasses<'a>(&'a Isodiamonds);
@@ -760,7 +915,7 @@ impl Marching for OnClasses<'_> {
     fn point(&self, (ia, ib, l): EdgeKey, _: bool) -> (DVec3, f64, Option<DVec3>) {
         let h = self.0;
         let v = h.target.levels()[l as usize];
-        let at = |i: u32| h.classes.get(&i) == Some(&1);
+        let at = |i: u32| h.class(h.lattice.point(i as usize)) == 1;
         // An end that holds the isovalue is the point, as on the values.
         let p = if at(ib) {
             h.world(ib)

@@ -31,6 +31,11 @@ impl Bricks {
         Self { dims, min, max }
     }
 
+    /// Bytes held: two values per brick.
+    pub(super) fn bytes(&self) -> usize {
+        (self.min.capacity() + self.max.capacity()) * std::mem::size_of::<f64>()
+    }
+
     /// Number of bricks.
     pub(super) fn count(&self) -> usize {
         self.min.len()

@@ -48,6 +48,14 @@ impl IsoCache {
         }
     }
 
+    /// Bytes held: the bricks, the gradients and the kept errors.
+    pub(super) fn bytes(&self) -> usize {
+        let errors = self.errors.lock().unwrap_or_else(|e| e.into_inner());
+        self.bricks.bytes()
+            + self.gradients.capacity() * std::mem::size_of::<AtomicU16>()
+            + errors.as_ref().map_or(0, |e| e.bytes())
+    }
+
     /// Was it made for samples on `grid`?
     pub(super) fn fits(&self, grid: &Grid) -> bool {
         self.grid == *grid

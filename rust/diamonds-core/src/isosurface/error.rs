@@ -58,6 +58,14 @@ const FINAL: u16 = 0x8000;
 const VISITED: u16 = 1;
 
 impl IsoErrors {
+    /// Bytes held: a code per point and the reached diamonds.
+    pub(super) fn bytes(&self) -> usize {
+        self.codes.capacity() * std::mem::size_of::<AtomicU16>()
+            + self.reached.capacity() * std::mem::size_of::<u32>()
+    }
+}
+
+impl IsoErrors {
     /// Locates every surface sample of `isovalues` in the hierarchy, down to the tetrahedra no larger
     /// than `cutoff` (world units); `cells_crossed` lists, per isovalue, the lower corners of the grid
     /// cells it crosses. The tables of `recycled` (errors of the same grid no longer used) are

@@ -110,6 +110,15 @@ impl IsoState {
         self.last
     }
 
+    /// Bytes held between queries: the cache (brick ranges, gradients, the errors of the last
+    /// isovalues) and the kept adaptive mesh (its split set and the leaves carrying the surface).
+    pub fn memory_bytes(&self) -> usize {
+        self.cache.as_ref().map_or(0, |c| c.bytes())
+            + self.current.as_ref().map_or(0, |c| {
+                c.split.bytes() + c.carriers.capacity() * std::mem::size_of::<Tet>()
+            })
+    }
+
     /// The split set of the last surface [`IsoState::extract`] refined, while it is kept.
     pub(crate) fn current_split(&self) -> Option<&SplitSet> {
         self.current.as_ref().map(|c| &c.split)

@@ -414,15 +414,21 @@ pub fn check_mesh_arrays(mesh: &TetMesh, grid_points: usize) -> Result<(), Strin
 }
 
 /// The consistency C++ relies on when it builds VTK arrays from an [`IntervalVolume`]: one source
-/// pair, weight and value per point, one level per tetrahedron, corners inside the points, sources
+/// pair and weight per point, one value per point or none (an isodiamond hierarchy's), one level per tetrahedron, corners inside the points, sources
 /// inside the `grid_points` input points.
 pub fn check_interval_arrays(volume: &IntervalVolume, grid_points: usize) -> Result<(), String> {
     let (n_points, n_tets) = (volume.points.len(), volume.tets.len());
     let per_point = [
         ("sources", volume.sources.len()),
         ("weights", volume.weights.len()),
-        ("values", volume.values.len()),
     ];
+    // No values from an isodiamond hierarchy, which stores none.
+    if !(volume.values.is_empty() || volume.values.len() == n_points) {
+        return Err(format!(
+            "{n_points} points but {} values",
+            volume.values.len()
+        ));
+    }
     if let Some((what, n)) = per_point.iter().find(|(_, n)| *n != n_points) {
         return Err(format!("{n_points} points but {n} {what}"));
     }
