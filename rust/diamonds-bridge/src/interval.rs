@@ -4,7 +4,7 @@
 //! reads as slices (points, the two input points and weight each point interpolates from,
 //! tetrahedra, levels).
 
-use diamonds::interval::{self, IntervalQuery};
+use diamonds::interval;
 use diamonds::validate::check_interval_arrays;
 
 use crate::ffi::{IntervalSpec, ScalarType};
@@ -31,14 +31,7 @@ impl Hierarchy {
             scalar_type,
             samples,
             |state, scalars, expected| {
-                let query = IntervalQuery {
-                    range: spec.range,
-                    tolerance: spec.tolerance,
-                    max_tetrahedra: spec.max_tetrahedra,
-                    region_of_interest: spec
-                        .use_region_of_interest
-                        .then_some(spec.region_of_interest),
-                };
+                let query = spec.query();
                 let volume = interval::extract_with(state, &self.hierarchy, scalars, &query)
                     .map_err(|e| e.to_string())?;
                 check_core(check_interval_arrays(&volume, expected))?;

@@ -6,7 +6,7 @@
 
 use diamonds::isodiamond::{self, Model, Target, DEFAULT_LADDER};
 use diamonds::validate::{check_interval_arrays, check_isosurface_arrays};
-use diamonds::{IsoQuery, IsoSurface};
+use diamonds::IsoSurface;
 
 use crate::ffi::{IntervalSpec, IsoSpec, ScalarType};
 use crate::interval::IntervalVolume;
@@ -63,16 +63,7 @@ impl Isodiamonds {
         guard(
             "extracting the isosurface from the isodiamond hierarchy",
             || {
-                let query = IsoQuery {
-                    isovalues: isovalues.to_vec(),
-                    tolerance: spec.tolerance,
-                    max_triangles: spec.max_triangles,
-                    region_of_interest: spec
-                        .use_region_of_interest
-                        .then_some(spec.region_of_interest),
-                    compute_normals: spec.compute_normals,
-                    carrier_tetrahedra: spec.carrier_tetrahedra,
-                };
+                let query = spec.query(isovalues);
                 let surface: IsoSurface = self
                     .hierarchy
                     .isosurface_query(&query)
@@ -91,14 +82,7 @@ impl Isodiamonds {
         guard(
             "extracting the interval volume from the isodiamond hierarchy",
             || {
-                let query = diamonds::interval::IntervalQuery {
-                    range: spec.range,
-                    tolerance: spec.tolerance,
-                    max_tetrahedra: spec.max_tetrahedra,
-                    region_of_interest: spec
-                        .use_region_of_interest
-                        .then_some(spec.region_of_interest),
-                };
+                let query = spec.query();
                 let volume = self
                     .hierarchy
                     .interval_volume_query(&query)

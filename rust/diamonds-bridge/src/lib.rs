@@ -1001,6 +1001,36 @@ fn new_iso_state() -> Box<IsoState> {
     Box::default()
 }
 
+impl ffi::IsoSpec {
+    /// The core's query for `isovalues`.
+    fn query(&self, isovalues: &[f64]) -> IsoQuery {
+        IsoQuery {
+            isovalues: isovalues.to_vec(),
+            tolerance: self.tolerance,
+            max_triangles: self.max_triangles,
+            region_of_interest: self
+                .use_region_of_interest
+                .then_some(self.region_of_interest),
+            compute_normals: self.compute_normals,
+            carrier_tetrahedra: self.carrier_tetrahedra,
+        }
+    }
+}
+
+impl ffi::IntervalSpec {
+    /// The core's query.
+    fn query(&self) -> diamonds::interval::IntervalQuery {
+        diamonds::interval::IntervalQuery {
+            range: self.range,
+            tolerance: self.tolerance,
+            max_tetrahedra: self.max_tetrahedra,
+            region_of_interest: self
+                .use_region_of_interest
+                .then_some(self.region_of_interest),
+        }
+    }
+}
+
 impl IsoState {
     /// Whether the last query reused the previous split set without refining.
     pub fn reused(&self) -> bool {
@@ -1123,16 +1153,7 @@ impl Hierarchy {
             scalar_type,
             samples,
             |state, scalars, expected| {
-                let query = IsoQuery {
-                    isovalues: isovalues.to_vec(),
-                    tolerance: spec.tolerance,
-                    max_triangles: spec.max_triangles,
-                    region_of_interest: spec
-                        .use_region_of_interest
-                        .then_some(spec.region_of_interest),
-                    compute_normals: spec.compute_normals,
-                    carrier_tetrahedra: spec.carrier_tetrahedra,
-                };
+                let query = spec.query(isovalues);
                 let mut surface = match piece {
                     None => state.extract(&self.hierarchy, scalars, &query),
                     Some((pieces, me)) => {
