@@ -741,17 +741,7 @@ mod tests {
         // At the right-angled corner: an eighth of the sphere.
         assert!((w([0.0, 0.0, 0.0]) - 0.125).abs() < 1e-12);
         // The unit cube in six tetrahedra around its diagonal: no overlap.
-        let points: Vec<[f64; 3]> = (0..8)
-            .map(|k| [k & 1, (k >> 1) & 1, k >> 2].map(|c| c as f64))
-            .collect();
-        let tets = [
-            [0, 1, 3, 7],
-            [0, 1, 7, 5],
-            [0, 2, 7, 3],
-            [0, 2, 6, 7],
-            [0, 4, 5, 7],
-            [0, 4, 7, 6],
-        ];
+        let (points, tets) = cube();
         check_manifold_tets(&points, &tets).unwrap();
         assert_eq!(check_no_overlap(&points, &tets, &[]), Ok(8 + 6));
         // Two positive tetrahedra on a shared face, the second folded back over the first: manifold
