@@ -5,9 +5,7 @@
 use crate::commands::{mesh_arrays, read_input};
 use crate::write::{checked_extension, write_tets, TetGrid};
 use crate::{bail, Array, AsScalarSlice, Result};
-use diamonds::view::{
-    sorted, BspTree, Camera, Direction, FrameStats, Metric, ViewErrors, ViewQuery, ViewState,
-};
+use diamonds::view::{Camera, Direction, FrameStats, Metric, ViewErrors, ViewQuery, ViewState};
 use diamonds::Hierarchy;
 use std::fmt;
 use std::path::PathBuf;
@@ -42,8 +40,8 @@ pub struct ViewSummary {
     /// Every frame's statistics, the written one last.
     pub frames: Vec<FrameStats>,
     pub build_seconds: f64,
-    /// Seconds to build the written frame's BSP tree and to traverse it, if sorted.
-    pub sort_seconds: Option<(f64, f64)>,
+    /// Seconds to write the last frame's mesh (in visibility order when sorted).
+    pub write_seconds: f64,
 }
 
 impl fmt::Display for ViewSummary {
@@ -61,15 +59,7 @@ impl fmt::Display for ViewSummary {
             last.splits,
             last.merges
         )?;
-        if let Some((tree, order)) = self.sort_seconds {
-            write!(
-                f,
-                ", BSP tree {:.1} ms, sort {:.1} ms",
-                1e3 * tree,
-                1e3 * order
-            )?;
-        }
-        Ok(())
+        write!(f, ", mesh written in {:.1} ms", 1e3 * self.write_seconds)
     }
 }
 
@@ -125,21 +115,14 @@ pub fn view(opts: &ViewOptions) -> Result<ViewSummary> {
         };
         frames.push(state.update(&hierarchy, &errors, &query)?);
     }
-    let plan = state.plan()?;
-    let mut mesh = plan.to_mesh(&grid, |d| hierarchy.error(d))?;
-    let sort_seconds = match opts.sort {
-        None => None,
-        Some(direction) => {
-            let start = Instant::now();
-            let tree = BspTree::new(&plan, &grid)?;
-            let tree_seconds = start.elapsed().as_secs_f64();
-            let start = Instant::now();
-            let order = tree.order(camera.position, direction)?;
-            let order_seconds = start.elapsed().as_secs_f64();
-            mesh = sorted(mesh, &order)?;
-            Some((tree_seconds, order_seconds))
-        }
-    };
+    let mut plan = state.plan()?;
+    if let Some(direction) = opts.sort {
+        // The core writes the tetrahedra in visibility order while it writes them (no tree).
+        plan.set_visibility_order(&grid, camera.position, direction)?;
+    }
+    let start = Instant::now();
+    let mesh = plan.to_mesh(&grid, |d| hierarchy.error(d))?;
+    let write_seconds = start.elapsed().as_secs_f64();
     let reached = frames.last().map_or(opts.tolerance, |s| s.tolerance);
     let others = image.point_data.iter().filter(|a| !std::ptr::eq(*a, array));
     let mut data = mesh_arrays(std::iter::once(array).chain(others), &mesh, reached);
@@ -161,6 +144,6 @@ pub fn view(opts: &ViewOptions) -> Result<ViewSummary> {
         tets: mesh.tets.len(),
         frames,
         build_seconds,
-        sort_seconds,
+        write_seconds,
     })
 }
