@@ -323,7 +323,7 @@ impl<'h> Refiner<'h> {
             .filter(|&d| !r.split.contains(d) && error(d) > tolerance)
             .collect();
         let mut split = r.split;
-        grow_concurrent(&mut split, first, tolerance, &error)?;
+        grow_concurrent(&mut split, first, tolerance, &error, false)?;
         Ok(split)
     }
 
@@ -619,12 +619,14 @@ impl<'h> Refiner<'h> {
 /// diamonds of `first` (split whatever their error), their unsplit parents not outside the domain,
 /// and every child of a diamond split here whose `error` exceeds `tolerance`, in parallel rounds.
 /// `split` becomes the least such closed superset of itself, whatever the order of the splits (left
-/// as it was on an error). Returns the diamonds split here, in index order.
+/// as it was on an error). With `record`, returns the diamonds split here, in index order (else
+/// nothing: neither collected nor sorted — a sequential sort of millions of diamonds).
 pub(crate) fn grow_concurrent(
     split: &mut SplitSet,
     first: Vec<Diamond>,
     tolerance: f64,
     error: &(dyn Fn(Diamond) -> f64 + Sync),
+    record: bool,
 ) -> Result<Vec<Diamond>> {
     let lattice = split.lattice;
     let bits: Vec<AtomicU64> = split.bits.iter().map(|&w| AtomicU64::new(w)).collect();
@@ -659,7 +661,9 @@ pub(crate) fn grow_concurrent(
                         if bits[i / 64].fetch_or(bit, AtomicOrdering::Relaxed) & bit != 0 {
                             return Ok((next, here)); // split by another diamond of this round
                         }
-                        here.push(d);
+                        if record {
+                            here.push(d);
+                        }
                         next.extend(d.parents(&lattice).into_iter().filter(|&p| {
                             !is_split(p) && p.placement(&lattice) != Placement::Outside
                         }));
@@ -681,7 +685,9 @@ pub(crate) fn grow_concurrent(
         round = next;
     }
     split.bits = bits.into_iter().map(AtomicU64::into_inner).collect();
-    added.sort_unstable_by_key(|d| lattice.index(d.center));
+    if record {
+        added.par_sort_unstable_by_key(|d| lattice.index(d.center));
+    }
     Ok(added)
 }
 

@@ -232,6 +232,7 @@ fn scan_finest<T: Sample>(volume: &Volume<'_, T>, t: &Tet) -> TetStats {
 /// [`scan_tet`] for small tetrahedra, which are the most numerous.
 pub struct Stencils {
     shapes: FxHashMap<[IVec3; 3], Stencil>,
+    finest: FinestMidpoints,
 }
 
 struct Stencil {
@@ -287,7 +288,17 @@ impl Stencils {
                 }
             }
         }
-        Self { shapes }
+        Self {
+            shapes,
+            finest: FinestMidpoints::new(),
+        }
+    }
+
+    /// Error and range of a finest diamond (scale 1) whose bounds lie inside the domain
+    /// ([`scan_finest_diamond`]).
+    #[inline]
+    pub fn scan_finest_diamond<T: Sample>(&self, volume: &Volume<'_, T>, d: Diamond) -> TetStats {
+        scan_finest_diamond(volume, &self.finest, d)
     }
 
     /// [`scan_tet`] through the precomputed shape, when `t` has one.
@@ -331,7 +342,16 @@ impl Stencils {
 /// its descendants inside it (a 1-diamond's 4 edge children; a 0-diamond's 6 face children and their
 /// 12 edge children), where the interpolant is the mean of the spine's endpoints. The range is taken
 /// over the whole bounding cube: a conservative superset.
-pub fn scan_finest_diamond<T: Sample>(volume: &Volume<'_, T>, d: Diamond) -> TetStats {
+///
+/// Which midpoints and spines these are depends only on the central vertex modulo 8 (class,
+/// orientation and, for a 0-diamond's face children, the parity that picks their diagonal), so they
+/// are looked up in [`FinestMidpoints`] instead of being derived per diamond.
+#[inline]
+fn scan_finest_diamond<T: Sample>(
+    volume: &Volume<'_, T>,
+    midpoints: &FinestMidpoints,
+    d: Diamond,
+) -> TetStats {
     let c = d.center;
     // The 3×3×3 block around the central vertex, x fastest.
     let mut block = [0.0f64; 27];
@@ -350,40 +370,78 @@ pub fn scan_finest_diamond<T: Sample>(volume: &Volume<'_, T>, d: Diamond) -> Tet
             }
         }
     }
-    let at = |o: IVec3| block[(9 * (o.z + 1) + 3 * (o.y + 1) + o.x + 1) as usize];
-    // Twice the error at offset `o`, the midpoint of a spine `o ± h`.
-    let midpoint = |o: IVec3, h: IVec3| (2.0 * at(o) - at(o - h) - at(o + h)).abs();
-    let axes = [IVec3::X, IVec3::Y, IVec3::Z];
-    let mut worst = midpoint(IVec3::ZERO, d.spine()[0] - c);
-    match d.class() {
-        Class::Edge => {}
-        Class::Face => {
-            // The 4 edges of the face: midpoints c ± u (spine along v) and c ± v (spine along u).
-            let n = axes.iter().position(|a| (c.dot(*a) & 1) == 0).unwrap_or(0);
-            let (u, v) = (axes[(n + 1) % 3], axes[(n + 2) % 3]);
-            for (o, h) in [(u, v), (-u, v), (v, u), (-v, u)] {
-                worst = worst.max(midpoint(o, h));
-            }
-        }
-        Class::Cube => {
-            for (a, &axis) in axes.iter().enumerate() {
-                for o in [axis, -axis] {
-                    // Face centre: a 1-diamond's face diagonal.
-                    worst = worst.max(midpoint(o, Diamond::new(c + o).spine()[0] - c - o));
-                    // Cube edges along `axis`: midpoints at the other two axes' ±1.
-                    let (p, q) = (axes[(a + 1) % 3], axes[(a + 2) % 3]);
-                    let side = if o == axis { 1 } else { -1 };
-                    for e in [p + q, p - q] {
-                        worst = worst.max(midpoint(e * side, axis));
-                    }
-                }
-            }
-        }
+    // Twice the error at each midpoint `m` of a spine `(a, b)`.
+    let mut worst = 0.0f64;
+    for &[m, a, b] in midpoints.of(c) {
+        let (m, a, b) = (m as usize, a as usize, b as usize);
+        worst = worst.max((2.0 * block[m] - block[a] - block[b]).abs());
     }
     TetStats {
         error: 0.5 * worst,
         min,
         max,
+    }
+}
+
+/// The spine midpoints of the finest diamonds, per central vertex modulo 8 (see
+/// [`scan_finest_diamond`]): for each, `[midpoint, end, end]` as indices into the diamond's
+/// `3×3×3` block (x fastest).
+pub(crate) struct FinestMidpoints {
+    triples: Vec<[u8; 3]>,
+    /// `triples[starts[r]..starts[r + 1]]` for the residue `r = x + 8 y + 64 z` of the centre.
+    starts: Vec<u16>,
+}
+
+impl FinestMidpoints {
+    fn new() -> Self {
+        let index = |o: IVec3| (9 * (o.z + 1) + 3 * (o.y + 1) + o.x + 1) as u8;
+        let mut triples = Vec::new();
+        let mut starts = vec![0u16];
+        for r in 0..512 {
+            let residue = IVec3::new(r & 7, r >> 3 & 7, r >> 6);
+            // A representative centre with this residue, away from the origin.
+            let d = Diamond::new(residue + IVec3::splat(8));
+            if (residue & IVec3::ONE) != IVec3::ZERO {
+                let c = d.center;
+                let mut push = |o: IVec3, h: IVec3| triples.push([o, o - h, o + h].map(index));
+                push(IVec3::ZERO, d.spine()[0] - c);
+                let axes = [IVec3::X, IVec3::Y, IVec3::Z];
+                match d.class() {
+                    Class::Edge => {}
+                    Class::Face => {
+                        // The 4 edges of the face: midpoints c ± u (spine along v) and c ± v (spine along u).
+                        let n = axes.iter().position(|a| (c.dot(*a) & 1) == 0).unwrap_or(0);
+                        let (u, v) = (axes[(n + 1) % 3], axes[(n + 2) % 3]);
+                        for (o, h) in [(u, v), (-u, v), (v, u), (-v, u)] {
+                            push(o, h);
+                        }
+                    }
+                    Class::Cube => {
+                        for (a, &axis) in axes.iter().enumerate() {
+                            for o in [axis, -axis] {
+                                // Face centre: a 1-diamond's face diagonal.
+                                push(o, Diamond::new(c + o).spine()[0] - c - o);
+                                // Cube edges along `axis`: midpoints at the other two axes' ±1.
+                                let (p, q) = (axes[(a + 1) % 3], axes[(a + 2) % 3]);
+                                let side = if o == axis { 1 } else { -1 };
+                                for e in [p + q, p - q] {
+                                    push(e * side, axis);
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+            starts.push(triples.len() as u16);
+        }
+        Self { triples, starts }
+    }
+
+    /// The midpoints of the finest diamond centred at `c`.
+    #[inline]
+    fn of(&self, c: IVec3) -> &[[u8; 3]] {
+        let r = (c.x & 7 | (c.y & 7) << 3 | (c.z & 7) << 6) as usize;
+        &self.triples[self.starts[r] as usize..self.starts[r + 1] as usize]
     }
 }
 
@@ -509,6 +567,7 @@ mod tests {
         let samples = noise(grid);
         let vol = Volume::new(grid, &samples).unwrap();
         let l = Lattice::new(grid.dims).unwrap();
+        let stencils = Stencils::new(&grid);
         let mut checked = 0;
         for i in 0..grid.len() {
             let [x, y, z] = grid.ijk(i);
@@ -524,7 +583,7 @@ mod tests {
                 .tets(&l)
                 .iter()
                 .fold(TetStats::EMPTY, |acc, t| acc.merge(scan_tet(&vol, t)));
-            let fast = scan_finest_diamond(&vol, d);
+            let fast = stencils.scan_finest_diamond(&vol, d);
             assert_eq!(fast.error, by_tets.error, "{d:?}");
             assert!(fast.min <= by_tets.min && fast.max >= by_tets.max, "{d:?}");
             checked += 1;

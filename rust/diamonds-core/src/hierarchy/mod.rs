@@ -22,7 +22,7 @@ use crate::lattice::{Lattice, Placement};
 use crate::memory;
 use crate::mesh::{self, Index, MeshPlan, TetMesh};
 use crate::refine::{BaseMesh, Query, Refiner, SplitSet};
-use crate::scan::{scan_finest_diamond, scan_tet, Stencils, TetStats};
+use crate::scan::{scan_tet, Stencils, TetStats};
 use crate::volume::{Grid, Sample, ScalarSlice, Volume};
 use crate::{with_volume, Error, Result};
 use rayon::prelude::*;
@@ -302,7 +302,7 @@ fn is_root_corner(lattice: &Lattice, p: glam::IVec3) -> bool {
 
 /// Scans the inside tetrahedra of `d` and packs the result. `volume` starts at the lattice point
 /// `shift` (zero for a whole grid; for a piece a multiple of `4 × d.scale()`, so that the shifted
-/// central vertex keeps the class and orientation bits [`scan_finest_diamond`] reads).
+/// central vertex keeps the class and orientation bits [`Stencils::scan_finest_diamond`] reads).
 fn diamond_record<T: Sample>(
     volume: &Volume<'_, T>,
     lattice: &Lattice,
@@ -315,7 +315,8 @@ fn diamond_record<T: Sample>(
     }
     let (lo, hi) = d.bounds();
     if d.scale() == 1 && lattice.in_domain(lo) && lattice.in_domain(hi) {
-        return quantise.record(scan_finest_diamond(volume, Diamond::new(d.center - shift)));
+        return quantise
+            .record(stencils.scan_finest_diamond(volume, Diamond::new(d.center - shift)));
     }
     let mut stats = TetStats::EMPTY;
     for t in d.tets(lattice) {

@@ -604,7 +604,7 @@ impl PieceHierarchy {
     ) -> Result<()> {
         let (tolerance, roi) = (r.tolerance, r.roi);
         let judge = |d: Diamond| self.judged_error(roi, d);
-        let mut added = grow_concurrent(&mut r.split, first, tolerance, &judge)?;
+        let mut added = grow_concurrent(&mut r.split, first, tolerance, &judge, true)?;
         if !received.is_empty() {
             let received: FxHashSet<Diamond> = received.iter().copied().collect();
             added.retain(|d| !received.contains(d));
