@@ -53,7 +53,9 @@ fn is_split(split: &SplitSet, t: &Tet) -> bool {
 /// bisection paths, [`crate::view::BspTree::paths`]), or with `toward` = (eye in lattice
 /// coordinates, direction) the child that comes first in that visibility order (Marchesin §6). The
 /// children of an inside tetrahedron are inside: only the tetrahedra that straddle the domain's far
-/// faces are placed.
+/// faces are placed. An inside child that is a leaf (half of all tetrahedra walked) is visited at
+/// once, not through the stack, when nothing comes before it; a split one goes on the stack known
+/// split, so that no tetrahedron is tested twice.
 #[inline]
 fn walk_pruned(
     lattice: &Lattice,
@@ -63,39 +65,79 @@ fn walk_pruned(
     prune: impl Fn(&Tet) -> bool,
     mut visit: impl FnMut(&Tet, Option<Diamond>, u64),
 ) {
+    /// What a stack entry is known to be.
+    #[derive(Clone, Copy, PartialEq)]
+    enum Known {
+        Nothing,
+        Inside,
+        /// Inside, not pruned, split.
+        InsideSplit,
+    }
     let mut stack = Vec::with_capacity(4 * lattice.levels as usize + 4);
-    stack.push((t, path, false));
-    while let Some((t, path, inside)) = stack.pop() {
-        let placement = if inside {
-            Placement::Inside
+    stack.push((t, path, Known::Nothing));
+    while let Some((t, path, known)) = stack.pop() {
+        let inside = if known == Known::InsideSplit {
+            true
         } else {
-            lattice.place(&t)
-        };
-        if placement == Placement::Outside || prune(&t) {
-            continue;
-        }
-        let diamond = Diamond::of_tet(&t);
-        if diamond.is_some_and(|d| split.contains(d)) {
-            let inside = placement == Placement::Inside;
-            let [first, second] = bisect(&t);
-            let first = (first, child_path(path, false), inside);
-            let second = (second, child_path(path, true), inside);
-            // Back to front, the far child first; front to back, the near one.
-            let first_first = toward.is_none_or(|(eye, direction)| {
-                first_child_is_near(&t, eye) != (direction == Direction::BackToFront)
-            });
-            // Pushed last, popped first.
-            if first_first {
-                stack.extend([second, first]);
+            let placement = if known == Known::Inside {
+                Placement::Inside
             } else {
-                stack.extend([first, second]);
+                lattice.place(&t)
+            };
+            if placement == Placement::Outside || prune(&t) {
+                continue;
             }
-        } else if placement == Placement::Inside {
-            visit(&t, diamond, path);
+            let diamond = Diamond::of_tet(&t);
+            if !diamond.is_some_and(|d| split.contains(d)) {
+                if placement == Placement::Inside {
+                    visit(&t, diamond, path);
+                    continue;
+                }
+                unreachable!("straddling diamonds are split in the base mesh");
+            }
+            placement == Placement::Inside
+        };
+        let [first, second] = bisect(&t);
+        let first = (first, child_path(path, false));
+        let second = (second, child_path(path, true));
+        // Back to front, the far child first; front to back, the near one.
+        let first_first = toward.is_none_or(|(eye, direction)| {
+            first_child_is_near(&t, eye) != (direction == Direction::BackToFront)
+        });
+        let (a, b) = if first_first {
+            (first, second)
         } else {
-            unreachable!("straddling diamonds are split in the base mesh");
+            (second, first)
+        };
+        if !inside {
+            // Pushed last, popped first.
+            stack.extend([(b.0, b.1, Known::Nothing), (a.0, a.1, Known::Nothing)]);
+        } else if settle(split, &prune, &mut visit, a) {
+            stack.extend([(b.0, b.1, Known::Inside), (a.0, a.1, Known::InsideSplit)]);
+        } else if settle(split, &prune, &mut visit, b) {
+            stack.push((b.0, b.1, Known::InsideSplit));
         }
     }
+}
+
+/// [`walk_pruned`]'s handling of an inside tetrahedron `t` (with its path): nothing when pruned,
+/// visited when a leaf; returns whether it is split (to be walked on).
+#[inline(always)]
+fn settle(
+    split: &SplitSet,
+    prune: &impl Fn(&Tet) -> bool,
+    visit: &mut impl FnMut(&Tet, Option<Diamond>, u64),
+    (t, path): (Tet, u64),
+) -> bool {
+    if prune(&t) {
+        return false;
+    }
+    let diamond = Diamond::of_tet(&t);
+    if diamond.is_some_and(|d| split.contains(d)) {
+        return true;
+    }
+    visit(&t, diamond, path);
+    false
 }
 
 /// Visits the inside leaves below `t` in ascending bisection-path order, with their diamonds.
