@@ -290,31 +290,44 @@ pub(crate) fn assemble(
     );
     keys.par_sort_unstable();
     keys.dedup();
-    let placed: Vec<(DVec3, f64, f64)> = keys.par_iter().map(|&k| place(k)).collect();
     let id = |k: &PointKey| keys.binary_search(k).expect("listed") as u32;
-    let mut result = IntervalVolume {
-        tets: memory::with_capacity(n, "the interval volume tetrahedra")?,
-        levels: memory::with_capacity(n, "the interval volume levels")?,
-        leaves: patches.len(),
-        ..IntervalVolume::default()
-    };
-    result
-        .tets
-        .par_extend(patches.par_iter().flat_map_iter(|p| {
-            p.0.iter().map(|t| {
-                let mut t = t.map(|k| id(&k));
-                let x = t.map(|i| placed[i as usize].0);
-                if (x[1] - x[0]).dot((x[2] - x[0]).cross(x[3] - x[0])) < 0.0 {
-                    t.swap(2, 3);
-                }
-                t
-            })
-        }));
-    result.levels.par_extend(
+    let mut tets = memory::with_capacity(n, "the interval volume tetrahedra")?;
+    tets.par_extend(
+        patches
+            .par_iter()
+            .flat_map_iter(|p| p.0.iter().map(|t| t.map(|k| id(&k)))),
+    );
+    let mut levels = memory::with_capacity(n, "the interval volume levels")?;
+    levels.par_extend(
         patches
             .par_iter()
             .flat_map_iter(|p| p.0.iter().map(|_| p.1)),
     );
+    assemble_numbered(&keys, tets, levels, patches.len(), place)
+}
+
+/// [`assemble`] where the distinct point names `keys` (in name order), the tetrahedra as indices
+/// into them (orientation not fixed), their `levels` and the number of `leaves` are known.
+pub(crate) fn assemble_numbered(
+    keys: &[PointKey],
+    mut tets: Vec<[u32; 4]>,
+    levels: Vec<u8>,
+    leaves: usize,
+    place: impl Fn(PointKey) -> (DVec3, f64, f64) + Sync,
+) -> Result<IntervalVolume> {
+    let placed: Vec<(DVec3, f64, f64)> = keys.par_iter().map(|&k| place(k)).collect();
+    tets.par_iter_mut().for_each(|t| {
+        let x = t.map(|i| placed[i as usize].0);
+        if (x[1] - x[0]).dot((x[2] - x[0]).cross(x[3] - x[0])) < 0.0 {
+            t.swap(2, 3);
+        }
+    });
+    let mut result = IntervalVolume {
+        tets,
+        levels,
+        leaves,
+        ..IntervalVolume::default()
+    };
     result.points = placed.par_iter().map(|p| p.0.to_array()).collect();
     result.weights = placed.par_iter().map(|p| p.1).collect();
     result.values = placed.par_iter().map(|p| p.2).collect();

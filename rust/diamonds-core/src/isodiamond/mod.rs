@@ -45,14 +45,18 @@ mod encode;
 #[cfg(test)]
 mod tests;
 
-use crate::diamond::{bisect, Diamond};
+use crate::diamond::{bisect, child_of, Diamond};
 use crate::hierarchy::Hierarchy;
 use crate::interval::{self, clip, IntervalQuery, IntervalVolume, PointKey, ALPHA, SAMPLE};
-use crate::isosurface::{crosses, marching_with_sources, EdgeKey, IsoState, Marching};
+use crate::isosurface::{
+    crosses, marching_on_listed_edges, marching_with_sources, EdgeKey, IsoState, Marching,
+};
 use crate::lattice::{Lattice, Tet};
+use crate::memory;
 use crate::refine::SplitSet;
 use crate::volume::{Grid, Sample, ScalarSlice, Volume};
 use crate::{with_volume, Error, IsoQuery, IsoSurface, Result};
+use arrayvec::ArrayVec;
 use glam::{DMat3, DVec3, IVec3};
 use rayon::prelude::*;
 use rustc_hash::{FxHashMap, FxHashSet};
@@ -670,37 +674,81 @@ impl Isodiamonds {
     }
 
     /// The leaves of the mesh at `rung` whose patch is not empty, by selective refinement from the
-    /// roots (module documentation).
-    fn leaves(&self, rung: usize) -> Vec<Tet> {
+    /// roots (module documentation), with the classes of their vertices. Each visited diamond looks
+    /// up the classes of its vertices and the split bits of its children once.
+    fn leaves(&self, rung: usize) -> Vec<(Tet, [u8; 4])> {
         let lattice = &self.lattice;
-        let active = |t: &Tet| self.target.active(t.map(|p| self.class(p)));
         let mut out = Vec::new();
         let root = Diamond::root(lattice);
-        let mut stack: Vec<Diamond> = Vec::new();
+        // Diamonds to visit, with the class of their central vertex.
+        let mut stack: Vec<(Diamond, u8)> = Vec::new();
         match self.split(root, rung) {
-            Some(true) => stack.push(root),
-            Some(false) => out.extend(root.tets(lattice).into_iter().filter(active)),
+            Some(true) => stack.push((root, self.class(root.center))),
+            Some(false) => out.extend(
+                (root.tets(lattice).into_iter())
+                    .map(|t| (t, t.map(|p| self.class(p))))
+                    .filter(|(_, c)| self.target.active(*c)),
+            ),
             None => {}
         }
         if self.model == Model::Minimal {
             stack.extend(
                 (self.records.iter())
                     .filter(|r| r.kind == CREATION && r.split >> rung & 1 == 1)
-                    .map(|r| Diamond::new(point(lattice, r.key))),
+                    .map(|r| (Diamond::new(point(lattice, r.key)), r.class)),
             );
         }
-        let mut seen: FxHashSet<Diamond> = stack.iter().copied().collect();
-        while let Some(d) = stack.pop() {
-            for t in d.tets(lattice).iter().flat_map(bisect) {
-                if active(&t)
-                    && Diamond::of_tet(&t).is_none_or(|c| self.split(c, rung) != Some(true))
-                {
-                    out.push(t);
+        // Visited diamonds, by record.
+        let mut seen = vec![false; self.records.len()];
+        for (d, _) in &stack {
+            if let Some(&r) = self.index.get(&key(lattice, d.center)) {
+                seen[r as usize] = true;
+            }
+        }
+        // Per visited diamond: the classes of its vertices, the split bits of its children.
+        let mut classes: ArrayVec<(IVec3, u8), 16> = ArrayVec::new();
+        let mut children: ArrayVec<(Diamond, bool), 8> = ArrayVec::new();
+        while let Some((d, centre)) = stack.pop() {
+            classes.clear();
+            children.clear();
+            for c in d.children(lattice) {
+                let r = self
+                    .index
+                    .get(&key(lattice, c.center))
+                    .map(|&r| &self.records[r as usize]);
+                let split = r.is_some_and(|r| r.split >> rung & 1 == 1);
+                children.push((c, split));
+                if split {
+                    let r = self.index[&key(lattice, c.center)] as usize;
+                    if !std::mem::replace(&mut seen[r], true) {
+                        stack.push((c, self.records[r].class));
+                    }
                 }
             }
-            for c in d.children(lattice) {
-                if self.split(c, rung) == Some(true) && seen.insert(c) {
-                    stack.push(c);
+            for t in d.tets(lattice) {
+                let ct = t.map(|p| match classes.iter().find(|e| e.0 == p) {
+                    Some(e) => e.1,
+                    None => {
+                        let c = self.class(p);
+                        let _ = classes.try_push((p, c));
+                        c
+                    }
+                });
+                for (first, child) in [true, false].into_iter().zip(bisect(&t)) {
+                    let kept = ct[if first { 0 } else { 1 }];
+                    let c = child_of(&t, first, ct, kept, centre);
+                    if !self.target.active(c) {
+                        continue;
+                    }
+                    let split = Diamond::of_tet(&child).is_some_and(|cd| {
+                        match children.iter().find(|e| e.0 == cd) {
+                            Some(e) => e.1,
+                            None => self.split(cd, rung) == Some(true),
+                        }
+                    });
+                    if !split {
+                        out.push((child, c));
+                    }
                 }
             }
         }
@@ -714,8 +762,44 @@ impl Isodiamonds {
 
     /// The position of the crossing of edge `(i, j)` (`i < j`) at level index `l`.
     fn crossing(&self, i: u32, j: u32, l: u8) -> (DVec3, f64) {
-        let t = (self.points.binary_search_by_key(&(i, j, l), Crossing::edge))
-            .map_or(0.5, |c| dequantise(self.points[c].q));
+        match self.crossing_index(i, j, l) {
+            Some(k) => self.crossing_point(&self.points[k as usize]),
+            None => self.position(i, j, 0.5),
+        }
+    }
+
+    /// The place of the crossing of edge `(i, j)` (`i < j`) at level index `l` in
+    /// [`Isodiamonds::points`].
+    fn crossing_index(&self, i: u32, j: u32, l: u8) -> Option<u32> {
+        let k = self.points.binary_search_by_key(&(i, j, l), Crossing::edge);
+        k.ok().map(|k| k as u32)
+    }
+
+    /// A lookup of [`Isodiamonds::crossing_index`] for the many edges of one extraction.
+    fn crossing_lookup(&self) -> CrossingLookup<'_> {
+        let runs = (self.grid.len() >> CrossingLookup::RUN) + 1;
+        let mut start = Vec::with_capacity(runs + 1);
+        let mut k = 0;
+        for run in 0..=runs {
+            while k < self.points.len() && (self.points[k].i as usize) >> CrossingLookup::RUN < run
+            {
+                k += 1;
+            }
+            start.push(k as u32);
+        }
+        CrossingLookup {
+            points: &self.points,
+            start,
+        }
+    }
+
+    /// The position of a stored crossing and its weight along the edge.
+    fn crossing_point(&self, c: &Crossing) -> (DVec3, f64) {
+        self.position(c.i, c.j, dequantise(c.q))
+    }
+
+    /// The point at `t` along edge `(i, j)` from `i`, and `t`.
+    fn position(&self, i: u32, j: u32, t: f64) -> (DVec3, f64) {
         let (a, b) = (self.world(i), self.world(j));
         (a + t * (b - a), t)
     }
@@ -735,8 +819,32 @@ impl Isodiamonds {
                 "this isodiamond hierarchy encodes an interval volume, not an isosurface".into(),
             ));
         };
-        let leaves = self.leaves(rung);
-        let (mut surface, _) = marching_with_sources(&OnClasses(self), &leaves, false)?;
+        let (leaves, classes): (Vec<Tet>, Vec<[u8; 4]>) = self.leaves(rung).into_iter().unzip();
+        // Straight from the stored crossings unless a vertex holds the isovalue (then points join
+        // at samples, as marching tetrahedra on the values joins them).
+        let lookup = self.crossing_lookup();
+        let listed = marching_on_listed_edges(
+            &leaves,
+            self.target.class_levels(),
+            |k, _| classes[k].map(f64::from),
+            |p| self.grid_index(p),
+            self.points.len(),
+            |(i, j, l)| lookup.find(i, j, l as u8),
+        )?;
+        let mut surface = match listed {
+            Some((used, triangles)) => {
+                let v = self.target.levels()[0];
+                IsoSurface {
+                    points: (used.par_iter())
+                        .map(|&k| self.crossing_point(&self.points[k as usize]).0.to_array())
+                        .collect(),
+                    values: vec![v; used.len()],
+                    triangles,
+                    ..IsoSurface::default()
+                }
+            }
+            None => marching_with_sources(&OnClasses(self), &leaves, false)?.0,
+        };
         surface.error_bound = self.ladder[rung];
         Ok(surface)
     }
@@ -846,23 +954,148 @@ impl Isodiamonds {
         self.interval_volume_at(self.rung(tolerance)?)
     }
 
-    /// [`Isodiamonds::interval_volume`] at `rung`.
+    /// [`Isodiamonds::interval_volume`] at `rung`: the leaves clipped as [`interval::assemble`]
+    /// clips and numbers them, but straight from the stored crossings (already in name order):
+    /// each leaf's points are found once among them or marked in a bit set of the grid (samples),
+    /// and the two merged in name order, with no sort.
     fn interval_volume_at(&self, rung: usize) -> Result<IntervalVolume> {
         let Target::IntervalVolume(range) = self.target else {
             return Err(Error::Parameter(
                 "this isodiamond hierarchy encodes an isosurface, not an interval volume".into(),
             ));
         };
+        const MISSING: u32 = u32::MAX;
         let lattice = self.lattice;
-        let patches: Vec<interval::Patch> = (self.leaves(rung).par_iter())
-            .filter_map(|t| {
-                let ids = t.map(|p| self.grid_index(p));
-                let f = t.map(|p| self.class(p) as f64);
-                let mut out = Vec::new();
-                clip(ids, f, [1.0, 3.0], &mut out);
-                (!out.is_empty()).then(|| (out, interval::depth(&lattice, t)))
+        let lookup = self.crossing_lookup();
+        // Per run of leaves: the tetrahedra of their patches as slots (a sample's grid index, or
+        // a crossing's place among the stored ones; bit `c` of `samples`: corner `c` is a
+        // sample), their leaves' depths, the leaves that gave some.
+        #[derive(Default)]
+        struct Run {
+            slots: Vec<[u32; 4]>,
+            samples: Vec<u8>,
+            depths: Vec<u8>,
+            leaves: usize,
+        }
+        let runs: Vec<Run> = (self.leaves(rung).par_chunks(4096))
+            .map(|chunk| {
+                let mut run = Run::default();
+                let mut patch = Vec::new();
+                for (t, c) in chunk {
+                    patch.clear();
+                    clip(
+                        t.map(|p| self.grid_index(p)),
+                        c.map(f64::from),
+                        [1.0, 3.0],
+                        &mut patch,
+                    );
+                    if patch.is_empty() {
+                        continue;
+                    }
+                    run.leaves += 1;
+                    let depth = interval::depth(&lattice, t);
+                    let mut found: ArrayVec<((u32, u32, u8), u32), 16> = ArrayVec::new();
+                    for tet in &patch {
+                        let mut samples = 0;
+                        run.slots.push(std::array::from_fn(|corner| {
+                            let (i, j, level) = tet[corner];
+                            if level == SAMPLE {
+                                samples |= 1 << corner;
+                                return i;
+                            }
+                            let edge = (i, j, level - ALPHA);
+                            if let Some(f) = found.iter().find(|f| f.0 == edge) {
+                                return f.1;
+                            }
+                            let k = lookup.find(i, j, level - ALPHA).unwrap_or(MISSING);
+                            let _ = found.try_push((edge, k));
+                            k
+                        }));
+                        run.samples.push(samples);
+                        run.depths.push(depth);
+                    }
+                }
+                run
             })
             .collect();
+        let n: usize = runs.iter().map(|r| r.slots.len()).sum();
+        let mut slots: Vec<[u32; 4]> = memory::with_capacity(n, "the interval volume tetrahedra")?;
+        let mut kinds: Vec<u8> = memory::with_capacity(n, "the interval volume tetrahedra")?;
+        let mut levels: Vec<u8> = memory::with_capacity(n, "the interval volume levels")?;
+        let mut leaves = 0;
+        for run in runs {
+            slots.extend(run.slots);
+            kinds.extend(run.samples);
+            levels.extend(run.depths);
+            leaves += run.leaves;
+        }
+        // The samples and crossings used.
+        let mut samples = memory::filled(
+            self.grid.len().div_ceil(64),
+            0u64,
+            "the interval volume points",
+        )?;
+        let mut crossing_id =
+            memory::filled(self.points.len(), MISSING, "the interval volume points")?;
+        for (t, &kind) in slots.iter().zip(&kinds) {
+            for (c, &s) in t.iter().enumerate() {
+                if kind >> c & 1 == 1 {
+                    samples[s as usize / 64] |= 1 << (s % 64);
+                } else if s == MISSING {
+                    return Err(Error::Isodiamonds(
+                        "a crossed edge of a leaf has no stored crossing".into(),
+                    ));
+                } else {
+                    crossing_id[s as usize] = 0;
+                }
+            }
+        }
+        // The point names in name order: the edge points from lower samples, then each sample,
+        // then its own edge points. A sample's point is found by its rank among the used ones
+        // (those in the words before it, and in its word below it).
+        let mut rank = Vec::with_capacity(samples.len());
+        let mut used = 0u32;
+        for w in &samples {
+            rank.push(used);
+            used += w.count_ones();
+        }
+        let sample_rank = |i: u32| {
+            let (w, b) = (i as usize / 64, i % 64);
+            rank[w] + (samples[w] & ((1u64 << b) - 1)).count_ones()
+        };
+        let mut sample_id = Vec::with_capacity(used as usize);
+        let mut keys: Vec<PointKey> = Vec::new();
+        let mut k = 0;
+        let mut crossings_below = |keys: &mut Vec<PointKey>, end: u32| {
+            while k < self.points.len() && self.points[k].i < end {
+                if crossing_id[k] != MISSING {
+                    crossing_id[k] = keys.len() as u32;
+                    let c = self.points[k];
+                    keys.push((c.i, c.j, c.level + ALPHA));
+                }
+                k += 1;
+            }
+        };
+        for (w, &word) in samples.iter().enumerate() {
+            let mut bits = word;
+            while bits != 0 {
+                let i = (64 * w) as u32 + bits.trailing_zeros();
+                bits &= bits - 1;
+                crossings_below(&mut keys, i);
+                sample_id.push(keys.len() as u32);
+                keys.push((i, i, SAMPLE));
+            }
+        }
+        crossings_below(&mut keys, u32::MAX);
+        (slots.par_iter_mut().zip(&kinds)).for_each(|(t, &kind)| {
+            for (c, s) in t.iter_mut().enumerate() {
+                *s = if kind >> c & 1 == 1 {
+                    sample_id[sample_rank(*s) as usize]
+                } else {
+                    crossing_id[*s as usize]
+                };
+            }
+        });
         let place = |(i, j, level): PointKey| {
             if level == SAMPLE {
                 return (self.world(i), 0.0, 0.0);
@@ -870,11 +1103,30 @@ impl Isodiamonds {
             let (p, w) = self.crossing(i, j, level - ALPHA);
             (p, w, range[(level - ALPHA) as usize])
         };
-        let mut result = interval::assemble(&patches, place)?;
+        let mut result = interval::assemble_numbered(&keys, slots, levels, leaves, place)?;
         result.values = Vec::new();
         result.tolerance = self.ladder[rung];
         result.error_bound = self.ladder[rung];
         Ok(result)
+    }
+}
+
+/// Where the crossings whose lower end lies in each run of 2^[`CrossingLookup::RUN`] grid indices
+/// begin among the sorted crossings: an edge is searched among the few of its run.
+struct CrossingLookup<'a> {
+    points: &'a [Crossing],
+    start: Vec<u32>,
+}
+
+impl CrossingLookup<'_> {
+    const RUN: usize = 6;
+
+    /// [`Isodiamonds::crossing_index`].
+    fn find(&self, i: u32, j: u32, l: u8) -> Option<u32> {
+        let run = i as usize >> Self::RUN;
+        let (a, b) = (self.start[run] as usize, self.start[run + 1] as usize);
+        let k = self.points[a..b].binary_search_by_key(&(i, j, l), Crossing::edge);
+        k.ok().map(|k| (a + k) as u32)
     }
 }
 

@@ -116,6 +116,54 @@ fn isosurfaces_equal_the_full_hierarchy_at_every_rung_and_between() {
     }
 }
 
+/// Marching straight from the stored crossings gives the points, values and triangles, in order,
+/// of marching tetrahedra on the classes wherever no vertex of a leaf holds the isovalue; where
+/// one does (integer samples at an integer isovalue) it declines, and the latter runs.
+#[test]
+fn marching_from_stored_crossings_equals_marching_on_classes() {
+    let (mut taken, mut declined) = (0, 0);
+    for (name, grid, v) in volumes() {
+        let h = hierarchy(grid, &v);
+        let (lo, hi) = h.value_range();
+        for value in [0.5 * (lo + hi), (0.5 * (lo + hi)).round()] {
+            for model in [Model::Relevant, Model::Minimal] {
+                let target = Target::Isosurface(value);
+                let iso = build(&h, ScalarSlice::F32(&v), target, model, &ladder(&grid)).unwrap();
+                for rung in 0..iso.ladder().len() {
+                    let (leaves, classes): (Vec<Tet>, Vec<[u8; 4]>) =
+                        iso.leaves(rung).into_iter().unzip();
+                    let generic = marching_with_sources(&OnClasses(&iso), &leaves, false)
+                        .unwrap()
+                        .0;
+                    let lookup = iso.crossing_lookup();
+                    let listed = marching_on_listed_edges(
+                        &leaves,
+                        target.class_levels(),
+                        |k, _| classes[k].map(f64::from),
+                        |p| iso.grid_index(p),
+                        iso.points.len(),
+                        |(i, j, l)| lookup.find(i, j, l as u8),
+                    )
+                    .unwrap();
+                    match listed {
+                        Some(_) => taken += 1,
+                        None => declined += 1,
+                    }
+                    let got = iso.isosurface_at(rung).unwrap();
+                    let what = format!("{name} {model:?} at {value} rung {rung}");
+                    assert_eq!(got.points, generic.points, "{what}");
+                    assert_eq!(got.values, generic.values, "{what}");
+                    assert_eq!(got.triangles, generic.triangles, "{what}");
+                }
+            }
+        }
+    }
+    assert!(
+        taken > 0 && declined > 0,
+        "{taken} taken, {declined} declined"
+    );
+}
+
 #[test]
 fn interval_volumes_equal_the_full_hierarchy_at_every_rung() {
     for (name, grid, v) in volumes() {

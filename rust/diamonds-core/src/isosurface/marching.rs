@@ -374,73 +374,142 @@ const NOT_AT_SAMPLE: u8 = u8::MAX;
 
 /// The polygons of `tets` for every level of `field`.
 fn polygons(field: &impl Marching, tets: &[Tet]) -> Vec<Polygon> {
-    let index = |p: IVec3| field.index(p);
+    polygons_of(
+        tets,
+        field.levels(),
+        |_, t| field.values(t),
+        |p| field.index(p),
+    )
+}
+
+/// The polygons of `tets` for every level of `levels`, the values at the vertices of tetrahedron
+/// `k` being `values(k, tet)` and the name of a vertex `index(p)`.
+fn polygons_of(
+    tets: &[Tet],
+    levels: &[f64],
+    values: impl Fn(usize, &Tet) -> [f64; 4] + Sync,
+    index: impl Fn(IVec3) -> u32 + Sync,
+) -> Vec<Polygon> {
+    let index = &index;
     tets.par_iter()
         .enumerate()
         .flat_map_iter(|(tet, t)| {
-            let f = field.values(t);
-            field
-                .levels()
-                .iter()
-                .enumerate()
-                .filter_map(move |(k, &v)| {
-                    if !crosses(&f, v) {
-                        return None;
+            let f = values(tet, t);
+            levels.iter().enumerate().filter_map(move |(k, &v)| {
+                if !crosses(&f, v) {
+                    return None;
+                }
+                let mut above = [0usize; 4];
+                let mut below = [0usize; 4];
+                let (mut na, mut nb) = (0, 0);
+                for (i, &fi) in f.iter().enumerate() {
+                    if fi >= v {
+                        above[na] = i;
+                        na += 1;
+                    } else {
+                        below[nb] = i;
+                        nb += 1;
                     }
-                    let mut above = [0usize; 4];
-                    let mut below = [0usize; 4];
-                    let (mut na, mut nb) = (0, 0);
-                    for (i, &fi) in f.iter().enumerate() {
-                        if fi >= v {
-                            above[na] = i;
-                            na += 1;
-                        } else {
-                            below[nb] = i;
-                            nb += 1;
-                        }
+                }
+                // The crossed edges in cyclic order around the polygon.
+                let (mut edges, n) = match (na, nb) {
+                    (1, 3) => {
+                        let a = above[0];
+                        ([(a, below[0]), (a, below[1]), (a, below[2]), (0, 0)], 3)
                     }
-                    // The crossed edges in cyclic order around the polygon.
-                    let (mut edges, n) = match (na, nb) {
-                        (1, 3) => {
-                            let a = above[0];
-                            ([(a, below[0]), (a, below[1]), (a, below[2]), (0, 0)], 3)
-                        }
-                        (3, 1) => {
-                            let b = below[0];
-                            ([(above[0], b), (above[1], b), (above[2], b), (0, 0)], 3)
-                        }
-                        _ => {
-                            let ([a, b], [c, d]) = ([above[0], above[1]], [below[0], below[1]]);
-                            ([(a, c), (a, d), (b, d), (b, c)], 4)
-                        }
-                    };
-                    // Orientation from the lattice alone, so that it holds even when points coincide
-                    // with samples (zero-area triangles): the polygon through the edges' midpoints, in
-                    // doubled integer coordinates, must face from the vertices below to those above.
-                    // (A positive diagonal scaling to world coordinates keeps the sign.)
-                    let mid2 = |(a, b): (usize, usize)| (t[a] + t[b]).as_i64vec3();
-                    let (q0, q1, q2) = (mid2(edges[0]), mid2(edges[1]), mid2(edges[2]));
-                    let sum = |vs: &[usize]| vs.iter().map(|&i| t[i].as_i64vec3()).sum::<I64Vec3>();
-                    let up = sum(&above[..na]) * nb as i64 - sum(&below[..nb]) * na as i64;
-                    if (q1 - q0).cross(q2 - q0).dot(up) < 0 {
-                        edges[..n].reverse();
+                    (3, 1) => {
+                        let b = below[0];
+                        ([(above[0], b), (above[1], b), (above[2], b), (0, 0)], 3)
                     }
-                    let keys = edges.map(|(a, b)| {
-                        let (ia, ib) = (index(t[a]), index(t[b]));
-                        (ia.min(ib), ia.max(ib), k as u32)
-                    });
-                    // Each edge runs from a vertex above (first) to one below.
-                    let at_sample =
-                        edges.map(|(a, _)| if f[a] == v { a as u8 } else { NOT_AT_SAMPLE });
-                    Some(Polygon {
-                        keys,
-                        at_sample,
-                        n,
-                        tet: tet as u32,
-                    })
+                    _ => {
+                        let ([a, b], [c, d]) = ([above[0], above[1]], [below[0], below[1]]);
+                        ([(a, c), (a, d), (b, d), (b, c)], 4)
+                    }
+                };
+                // Orientation from the lattice alone, so that it holds even when points coincide
+                // with samples (zero-area triangles): the polygon through the edges' midpoints, in
+                // doubled integer coordinates, must face from the vertices below to those above.
+                // (A positive diagonal scaling to world coordinates keeps the sign.)
+                let mid2 = |(a, b): (usize, usize)| (t[a] + t[b]).as_i64vec3();
+                let (q0, q1, q2) = (mid2(edges[0]), mid2(edges[1]), mid2(edges[2]));
+                let sum = |vs: &[usize]| vs.iter().map(|&i| t[i].as_i64vec3()).sum::<I64Vec3>();
+                let up = sum(&above[..na]) * nb as i64 - sum(&below[..nb]) * na as i64;
+                if (q1 - q0).cross(q2 - q0).dot(up) < 0 {
+                    edges[..n].reverse();
+                }
+                let keys = edges.map(|(a, b)| {
+                    let (ia, ib) = (index(t[a]), index(t[b]));
+                    (ia.min(ib), ia.max(ib), k as u32)
+                });
+                // Each edge runs from a vertex above (first) to one below.
+                let at_sample = edges.map(|(a, _)| if f[a] == v { a as u8 } else { NOT_AT_SAMPLE });
+                Some(Polygon {
+                    keys,
+                    at_sample,
+                    n,
+                    tet: tet as u32,
                 })
+            })
         })
         .collect()
+}
+
+/// The listed edges a surface uses, in order, and its triangles.
+pub(crate) type ListedMarching = (Vec<u32>, Vec<[u32; 3]>);
+
+/// [`marching_with_sources`] without normals where the crossed edges are listed in advance
+/// (`listed`: the position of a crossed edge in the list, sorted by key, of `edges` edges) and no
+/// vertex of `tets` holds a level (`values(k, tet)`: the values at the vertices of tetrahedron `k`;
+/// `index(p)`: the name of a vertex): no sample joins points, so the points are the crossed edges
+/// in key order and no sort is needed. The listed edges used, in order (one point each), and the
+/// triangles, the same as [`marching_with_sources`] makes; `None` when a vertex holds a level or a
+/// crossed edge is not listed.
+pub(crate) fn marching_on_listed_edges(
+    tets: &[Tet],
+    levels: &[f64],
+    values: impl Fn(usize, &Tet) -> [f64; 4] + Sync,
+    index: impl Fn(IVec3) -> u32 + Sync,
+    edges: usize,
+    listed: impl Fn(EdgeKey) -> Option<u32> + Sync,
+) -> Result<Option<ListedMarching>> {
+    let polygons = polygons_of(tets, levels, values, index);
+    if (polygons.par_iter())
+        .any(|poly| poly.at_sample[..poly.n].iter().any(|&a| a != NOT_AT_SAMPLE))
+    {
+        return Ok(None);
+    }
+    let slots: usize = polygons.par_iter().map(|poly| poly.n).sum();
+    let mut slot_ids = memory::filled(4 * polygons.len(), u32::MAX, "the isosurface corners")?;
+    let unlisted = (slot_ids.par_chunks_mut(4).zip(&polygons))
+        .map(|(ids, poly)| {
+            let mut unlisted = false;
+            for (id, &key) in ids.iter_mut().zip(&poly.keys[..poly.n]) {
+                match listed(key) {
+                    Some(e) => *id = e,
+                    None => unlisted = true,
+                }
+            }
+            unlisted
+        })
+        .reduce(|| false, |a, b| a || b);
+    if unlisted {
+        return Ok(None);
+    }
+    let mut id = memory::filled(edges, u32::MAX, "the isosurface points")?;
+    for &e in &slot_ids {
+        if e != u32::MAX {
+            id[e as usize] = 0;
+        }
+    }
+    let mut used = Vec::new();
+    for (e, id) in id.iter_mut().enumerate() {
+        if *id == 0 {
+            *id = used.len() as u32;
+            used.push(e as u32);
+        }
+    }
+    let (triangles, _) = fans(&polygons, &slot_ids, &id, slots)?;
+    Ok(Some((used, triangles)))
 }
 
 /// The point of edge `key`: position, isovalue and, when asked and defined, the unit normal (the

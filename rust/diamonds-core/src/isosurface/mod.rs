@@ -75,7 +75,9 @@ use crate::{Error, Result};
 use cache::IsoCache;
 use glam::{DMat3, DVec3, IVec3};
 use marching::{count_triangles, OnVolume};
-pub(crate) use marching::{crosses, marching_with_sources, EdgeKey, Marching};
+pub(crate) use marching::{
+    crosses, marching_on_listed_edges, marching_with_sources, EdgeKey, Marching,
+};
 
 /// An isosurface query.
 #[derive(Clone, Debug, PartialEq)]
