@@ -145,6 +145,29 @@ pub fn triangle_samples(corners: [DVec3; 3], spacing: f64) -> impl Iterator<Item
     })
 }
 
+/// The sign of the exact orientation of `d` against the plane through `a`, `b`, `c` (Shewchuk's
+/// adaptive predicate, [`robust::orient3d`]): positive if `d` lies below it (`a`, `b`, `c`
+/// counter-clockwise seen from above), negative above, 0 exactly when the four are coplanar.
+pub fn orient3d(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> f64 {
+    let c3 = |p: DVec3| robust::Coord3D {
+        x: p.x,
+        y: p.y,
+        z: p.z,
+    };
+    robust::orient3d(c3(a), c3(b), c3(c), c3(d))
+}
+
+/// The sign of the exact orientation of the triangle `abc` projected along the axis `axis` (0, 1
+/// or 2) onto the other two, in cyclic order ([`robust::orient2d`]): positive counter-clockwise,
+/// 0 exactly when the projections are collinear. For coplanar points the projection along an axis
+/// not parallel to their plane is an affine bijection, so these signs are the in-plane
+/// orientations, all with one sense.
+pub fn orient2d_along(axis: usize, a: DVec3, b: DVec3, c: DVec3) -> f64 {
+    let (u, w) = ((axis + 1) % 3, (axis + 2) % 3);
+    let c2 = |p: DVec3| robust::Coord { x: p[u], y: p[w] };
+    robust::orient2d(c2(a), c2(b), c2(c))
+}
+
 /// Do the triangles `s` and `t`, two faces of one triangulated surface, meet other than in the
 /// corners they share (given by index: corners with equal ids are the same point)? Sharing an edge,
 /// they do when they lie in one plane on the same side of it (folded onto each other); sharing a
@@ -158,11 +181,19 @@ pub fn triangles_meet(s: ([u32; 3], [DVec3; 3]), t: ([u32; 3], [DVec3; 3])) -> b
             .max(x[2].distance(x[0]))
     };
     let eps = 1e-9 * longest(&s.1).max(longest(&t.1));
-    let shared: Vec<(usize, usize)> = (0..3)
-        .flat_map(|a| (0..3).map(move |b| (a, b)))
-        .filter(|&(a, b)| s.0[a] == t.0[b])
-        .collect();
-    match shared.len() {
+    // The shared corners as pairs of slots (no allocation: this runs for every candidate face).
+    let mut shared = [(0usize, 0usize); 3];
+    let mut count = 0;
+    for a in 0..3 {
+        for b in 0..3 {
+            if s.0[a] == t.0[b] && count < 3 {
+                shared[count] = (a, b);
+                count += 1;
+            }
+        }
+    }
+    let shared = &shared[..count];
+    match count {
         3 => true,
         2 => {
             // The corners not on the shared edge: folded if `t`'s lies in `s`'s plane on `c`'s side.
@@ -177,17 +208,15 @@ pub fn triangles_meet(s: ([u32; 3], [DVec3; 3]), t: ([u32; 3], [DVec3; 3])) -> b
                 && n.dot((b - a).cross(pd - a)) > 0.0
         }
         _ => {
-            // The edges of `x` through no shared corner (`mine` its shared corners) against `y`.
-            let edges_hit = |x: &[DVec3; 3], mine: &[usize], y: [DVec3; 3]| {
+            // The edges of `x` not through its shared corner `mine` (at most one) against `y`.
+            let edges_hit = |x: &[DVec3; 3], mine: Option<usize>, y: [DVec3; 3]| {
                 (0..3).any(|e| {
                     let (a, b) = (e, (e + 1) % 3);
-                    !mine.contains(&a)
-                        && !mine.contains(&b)
-                        && segment_meets_triangle(x[a], x[b], y, eps)
+                    mine != Some(a) && mine != Some(b) && segment_meets_triangle(x[a], x[b], y, eps)
                 })
             };
-            let (in_s, in_t): (Vec<usize>, Vec<usize>) = shared.into_iter().unzip();
-            edges_hit(&s.1, &in_s, t.1) || edges_hit(&t.1, &in_t, s.1)
+            let first = shared.first();
+            edges_hit(&s.1, first.map(|p| p.0), t.1) || edges_hit(&t.1, first.map(|p| p.1), s.1)
         }
     }
 }
@@ -241,6 +270,12 @@ fn segment_meets_triangle(p: DVec3, q: DVec3, x: [DVec3; 3], eps: f64) -> bool {
     (0..3).any(|e| {
         let (c, d) = (t[e], t[(e + 1) % 3]);
         let (o1, o2) = (cross(a2, b2, c), cross(a2, b2, d));
+        if o1 == 0.0 && o2 == 0.0 {
+            // Collinear (edges along one line, as on a box's edges): do their extents overlap?
+            let along = |v: glam::DVec2| v.dot(b2 - a2);
+            let (lo, hi) = (along(a2).min(along(b2)), along(a2).max(along(b2)));
+            return along(c).max(along(d)) >= lo && along(c).min(along(d)) <= hi;
+        }
         let (o3, o4) = (cross(c, d, a2), cross(c, d, b2));
         o1 * o2 <= 0.0 && o3 * o4 <= 0.0
     })
@@ -280,6 +315,20 @@ mod tests {
             [[2.0, 2.0, 0.0], [3.0, 2.0, 0.0], [2.0, 3.0, 0.0]],
         );
         assert!(!triangles_meet(base, apart));
+        // An edge along the line of the other's edge (two sides of a box along its edge): apart,
+        // or overlapping.
+        let along = tri(
+            [3, 4, 5],
+            [[2.0, 0.0, 0.0], [3.0, 0.0, 0.0], [3.0, 0.0, 1.0]],
+        );
+        assert!(!triangles_meet(base, along));
+        assert!(!triangles_meet(along, base));
+        let overlapping_along = tri(
+            [3, 4, 5],
+            [[0.5, 0.0, 0.0], [3.0, 0.0, 0.0], [3.0, 0.0, 1.0]],
+        );
+        assert!(triangles_meet(base, overlapping_along));
+        assert!(triangles_meet(overlapping_along, base));
         // Sharing corner 0: apart, or the other's far edge crossing the first.
         let fan = tri([0, 4, 5], [[0.0; 3], [0.0, 0.0, 1.0], [-1.0, 0.0, 1.0]]);
         assert!(!triangles_meet(base, fan));

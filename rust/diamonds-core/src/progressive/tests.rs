@@ -10,13 +10,13 @@ use glam::DVec3;
 /// A grid of `n³` cubes over `[0, 1]³`, each cut into the six tetrahedra around its main diagonal
 /// (conforming: every cube face is cut along the diagonal through its lowest corner), with the field
 /// `field` at the points.
-struct Generated {
-    points: Vec<[f64; 3]>,
-    tets: Vec<[u32; 4]>,
-    scalars: Vec<f64>,
+pub(super) struct Generated {
+    pub(super) points: Vec<[f64; 3]>,
+    pub(super) tets: Vec<[u32; 4]>,
+    pub(super) scalars: Vec<f64>,
 }
 
-fn grid(n: usize, field: impl Fn(DVec3) -> f64) -> Generated {
+pub(super) fn grid(n: usize, field: impl Fn(DVec3) -> f64) -> Generated {
     let id = |i: usize, j: usize, k: usize| (i + (n + 1) * (j + (n + 1) * k)) as u32;
     let mut points = Vec::new();
     for k in 0..=n {

@@ -95,6 +95,11 @@ impl Link {
         self.boundary_verts.binary_search(&a).is_ok()
     }
 
+    /// How many vertices `a` the boundary edges `va` reach.
+    pub(super) fn boundary_vertex_count(&self) -> usize {
+        self.boundary_verts.len()
+    }
+
     /// The boundary faces `vab` as `(a, b, fourth corner)`.
     pub(super) fn boundary_faces(&self) -> impl Iterator<Item = (u32, u32, u32)> + '_ {
         self.boundary.iter().map(|&([a, b], d)| (a, b, d))
