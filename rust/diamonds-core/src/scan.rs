@@ -231,8 +231,20 @@ fn scan_finest<T: Sample>(volume: &Volume<'_, T>, t: &Tet) -> TetStats {
 /// Scanning a tetrahedron then needs neither plane setup nor row bounds — the dominant cost of
 /// [`scan_tet`] for small tetrahedra, which are the most numerous.
 pub struct Stencils {
-    shapes: FxHashMap<[IVec3; 3], Stencil>,
+    shapes: FxHashMap<[IVec3; 3], usize>,
+    stencils: Vec<Stencil>,
+    /// Per scale 2 and 4 (`σ` = 1, 2) and residue of the central vertex `(c >> σ) mod 8`, which fixes
+    /// the shapes of a diamond's tetrahedra: each tetrahedron as its vertices' linear offsets from the
+    /// central vertex and its stencil (see [`Stencils::scan_diamond`]).
+    diamonds: Vec<Vec<([isize; 4], usize)>>,
     finest: FinestMidpoints,
+}
+
+/// The residue `(c >> σ) mod 8` of a central vertex, `x + 8 y + 64 z`.
+#[inline]
+fn residue(c: IVec3, sigma: u32) -> usize {
+    let r = (c >> IVec3::splat(sigma as i32)) & IVec3::splat(7);
+    (r.x | r.y << 3 | r.z << 6) as usize
 }
 
 struct Stencil {
@@ -244,52 +256,39 @@ impl Stencils {
     /// Shapes of every diamond tetrahedron of scale 2 and 4, with offsets for `grid`'s layout.
     pub fn new(grid: &Grid) -> Self {
         let mut shapes = FxHashMap::default();
-        let lattice = Lattice::new([33; 3]).expect("valid");
-        let stride = [
-            1isize,
-            grid.dims[0] as isize,
-            (grid.dims[0] * grid.dims[1]) as isize,
-        ];
-        for z in 0..=32 {
-            for y in 0..=32 {
-                for x in 0..=32 {
-                    let d = Diamond::new(IVec3::new(x, y, z));
-                    if d.center == IVec3::ZERO
-                        || !matches!(d.scale(), 2 | 4)
-                        || d.bounds().0.min_element() < 0
-                    {
-                        continue;
-                    }
+        let mut stencils = Vec::new();
+        let lattice = Lattice::new([65; 3]).expect("valid");
+        let stride = IVec3::new(1, grid.dims[0] as i32, (grid.dims[0] * grid.dims[1]) as i32);
+        let linear = |o: IVec3| {
+            o.x as isize * stride.x as isize
+                + o.y as isize * stride.y as isize
+                + o.z as isize * stride.z as isize
+        };
+        let mut diamonds = Vec::with_capacity(2 * 512);
+        for sigma in 1..=2u32 {
+            for r in 0..512i32 {
+                let residue = IVec3::new(r & 7, r >> 3 & 7, r >> 6);
+                let mut tets = Vec::new();
+                // A representative centre of scale 2^σ with this residue, inside the 64-cube.
+                if (residue & IVec3::ONE) != IVec3::ZERO {
+                    let c = (residue + IVec3::splat(8)) << IVec3::splat(sigma as i32);
+                    let d = Diamond::new(c);
                     for t in d.tets(&lattice) {
                         let key = [t[1] - t[0], t[2] - t[0], t[3] - t[0]];
-                        shapes.entry(key).or_insert_with(|| {
-                            let planes = Planes::new(&t);
-                            let points = brute_force_points(&t)
-                                .into_iter()
-                                .filter(|p| !t.contains(p))
-                                .map(|p| {
-                                    let o = p - t[0];
-                                    let offset = o.x as isize * stride[0]
-                                        + o.y as isize * stride[1]
-                                        + o.z as isize * stride[2];
-                                    let q = p.as_i64vec3();
-                                    let w = std::array::from_fn(|i| {
-                                        (planes.normals[i].dot(q) + planes.offsets[i]) as f64
-                                    });
-                                    (offset, w)
-                                })
-                                .collect();
-                            Stencil {
-                                det: planes.det as f64,
-                                points,
-                            }
+                        let id = *shapes.entry(key).or_insert_with(|| {
+                            stencils.push(Stencil::new(&t, linear));
+                            stencils.len() - 1
                         });
+                        tets.push((t.map(|p| linear(p - c)), id));
                     }
                 }
+                diamonds.push(tets);
             }
         }
         Self {
             shapes,
+            stencils,
+            diamonds,
             finest: FinestMidpoints::new(),
         }
     }
@@ -304,11 +303,68 @@ impl Stencils {
     /// [`scan_tet`] through the precomputed shape, when `t` has one.
     #[inline]
     pub fn scan<T: Sample>(&self, volume: &Volume<'_, T>, t: &Tet) -> Option<TetStats> {
-        let stencil = self.shapes.get(&[t[1] - t[0], t[2] - t[0], t[3] - t[0]])?;
-        let base = volume
-            .grid
-            .index(t[0].x as usize, t[0].y as usize, t[0].z as usize) as isize;
-        let f = t.map(|p| volume.at(p.x as usize, p.y as usize, p.z as usize));
+        let stencil = &self.stencils[*self.shapes.get(&[t[1] - t[0], t[2] - t[0], t[3] - t[0]])?];
+        let index = |p: IVec3| volume.grid.index(p.x as usize, p.y as usize, p.z as usize) as isize;
+        Some(stencil.scan(volume, index(t[0]), t.map(index)))
+    }
+
+    /// The merged scans of the tetrahedra of diamond `d` of scale 2 or 4 (`None` for other scales)
+    /// whose bounds lie inside the domain, from the sample of its central vertex at `center`: what
+    /// [`Stencils::scan`] gives for each of [`Diamond::tets`], without computing them.
+    #[inline]
+    pub fn scan_diamond<T: Sample>(
+        &self,
+        volume: &Volume<'_, T>,
+        d: Diamond,
+        center: usize,
+    ) -> Option<TetStats> {
+        let sigma = d.sigma();
+        if !(1..=2).contains(&sigma) {
+            return None;
+        }
+        let center = center as isize;
+        let tets = &self.diamonds[512 * (sigma as usize - 1) + residue(d.center, sigma)];
+        Some(tets.iter().fold(TetStats::EMPTY, |acc, (vertices, id)| {
+            acc.merge(self.stencils[*id].scan(
+                volume,
+                center + vertices[0],
+                vertices.map(|v| center + v),
+            ))
+        }))
+    }
+}
+
+impl Stencil {
+    /// The stencil of tetrahedron `t`, its points' offsets from `t[0]` by `linear`.
+    fn new(t: &Tet, linear: impl Fn(IVec3) -> isize) -> Self {
+        let planes = Planes::new(t);
+        let points = brute_force_points(t)
+            .into_iter()
+            .filter(|p| !t.contains(p))
+            .map(|p| {
+                let q = p.as_i64vec3();
+                let w =
+                    std::array::from_fn(|i| (planes.normals[i].dot(q) + planes.offsets[i]) as f64);
+                (linear(p - t[0]), w)
+            })
+            .collect();
+        Stencil {
+            det: planes.det as f64,
+            points,
+        }
+    }
+
+    /// The scan of a tetrahedron of this shape whose first vertex is the sample `base` and whose
+    /// vertices are the samples `vertices` (linear indices).
+    #[inline]
+    fn scan<T: Sample>(
+        &self,
+        volume: &Volume<'_, T>,
+        base: isize,
+        vertices: [isize; 4],
+    ) -> TetStats {
+        let stencil = self;
+        let f = vertices.map(|i| volume.samples[i as usize].to_f64());
         let (mut worst, mut min, mut max) = (
             0.0f64,
             f[0].min(f[1]).min(f[2].min(f[3])),
@@ -328,11 +384,11 @@ impl Stencils {
                 max = v;
             }
         }
-        Some(TetStats {
+        TetStats {
             error: worst / stencil.det,
             min,
             max,
-        })
+        }
     }
 }
 
@@ -558,6 +614,44 @@ mod tests {
             }
         }
         assert!(checked > 10_000, "{checked}");
+    }
+
+    #[test]
+    fn diamond_stencils_match_the_tets() {
+        // Centres up to 64: every residue (c >> σ) mod 8 of scales 2 and 4, several times.
+        let grid = Grid {
+            dims: [65, 61, 63],
+            origin: [0.0; 3],
+            spacing: [1.0; 3],
+        };
+        let samples = noise(grid);
+        let vol = Volume::new(grid, &samples).unwrap();
+        let l = Lattice::new(grid.dims).unwrap();
+        let stencils = Stencils::new(&grid);
+        let mut checked = 0;
+        for i in 0..grid.len() {
+            let [x, y, z] = grid.ijk(i);
+            let d = Diamond::new(IVec3::new(x as i32, y as i32, z as i32));
+            if d.center == IVec3::ZERO {
+                continue;
+            }
+            let (lo, hi) = d.bounds();
+            if !l.in_domain(lo) || !l.in_domain(hi) {
+                continue;
+            }
+            match stencils.scan_diamond(&vol, d, i) {
+                Some(fast) => {
+                    let by_tets = d
+                        .tets(&l)
+                        .iter()
+                        .fold(TetStats::EMPTY, |acc, t| acc.merge(scan_tet(&vol, t)));
+                    assert_eq!(fast, by_tets, "{d:?}");
+                    checked += 1;
+                }
+                None => assert!(!matches!(d.scale(), 2 | 4), "{d:?} has no stencils"),
+            }
+        }
+        assert!(checked > 20_000, "{checked}");
     }
 
     #[test]

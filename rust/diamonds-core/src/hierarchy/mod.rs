@@ -314,9 +314,16 @@ fn diamond_record<T: Sample>(
         return Record::default(); // a root-cube corner is no diamond
     }
     let (lo, hi) = d.bounds();
-    if d.scale() == 1 && lattice.in_domain(lo) && lattice.in_domain(hi) {
-        return quantise
-            .record(stencils.scan_finest_diamond(volume, Diamond::new(d.center - shift)));
+    if lattice.in_domain(lo) && lattice.in_domain(hi) {
+        let c = d.center - shift;
+        if d.scale() == 1 {
+            return quantise.record(stencils.scan_finest_diamond(volume, Diamond::new(c)));
+        }
+        // Scales 2 and 4: the tetrahedra's stencils found by the central vertex's residue.
+        let center = volume.grid.index(c.x as usize, c.y as usize, c.z as usize);
+        if let Some(stats) = stencils.scan_diamond(volume, d, center) {
+            return quantise.record(stats);
+        }
     }
     let mut stats = TetStats::EMPTY;
     for t in d.tets(lattice) {
