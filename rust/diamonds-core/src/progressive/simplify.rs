@@ -782,15 +782,18 @@ impl<'a> Simplifier<'a> {
         }
         let (pi, pa0, pb0) = (p(i), p(a0), p(b0));
         let axis = (pa0 - pi).cross(pb0 - pi).abs().max_position();
-        let side = orient3d(pi, pa0, pb0, p(d0)).signum();
-        side != 0.0
+        // Signs as orderings against 0 (`f64::signum` gives 1 for 0).
+        let sign = |x: f64| x.partial_cmp(&0.0);
+        let zero = Some(Ordering::Equal);
+        let side = sign(orient3d(pi, pa0, pb0, p(d0)));
+        side != zero
             && faces.iter().all(|&(a, b, d)| {
-                let turn = orient2d_along(axis, pi, p(a), p(b)).signum();
+                let turn = sign(orient2d_along(axis, pi, p(a), p(b)));
                 orient3d(pi, pa0, pb0, p(a)) == 0.0
                     && orient3d(pi, pa0, pb0, p(b)) == 0.0
-                    && orient3d(pi, pa0, pb0, p(d)).signum() == side
-                    && turn != 0.0
-                    && (a == j || b == j || orient2d_along(axis, p(j), p(a), p(b)).signum() == turn)
+                    && sign(orient3d(pi, pa0, pb0, p(d))) == side
+                    && turn != zero
+                    && (a == j || b == j || sign(orient2d_along(axis, p(j), p(a), p(b))) == turn)
             })
     }
 
