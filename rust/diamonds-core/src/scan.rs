@@ -582,10 +582,14 @@ mod tests {
         assert!(tets > 1000);
     }
 
-    #[test]
-    fn stencils_match_the_row_scan() {
+    /// Calls `f` with the volume, lattice and stencils of a noise volume of `dims`, for each diamond
+    /// centred at a sample (its index) other than the root's corner.
+    fn each_diamond(
+        dims: [usize; 3],
+        mut f: impl FnMut(&Volume<'_, u16>, &Lattice, &Stencils, Diamond, usize),
+    ) {
         let grid = Grid {
-            dims: [33, 29, 31],
+            dims,
             origin: [0.0; 3],
             spacing: [1.0; 3],
         };
@@ -593,64 +597,56 @@ mod tests {
         let vol = Volume::new(grid, &samples).unwrap();
         let l = Lattice::new(grid.dims).unwrap();
         let stencils = Stencils::new(&grid);
-        let mut checked = 0;
         for i in 0..grid.len() {
             let [x, y, z] = grid.ijk(i);
             let d = Diamond::new(IVec3::new(x as i32, y as i32, z as i32));
-            if d.center == IVec3::ZERO {
-                continue;
+            if d.center != IVec3::ZERO {
+                f(&vol, &l, &stencils, d, i);
             }
-            for t in d.tets(&l) {
+        }
+    }
+
+    #[test]
+    fn stencils_match_the_row_scan() {
+        let mut checked = 0;
+        each_diamond([33, 29, 31], |vol, l, stencils, d, _| {
+            for t in d.tets(l) {
                 if l.place(&t) != crate::lattice::Placement::Inside {
                     continue;
                 }
-                match stencils.scan(&vol, &t) {
+                match stencils.scan(vol, &t) {
                     Some(fast) => {
-                        assert_eq!(fast, scan_tet(&vol, &t), "{t:?}");
+                        assert_eq!(fast, scan_tet(vol, &t), "{t:?}");
                         checked += 1;
                     }
                     None => assert!(!matches!(d.scale(), 2 | 4), "{d:?} has no stencil"),
                 }
             }
-        }
+        });
         assert!(checked > 10_000, "{checked}");
     }
 
     #[test]
     fn diamond_stencils_match_the_tets() {
         // Centres up to 64: every residue (c >> σ) mod 8 of scales 2 and 4, several times.
-        let grid = Grid {
-            dims: [65, 61, 63],
-            origin: [0.0; 3],
-            spacing: [1.0; 3],
-        };
-        let samples = noise(grid);
-        let vol = Volume::new(grid, &samples).unwrap();
-        let l = Lattice::new(grid.dims).unwrap();
-        let stencils = Stencils::new(&grid);
         let mut checked = 0;
-        for i in 0..grid.len() {
-            let [x, y, z] = grid.ijk(i);
-            let d = Diamond::new(IVec3::new(x as i32, y as i32, z as i32));
-            if d.center == IVec3::ZERO {
-                continue;
-            }
+        each_diamond([65, 61, 63], |vol, l, stencils, d, i| {
             let (lo, hi) = d.bounds();
             if !l.in_domain(lo) || !l.in_domain(hi) {
-                continue;
+                return;
             }
-            match stencils.scan_diamond(&vol, d, i) {
+            match stencils.scan_diamond(vol, d, i) {
                 Some(fast) => {
                     let by_tets = d
-                        .tets(&l)
+                        .tets(l)
                         .iter()
-                        .fold(TetStats::EMPTY, |acc, t| acc.merge(scan_tet(&vol, t)));
+                        .fold(TetStats::EMPTY, |acc, t| acc.merge(scan_tet(vol, t)));
                     assert_eq!(fast, by_tets, "{d:?}");
                     checked += 1;
                 }
                 None => assert!(!matches!(d.scale(), 2 | 4), "{d:?} has no stencils"),
             }
-        }
+        });
         assert!(checked > 20_000, "{checked}");
     }
 
