@@ -257,13 +257,31 @@ try
     spec.shape_weight = this->ShapeWeight;
     spec.preserve_boundary = this->PreserveBoundary != 0;
     spec.boundary_tolerance = this->BoundaryTolerance;
-    vtkDiamonds::ProgressForwarder progress(this, 0.0, 0.9);
     try
     {
       in.Progressive.emplace(bridge::build_progressive(
         rust::Slice<const double>(points.data(), points.size()),
         rust::Slice<const std::int64_t>(corners.data(), corners.size()),
-        rust::Slice<const double>(scalars.data(), scalars.size()), spec, progress));
+        rust::Slice<const double>(scalars.data(), scalars.size()), spec));
+    }
+    catch (const rust::Error& e)
+    {
+      vtkErrorMacro(<< "Progressive Tetrahedral Mesh failed on '" << array->GetName()
+                    << "': " << e.what());
+      return 0;
+    }
+    in.Built = key;
+    ++this->NumberOfSimplifications;
+  }
+  bridge::Progressive& pm = **in.Progressive;
+
+  // ---- The collapse sequence as far as TargetReduction asks (continued, not recomputed, when a
+  // later execution asks for more; an abort keeps the collapses made).
+  {
+    vtkDiamonds::ProgressForwarder progress(this, 0.0, 0.9);
+    try
+    {
+      pm.reduce_for(this->TargetReduction, progress);
     }
     catch (const rust::Error& e)
     {
@@ -275,10 +293,7 @@ try
                     << "': " << e.what());
       return 0;
     }
-    in.Built = key;
-    ++this->NumberOfSimplifications;
   }
-  bridge::Progressive& pm = **in.Progressive;
 
   // ---- The level: replayed from the current one (the isosurface updated under each split).
   try

@@ -13,9 +13,11 @@
  * boundary vertices stay within BoundaryTolerance of the boundary). The field error reported is
  * exact: the largest |f(v) - L(v)| over the removed original vertices v.
  *
- * The sequence is computed once per input (array, values, weights, boundary settings) down to the
- * coarsest mesh; changing TargetReduction or MaximumFieldError only replays vertex splits or
- * collapses from the current level (GetNumberOfSimplifications() counts the computations).
+ * The sequence is computed once per input (array, values, weights, boundary settings), as far as
+ * the coarsest TargetReduction asked so far: a finer level, or MaximumFieldError, only replays
+ * vertex splits or collapses from the current level; a coarser one continues the same sequence
+ * from where it stopped (the levels made keep their meshes; the sequence is the one a single run to
+ * that level makes). GetNumberOfSimplifications() counts the computations from the input.
  *
  * Input: tetrahedra (other cells are tetrahedralised first, with a warning); coincident points are
  * merged and the tetrahedra they flatten dropped. Output port 0: VTK_TETRA cells at the chosen

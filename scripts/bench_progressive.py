@@ -11,9 +11,10 @@ reached, the field error at every original vertex measured the same way for both
 result: a static cell locator proposes cells, exact barycentric coordinates decide; a vertex outside the
 result, where the boundary moved, at the nearest point of the result's boundary surface), the
 boundary Hausdorff distance (vtkHausdorffDistancePointSetFilter, point to cell, both ways, between the
-boundary surfaces), inverted or flat tetrahedra. Ours computes the whole sequence on its first execution
-(the time column) and then reaches any level by replay: the level-change column times the filter's
-execution after a TargetReduction change. The Rust side's level change and the isovalue change with and
+boundary surfaces), inverted or flat tetrahedra. Ours simplifies on its first execution only as far as
+TargetReduction asks (the time column: a new filter per reduction) and then reaches any finer level by
+replay: the level changes time the filter's execution after a TargetReduction change, once the sequence
+reaches 99 %. The Rust side's level change and the isovalue change with and
 without the interval tree (Labsik Table 1) come from rust/diamonds-cli/examples/progressive_probe.rs.
 Needs the build (bash scripts/setup.sh). Not a test: it measures.
 """
@@ -178,13 +179,17 @@ def measure(method, path, array):
             results.append(dict(metrics(original, out, array, name), reduction=r, seconds=seconds))
     else:
         from paraview import servermanager
-        from paraview.simple import ProgressiveTetrahedralMesh, TrivialProducer
+        from paraview.simple import Delete, ProgressiveTetrahedralMesh, TrivialProducer
 
         producer = TrivialProducer()
         producer.GetClientSideObject().SetOutput(original)
-        prog = ProgressiveTetrahedralMesh(Input=producer)
-        prog.Scalars = ["POINTS", array]
+        prog = None
         for k, r in enumerate(REDUCTIONS):
+            # A new filter: its first execution simplifies as far as r asks.
+            if prog is not None:
+                Delete(prog)
+            prog = ProgressiveTetrahedralMesh(Input=producer)
+            prog.Scalars = ["POINTS", array]
             prog.TargetReduction = r
             t = time.perf_counter()
             prog.UpdatePipeline()
@@ -196,7 +201,8 @@ def measure(method, path, array):
                      reported_max=fd.GetArray("MaximumFieldError").GetTuple1(0),
                      reported_rms=fd.GetArray("RMSFieldError").GetTuple1(0))
             results.append(m)
-        # Level changes by replay (the filter's whole execution, output built).
+        # Level changes by replay once the sequence reaches 99 % (the filter's whole execution, output
+        # built).
         changes = []
         for r in (0.5, 0.99, 0.9, 0.5):
             prog.TargetReduction = r
@@ -260,8 +266,9 @@ def report(cases):
              "`python3 scripts/bench_progressive.py`: ours (the filter, ShapeWeight 0, PreserveBoundary with "
              "BoundaryTolerance 0.001 of the diagonal) against `vtkUnstructuredGridQuadricDecimation` at each "
              "reduction, each case its own pvpython process, the two alternating; wall seconds are medians. Ours "
-             "computes the whole collapse sequence on its first execution (its time is that of the first row) and "
-             "reaches every other level by replay (level change). Field errors are measured at every original "
+             "simplifies on its first execution only as far as TargetReduction asks (its seconds: a new filter's "
+             "first execution at that reduction; a larger TargetReduction later continues the same sequence) and "
+             "reaches every finer level by replay (level change, measured once the sequence reaches 99 %). Field errors are measured at every original "
              "vertex the same way for both: located exactly (a static cell locator proposes cells, exact barycentric "
              "coordinates ≥ -1e-9 decide: vtkProbeFilter extrapolates up to 1e-3 outside a tetrahedron in parametric "
              "coordinates, which gave 0.19 at a kept vertex of the blunt fin), a vertex outside the result (where the "
@@ -283,19 +290,19 @@ def report(cases):
             os_ = median([x["seconds"] for x in o])
             vs = median([x["seconds"] for x in v])
             a, b = o[-1], v[-1]
-            ours_time = f"{os_:.2f}" if k == 0 else f"{os_:.3f} (replay)"
+            ours_time = f"{os_:.2f}"
             lines.append(f"| {r:.0%} | ours | {ours_time} | {a['tets']:,} | {a['max_error']:.4g} "
                          f"[{a['reported_max']:.4g}] | {a['rms_error']:.4g} | {a['hausdorff']:.4g} | {a['inverted']} |")
             lines.append(f"| {r:.0%} | VTK | {vs:.2f} | {b['tets']:,} | {b['max_error']:.4g} | {b['rms_error']:.4g} "
                          f"| {b['hausdorff']:.4g} | {b['inverted']} |")
         extra = ours[-1][-1]
-        first = median([run[0]["seconds"] for run in ours])
+        first = median([run[1]["seconds"] for run in ours])
         vtk90 = median([run[1]["seconds"] for run in vtk])
         o90, v90 = ours[-1][1], vtk[-1][1]
         lines += ["",
-                  f"At 90 %: VTK ÷ ours time {vtk90 / first:.2f}× (goal ≥ 2×; ours' first execution computes every level), "
+                  f"At 90 %: VTK ÷ ours time {vtk90 / first:.2f}× (goal ≥ 2×; ours' first execution at 90 %), "
                   f"max field error ours ÷ VTK {o90['max_error'] / v90['max_error']:.2f} (goal ≤ 0.5), inverted "
-                  f"{o90['inverted']} vs {v90['inverted']} (goal 0). Filter level changes (TargetReduction 0.5 → 0.99 "
+                  f"{o90['inverted']} vs {v90['inverted']} (goal 0). Filter level changes after the 99 % execution (replays, TargetReduction 0.5 → 0.99 "
                   f"→ 0.9 → 0.5, output built): {', '.join(f'{1000 * s:.0f}' for s in extra['level_changes'])} ms; "
                   f"simplifications: {extra['simplifications']}.", ""]
         lines += [f"Progressive stream (`diamonds progressive encode`, zlib over DPM2, every level): "

@@ -1,7 +1,8 @@
 """Progressive Tetrahedral Mesh (issue 15): on Adaptive Tetrahedra's output of a Wavelet, the level
 for TargetReduction is a manifold tetrahedralisation with positive volumes, every point array passes
 through, FieldError and the field data agree; changing TargetReduction or MaximumFieldError only
-replays the kept sequence (NumberOfSimplifications stays 1), changing a weight computes it again;
+replays the kept sequence (NumberOfSimplifications stays 1) or, to a coarser level than the first
+execution's, continues it into the same mesh a first run there gives; changing a weight computes it again;
 other cells are tetrahedralised with a warning; the progressive isosurface on output port 1 is
 watertight inside the mesh at every level asked, holds the isovalue and follows level changes without
 a new simplification; the shared disk_out_ref when present.
@@ -63,7 +64,8 @@ n = source.GetNumberOfCells()
 prog = simple.ProgressiveTetrahedralMesh(Input=adaptive)
 prog.Scalars = ["POINTS", "RTData"]
 prog.TargetReduction = 0.9
-level90, error90 = check_level(source, dc.fetch(prog), "RTData", "90 %")
+first90 = dc.fetch(prog)
+level90, error90 = check_level(source, first90, "RTData", "90 %")
 dc.check(level90 <= 0.1 * n + 1, f"90 %: {level90} tetrahedra of {n}")
 dc.check(simplifications(prog) == 1, "the sequence computed once")
 
@@ -78,6 +80,22 @@ prog.MaximumFieldError = error90 / 2
 limited, error = check_level(source, dc.fetch(prog), "RTData", "MaximumFieldError")
 dc.check(error <= error90 / 2 and limited > level90, f"MaximumFieldError {error90 / 2:.4g}: error {error:.4g}, {limited} tetrahedra")
 dc.check(simplifications(prog) == 1, "TargetReduction and MaximumFieldError changes only replayed")
+
+# The first execution simplifies only as far as asked; a larger TargetReduction continues the same
+# sequence: first run at 50 %, then at 90 %, a filter outputs what one first run at 90 % did.
+stepwise = simple.ProgressiveTetrahedralMesh(Input=adaptive)
+stepwise.Scalars = ["POINTS", "RTData"]
+stepwise.TargetReduction = 0.5
+dc.check(check_level(source, dc.fetch(stepwise), "RTData", "first at 50 %")[0] == level50, "first at 50 %: the 50 % level")
+stepwise.TargetReduction = 0.9
+continued = dc.fetch(stepwise)
+check_level(source, continued, "RTData", "continued to 90 %")
+same = all(np.array_equal(x, y) for x, y in zip(dc.mesh_arrays(continued), dc.mesh_arrays(first90)))
+dc.check(same and dc.field_value(continued, "MaximumFieldError") == error90,
+         "continued to 90 %: the mesh and error of a first run at 90 %")
+stepwise.TargetReduction = 0.5
+dc.check(dc.fetch(stepwise).GetNumberOfCells() == level50 and simplifications(stepwise) == 1,
+         "back to 50 %: replayed, the same level")
 prog.MaximumFieldError = 0
 prog.FieldWeight = 2.0
 dc.fetch(prog)

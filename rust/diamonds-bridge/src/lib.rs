@@ -687,16 +687,25 @@ mod ffi {
         /// A progressive tetrahedral mesh (base mesh + vertex splits, Labsik et al.) and its current
         /// level, kept by `vtkProgressiveTetrahedralMesh` between executions.
         type Progressive;
-        /// Simplifies the tetrahedra (`tets`: 4 point indices each, positively oriented) of `points`
-        /// (3 coordinates each) as far as it goes, the field error measured on `scalars` (one per
-        /// point), with progress and abort; the current level is the original.
+        /// Prepares the simplification of the tetrahedra (`tets`: 4 point indices each, positively
+        /// oriented) of `points` (3 coordinates each), the field error measured on `scalars` (one
+        /// per point); no collapse is made yet (`reduce_for`), the current level is the original.
         fn build_progressive(
             points: &[f64],
             tets: &[i64],
             scalars: &[f64],
             spec: &ProgressiveSpec,
-            progress: Pin<&mut ProgressObserver>,
         ) -> Result<Box<Progressive>>;
+        /// Continues the collapse sequence, if it has not gone that far, until its base mesh has
+        /// at most `(1 - target_reduction)` of the original's tetrahedra or no collapse is left,
+        /// with progress and abort (the collapses made until an abort are kept); the levels already
+        /// made keep their meshes (numbered higher) and the current level its mesh. Returns how
+        /// many collapses it added (0: it had gone that far).
+        fn reduce_for(
+            self: &mut Progressive,
+            target_reduction: f64,
+            progress: Pin<&mut ProgressObserver>,
+        ) -> Result<usize>;
         /// The number of vertex splits: levels go from 0 (the base mesh) to it (the original).
         fn number_of_levels(self: &Progressive) -> usize;
         /// The coarsest level with at most `(1 - target_reduction)` of the original's tetrahedra

@@ -1,21 +1,24 @@
 //! The progressive-mesh half of the bridge (Labsik et al.): the Rust side of
 //! `vtkProgressiveTetrahedralMesh`. In: points, tetrahedra and the scalars as slices and the
-//! [`ProgressiveSpec`]; out: an opaque [`Progressive`] the filter keeps between executions, moved
-//! from level to level by replaying vertex splits or collapses, whose current level C++ reads as
-//! slices (point ids, tetrahedra, per-tetrahedron field errors). Every fallible function runs inside
+//! [`ProgressiveSpec`]; out: an opaque [`Progressive`] the filter keeps between executions, whose
+//! reduction goes as far as the coarsest level asked so far ([`Progressive::reduce_for`], continued
+//! when a coarser one is asked), moved from level to level by replaying vertex splits or
+//! collapses, whose current level C++ reads as slices (point ids, tetrahedra, per-tetrahedron field
+//! errors). Every fallible function runs inside
 //! [`guard`]; the getters return what `set_level` checked.
 
 use std::pin::Pin;
 
 use diamonds::progressive::isosurface::ProgressiveIsosurface;
-use diamonds::progressive::{self, Params, ProgressiveMesh, Replay, TetInput};
+use diamonds::progressive::{Params, Reduction, Replay, TetInput};
 
 use crate::ffi::{self, ProgressiveSpec};
 use crate::guard;
 
-/// A progressive mesh, its cursor, the progressive isosurface if any, and the current level's arrays.
+/// A reduction under way (its progressive mesh), the cursor, the progressive isosurface if any, and
+/// the current level's arrays.
 pub struct Progressive {
-    pm: ProgressiveMesh,
+    reduction: Reduction,
     replay: Replay,
     iso: Option<ProgressiveIsosurface>,
     point_ids: Vec<u32>,
@@ -26,27 +29,24 @@ pub struct Progressive {
     iso_triangles: Vec<u32>,
 }
 
-/// Simplifies the input as far as it goes (see [`ffi::build_progressive`]).
+/// Prepares the reduction of the input, no collapse made yet (see [`ffi::build_progressive`]).
 pub fn build_progressive(
     points: &[f64],
     tets: &[i64],
     scalars: &[f64],
     spec: &ProgressiveSpec,
-    mut progress: Pin<&mut ffi::ProgressObserver>,
 ) -> Result<Box<Progressive>, String> {
     guard("building the progressive mesh", || {
-        let mut report = crate::reporter(progress.as_mut());
-        build_with(points, tets, scalars, spec, &mut report).map(Box::new)
+        build_with(points, tets, scalars, spec).map(Box::new)
     })
 }
 
-/// [`build_progressive`] with a Rust progress callback.
+/// [`build_progressive`] without the guard.
 pub fn build_with(
     points: &[f64],
     tets: &[i64],
     scalars: &[f64],
     spec: &ProgressiveSpec,
-    progress: diamonds::Progress<'_>,
 ) -> Result<Progressive, String> {
     if !points.chunks_exact(3).remainder().is_empty()
         || !tets.chunks_exact(4).remainder().is_empty()
@@ -94,19 +94,18 @@ pub fn build_with(
         preserve_boundary: spec.preserve_boundary,
         boundary_tolerance: spec.boundary_tolerance * diagonal,
     };
-    let pm = progressive::simplify(
+    let reduction = Reduction::new(
         TetInput {
             points: &xyz,
             tets: &corners,
             scalars,
         },
         &params,
-        progress,
     )
     .map_err(|e| e.to_string())?;
-    let replay = Replay::new(&pm);
+    let replay = Replay::new(reduction.mesh());
     let mut p = Progressive {
-        pm,
+        reduction,
         replay,
         iso: None,
         point_ids: Vec::new(),
@@ -121,10 +120,55 @@ pub fn build_with(
 }
 
 impl Progressive {
+    /// Continues the reduction, if it has not gone that far, until the base mesh has at most
+    /// `(1 - target_reduction)` of the original's tetrahedra or no collapse is left (see
+    /// [`ffi::Progressive::reduce_for`]); returns how many collapses it added.
+    pub fn reduce_for(
+        &mut self,
+        target_reduction: f64,
+        mut progress: Pin<&mut ffi::ProgressObserver>,
+    ) -> Result<usize, String> {
+        guard("simplifying the tetrahedra", || {
+            let mut report = crate::reporter(progress.as_mut());
+            self.reduce_with(target_reduction, &mut report)
+        })
+    }
+
+    /// [`Self::reduce_for`] with a Rust progress callback.
+    pub fn reduce_with(
+        &mut self,
+        target_reduction: f64,
+        progress: diamonds::Progress<'_>,
+    ) -> Result<usize, String> {
+        let target = self.target_tets(target_reduction)?;
+        let pm = self.reduction.mesh();
+        if self.reduction.exhausted() || pm.error(0).tets <= target {
+            return Ok(0);
+        }
+        let added = self
+            .reduction
+            .reduce_to(target, progress)
+            .map_err(|e| e.to_string());
+        // Kept even after an abort: the collapses made until then are levels below the old ones.
+        self.replay.rebase(self.reduction.mesh());
+        added
+    }
+
+    /// The tetrahedra left at `target_reduction`.
+    fn target_tets(&self, target_reduction: f64) -> Result<usize, String> {
+        if !(0.0..=1.0).contains(&target_reduction) {
+            return Err(format!(
+                "the target reduction is {target_reduction}; it must be between 0 and 1"
+            ));
+        }
+        let original = self.reduction.mesh().original_tets().len() as f64;
+        Ok(((1.0 - target_reduction) * original).round() as usize)
+    }
+
     /// Reads the current level (every level is valid by construction: nothing is checked or
     /// located again) and its isosurface into the arrays C++ takes.
     fn extract(&mut self) {
-        let mesh = self.replay.mesh(self.pm.points().len());
+        let mesh = self.replay.mesh(self.reduction.mesh().points().len());
         self.errors = self.replay.field_errors();
         self.tets = mesh.tets.iter().flatten().copied().collect();
         self.point_ids = mesh.point_ids;
@@ -135,7 +179,7 @@ impl Progressive {
         let surface = self
             .iso
             .as_ref()
-            .map(|iso| iso.surface(&self.pm))
+            .map(|iso| iso.surface(self.reduction.mesh()))
             .unwrap_or_default();
         self.iso_points = surface.points.iter().flatten().copied().collect();
         self.iso_values = surface.values;
@@ -143,27 +187,21 @@ impl Progressive {
     }
 
     pub fn number_of_levels(&self) -> usize {
-        self.pm.levels()
+        self.reduction.mesh().levels()
     }
 
     pub fn level_for(&self, target_reduction: f64, max_field_error: f64) -> Result<usize, String> {
         guard("choosing the level", || {
-            if !(0.0..=1.0).contains(&target_reduction) {
-                return Err(format!(
-                    "the target reduction is {target_reduction}; it must be between 0 and 1"
-                ));
-            }
+            let target = self.target_tets(target_reduction)?;
             if !max_field_error.is_finite() || max_field_error < 0.0 {
                 return Err(format!(
                     "the maximum field error is {max_field_error}; it must be finite and >= 0 (0 = no limit)"
                 ));
             }
-            let original = self.pm.original_tets().len() as f64;
-            let by_count = self
-                .pm
-                .level_for_tets(((1.0 - target_reduction) * original).round() as usize);
+            let pm = self.reduction.mesh();
+            let by_count = pm.level_for_tets(target);
             Ok(if max_field_error > 0.0 {
-                by_count.max(self.pm.level_for_error(max_field_error))
+                by_count.max(pm.level_for_error(max_field_error))
             } else {
                 by_count
             })
@@ -173,8 +211,8 @@ impl Progressive {
     pub fn set_level(&mut self, level: usize) -> Result<usize, String> {
         guard("replaying the progressive mesh", || {
             let steps = match &mut self.iso {
-                Some(iso) => iso.set_level(&self.pm, &mut self.replay, level),
-                None => self.replay.set_level(&self.pm, level),
+                Some(iso) => iso.set_level(self.reduction.mesh(), &mut self.replay, level),
+                None => self.replay.set_level(self.reduction.mesh(), level),
             };
             self.extract();
             Ok(steps)
@@ -198,19 +236,25 @@ impl Progressive {
     }
 
     pub fn level_max_field_error(&self) -> f64 {
-        self.pm.error(self.replay.level()).max_field_error
+        self.reduction
+            .mesh()
+            .error(self.replay.level())
+            .max_field_error
     }
 
     pub fn level_rms_field_error(&self) -> f64 {
-        self.pm.error(self.replay.level()).rms_field_error
+        self.reduction
+            .mesh()
+            .error(self.replay.level())
+            .rms_field_error
     }
 
     pub fn merged_points(&self) -> usize {
-        self.pm.cleaning().0
+        self.reduction.mesh().cleaning().0
     }
 
     pub fn dropped_tets(&self) -> usize {
-        self.pm.cleaning().1
+        self.reduction.mesh().cleaning().1
     }
 
     pub fn set_isovalues(&mut self, isovalues: &[f64]) -> Result<(), String> {
@@ -219,12 +263,12 @@ impl Progressive {
                 self.iso = None;
             } else if let Some(iso) = &mut self.iso {
                 if iso.isovalues() != isovalues {
-                    iso.set_isovalues(&self.pm, &self.replay, isovalues, true)
+                    iso.set_isovalues(self.reduction.mesh(), &self.replay, isovalues, true)
                         .map_err(|e| e.to_string())?;
                 }
             } else {
                 self.iso = Some(
-                    ProgressiveIsosurface::new(&self.pm, &self.replay, isovalues)
+                    ProgressiveIsosurface::new(self.reduction.mesh(), &self.replay, isovalues)
                         .map_err(|e| e.to_string())?,
                 );
             }
@@ -314,8 +358,25 @@ mod tests {
     #[test]
     fn levels_are_replayed_and_read_as_slices() {
         let (points, tets, scalars) = cubes();
-        let mut p = build_with(&points, &tets, &scalars, &spec(), &mut |_| true).unwrap();
+        let mut p = build_with(&points, &tets, &scalars, &spec()).unwrap();
+        assert_eq!(p.number_of_levels(), 0);
+        // Half way first: the level asked, then the rest of the sequence below it, the current
+        // level keeping its mesh (numbered higher).
+        let half = p.reduce_with(0.25, &mut |_| true).unwrap();
+        assert!(half > 0);
+        assert_eq!(p.reduce_with(0.25, &mut |_| true).unwrap(), 0);
+        p.set_level(p.level_for(0.25, 0.0).unwrap()).unwrap();
+        let (ids, level) = (p.level_point_ids().to_vec(), p.level_tets().to_vec());
+        assert!(level.len() <= 3 * tets.len() / 4);
+        assert!(p.reduce_with(1.0, &mut |_| true).unwrap() > 0);
         let n = p.number_of_levels();
+        assert_eq!(p.current_level(), n - half);
+        assert_eq!(p.set_level(p.current_level()).unwrap(), 0);
+        assert_eq!(
+            (p.level_point_ids(), p.level_tets()),
+            (&ids[..], &level[..])
+        );
+        p.set_level(n).unwrap();
         assert_eq!(p.current_level(), n);
         assert_eq!(p.level_tets().len(), tets.len());
         assert!(n > 0);
@@ -351,14 +412,13 @@ mod tests {
     #[test]
     fn bad_input_is_an_error() {
         let (points, mut tets, scalars) = cubes();
-        assert!(build_with(&points[1..], &tets, &scalars, &spec(), &mut |_| true).is_err());
+        assert!(build_with(&points[1..], &tets, &scalars, &spec()).is_err());
         tets[0] = 99;
-        let e = build_with(&points, &tets, &scalars, &spec(), &mut |_| true)
-            .err()
-            .unwrap();
+        let e = build_with(&points, &tets, &scalars, &spec()).err().unwrap();
         assert!(e.contains("point 99"), "{e}");
         let (points, tets, scalars) = cubes();
-        let p = build_with(&points, &tets, &scalars, &spec(), &mut |_| true).unwrap();
+        let mut p = build_with(&points, &tets, &scalars, &spec()).unwrap();
+        assert!(p.reduce_with(1.5, &mut |_| true).is_err());
         assert!(p.level_for(1.5, 0.0).is_err());
         assert!(p.level_for(0.5, f64::NAN).is_err());
     }

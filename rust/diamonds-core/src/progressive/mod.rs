@@ -10,7 +10,8 @@
 //! - [`validity`]: the tests of §3.2 (boundary rule, link condition, flipped or degenerate
 //!   tetrahedra, features);
 //! - [`simplify`]: the reduction algorithm of §3.2 (priority queue of half-edge collapses) with the
-//!   exact field error at every removed original vertex;
+//!   exact field error at every removed original vertex, as far as asked and continued later
+//!   ([`Reduction`]);
 //! - [`record`]: the [`ProgressiveMesh`] (base mesh + vertex splits), per-level errors and the
 //!   [`Replay`] cursor that moves between levels, keeping each tetrahedron's field error;
 //! - [`stream`]: progressive transmission, the base mesh then the splits, valid at any prefix;
@@ -30,7 +31,7 @@ mod validity;
 
 pub use input::TetInput;
 pub use record::{LevelError, LevelMesh, ProgressiveMesh, Replay, VertexSplit};
-pub use simplify::simplify;
+pub use simplify::{simplify, Reduction};
 
 use crate::{Error, Result};
 

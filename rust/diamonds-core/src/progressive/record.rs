@@ -144,6 +144,8 @@ pub struct Replay {
     /// The field error of each tetrahedron at the current level (as it was last when not in it).
     errors: Vec<f64>,
     level: usize,
+    /// The number of levels of the progressive mesh when the cursor last moved ([`Replay::rebase`]).
+    levels: usize,
     live: usize,
 }
 
@@ -162,8 +164,17 @@ impl Replay {
             alive: vec![true; pm.tets.len()],
             errors: pm.original_tet_errors.clone(),
             level: pm.levels(),
+            levels: pm.levels(),
             live: pm.tets.len(),
         }
+    }
+
+    /// Follows a progressive mesh whose reduction went on ([`Reduction`](super::Reduction)) since
+    /// the cursor last moved: the new collapses went below the base mesh, so the current mesh is
+    /// now as many levels higher. [`Replay::set_level_with`] does it first.
+    pub fn rebase(&mut self, pm: &ProgressiveMesh) {
+        self.level += pm.levels() - self.levels;
+        self.levels = pm.levels();
     }
 
     /// The current level.
@@ -190,6 +201,7 @@ impl Replay {
         level: usize,
         on_step: &mut dyn FnMut(&Replay, &VertexSplit),
     ) -> usize {
+        self.rebase(pm);
         let level = level.min(pm.levels());
         let steps = self.level.abs_diff(level);
         while self.level > level {

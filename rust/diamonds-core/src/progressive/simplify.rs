@@ -300,10 +300,10 @@ impl Around {
 }
 
 /// The state of the reduction.
-struct Simplifier<'a> {
-    params: &'a Params,
+struct Simplifier {
+    params: Params,
     pos: Vec<DVec3>,
-    f: &'a [f64],
+    f: Vec<f64>,
     tets: Vec<[u32; 4]>,
     alive: Vec<bool>,
     /// The live tetrahedra around each vertex.
@@ -345,81 +345,148 @@ struct Simplifier<'a> {
 }
 
 /// Simplifies `input` by half-edge collapses (§3.2) until `params.target_tets` is reached or no valid
-/// collapse within `params.max_field_error` is left, and records the result as a progressive mesh.
-/// `progress` is called on the calling thread; returning `false` aborts with [`Error::Aborted`].
+/// collapse within `params.max_field_error` is left, and records the result as a progressive mesh:
+/// [`Reduction::new`] then [`Reduction::reduce_to`]. `progress` is called on the calling thread;
+/// returning `false` aborts with [`Error::Aborted`].
 pub fn simplify(
     input: TetInput<'_>,
     params: &Params,
     progress: Progress<'_>,
 ) -> Result<ProgressiveMesh> {
-    params.check()?;
-    let cleaned = input.clean()?;
-    let mut s = Simplifier::new(input, &cleaned.tets, params);
-    for &(v, kept) in &cleaned.merged {
-        s.seed_merged(v, kept);
-    }
-    let start = s.live;
-    let goal = start.saturating_sub(params.target_tets).max(1);
-    let mut collapses = Vec::new();
-    let mut errors = vec![s.level_error()];
-    let original_tet_errors = s.tet_max.clone();
-    let all: Vec<u32> = (0..s.pos.len() as u32).collect();
-    s.estimate_all(&all);
-    let mut popped = 0usize;
-    while s.live > params.target_tets {
-        let Some((i, _)) = s.queue.pop() else { break };
-        popped += 1;
-        if popped % 1024 == 1 && !progress(((start - s.live) as f64 / goal as f64).min(1.0)) {
-            return Err(Error::Aborted);
-        }
-        if std::mem::take(&mut s.dirty[i as usize]) {
-            s.offer(i);
-            continue;
-        }
-        let Some(c) = s.offer[i as usize].take() else {
-            continue;
-        };
-        // An offer made since the last collapse is still valid: nothing changed.
-        if s.offered_at[i as usize] != s.made && !s.still_valid(i, c.target) {
-            s.offer(i);
-            continue;
-        }
-        let Some(exact) = s.measure(i, c.target) else {
-            continue;
-        };
-        if params.max_field_error > 0.0 && exact.max_field > params.max_field_error {
-            continue;
-        }
-        let cost = c.base + s.field_term(exact.max_field);
-        if !c.exact && cost > c.cost {
-            s.offer[i as usize] = Some(Candidate {
-                cost,
-                exact: true,
-                ..c
-            });
-            s.queue.push(i, Cost(cost));
-            continue;
-        }
-        collapses.push(s.collapse(i, c.target, exact));
-        errors.push(s.level_error());
-    }
-    progress(1.0);
-    // Levels go up from the base mesh: reverse the errors, recorded from the original down.
-    errors.reverse();
-    Ok(ProgressiveMesh {
-        points: input.points.to_vec(),
-        tets: cleaned.tets,
-        collapses,
-        errors,
-        scalars: input.scalars.to_vec(),
-        merged_points: cleaned.merged.iter().map(|&(v, _)| v).collect(),
-        dropped_tets: cleaned.dropped,
-        original_tet_errors,
-    })
+    let mut reduction = Reduction::new(input, params)?;
+    reduction.reduce_to(params.target_tets, progress)?;
+    Ok(reduction.into_mesh())
 }
 
-impl<'a> Simplifier<'a> {
-    fn new(input: TetInput<'a>, tets: &[[u32; 4]], params: &'a Params) -> Self {
+/// A reduction under way: the progressive mesh of the collapses made so far and the state that makes
+/// the next ones (mesh, priority queue, carried vertices). [`Reduction::reduce_to`] goes only as far
+/// as asked and a later call continues the *same* sequence, so a user who asks for 90 % pays for 90 %,
+/// and the sequence, reached in any number of steps, is the one a single run makes (the queue and
+/// every offer are kept; nothing depends on where a step stopped). The new collapses go below the
+/// base mesh: the levels already made keep their meshes, numbered `added` higher
+/// ([`Replay::rebase`](super::Replay::rebase)).
+pub struct Reduction {
+    s: Simplifier,
+    pm: ProgressiveMesh,
+    exhausted: bool,
+}
+
+impl Reduction {
+    /// Checks and cleans `input` and prepares the reduction (boundary, quadrics, every vertex's
+    /// estimated offer); no collapse is made. `params.target_tets` is not used (see
+    /// [`Self::reduce_to`]); `params.max_field_error` holds for every step.
+    pub fn new(input: TetInput<'_>, params: &Params) -> Result<Self> {
+        params.check()?;
+        let cleaned = input.clean()?;
+        let mut s = Simplifier::new(input, &cleaned.tets, params);
+        for &(v, kept) in &cleaned.merged {
+            s.seed_merged(v, kept);
+        }
+        let errors = vec![s.level_error()];
+        let original_tet_errors = s.tet_max.clone();
+        let all: Vec<u32> = (0..s.pos.len() as u32).collect();
+        s.estimate_all(&all);
+        Ok(Self {
+            pm: ProgressiveMesh {
+                points: input.points.to_vec(),
+                tets: cleaned.tets,
+                collapses: Vec::new(),
+                errors,
+                scalars: input.scalars.to_vec(),
+                merged_points: cleaned.merged.iter().map(|&(v, _)| v).collect(),
+                dropped_tets: cleaned.dropped,
+                original_tet_errors,
+            },
+            s,
+            exhausted: false,
+        })
+    }
+
+    /// Continues the collapse sequence until the mesh has at most `target_tets` tetrahedra or no
+    /// valid collapse within the maximum field error is left ([`Self::exhausted`]); returns how many
+    /// collapses it added. An abort ([`Error::Aborted`], `progress` returned `false`) keeps the
+    /// collapses made until then and leaves the reduction ready to continue.
+    pub fn reduce_to(&mut self, target_tets: usize, progress: Progress<'_>) -> Result<usize> {
+        let s = &mut self.s;
+        let goal = s.live.saturating_sub(target_tets).max(1);
+        let start = s.live;
+        let before = self.pm.collapses.len();
+        let max_field_error = s.params.max_field_error;
+        // Level errors in the order the collapses are made (the finest first).
+        let mut errors = Vec::new();
+        let mut popped = 0usize;
+        let outcome = loop {
+            if s.live <= target_tets {
+                break Ok(());
+            }
+            // Asked before popping: an abort leaves the queue as it was.
+            if popped.is_multiple_of(1024)
+                && !progress(((start - s.live) as f64 / goal as f64).min(1.0))
+            {
+                break Err(Error::Aborted);
+            }
+            popped += 1;
+            let Some((i, _)) = s.queue.pop() else {
+                self.exhausted = true;
+                break Ok(());
+            };
+            if std::mem::take(&mut s.dirty[i as usize]) {
+                s.offer(i);
+                continue;
+            }
+            let Some(c) = s.offer[i as usize].take() else {
+                continue;
+            };
+            // An offer made since the last collapse is still valid: nothing changed.
+            if s.offered_at[i as usize] != s.made && !s.still_valid(i, c.target) {
+                s.offer(i);
+                continue;
+            }
+            let Some(exact) = s.measure(i, c.target) else {
+                continue;
+            };
+            if max_field_error > 0.0 && exact.max_field > max_field_error {
+                continue;
+            }
+            let cost = c.base + s.field_term(exact.max_field);
+            if !c.exact && cost > c.cost {
+                s.offer[i as usize] = Some(Candidate {
+                    cost,
+                    exact: true,
+                    ..c
+                });
+                s.queue.push(i, Cost(cost));
+                continue;
+            }
+            self.pm.collapses.push(s.collapse(i, c.target, exact));
+            errors.push(s.level_error());
+        };
+        // Levels go up from the base mesh: the new ones, coarsest first, below the old ones.
+        errors.reverse();
+        errors.append(&mut self.pm.errors);
+        self.pm.errors = errors;
+        outcome?;
+        progress(1.0);
+        Ok(self.pm.collapses.len() - before)
+    }
+
+    /// Is no valid collapse left (the base mesh is as coarse as the reduction goes)?
+    pub fn exhausted(&self) -> bool {
+        self.exhausted
+    }
+
+    /// The progressive mesh of the collapses made so far (its base mesh the current state).
+    pub fn mesh(&self) -> &ProgressiveMesh {
+        &self.pm
+    }
+
+    pub fn into_mesh(self) -> ProgressiveMesh {
+        self.pm
+    }
+}
+
+impl Simplifier {
+    fn new(input: TetInput<'_>, tets: &[[u32; 4]], params: &Params) -> Self {
         let n = input.points.len();
         let pos: Vec<DVec3> = input.points.iter().map(|&p| DVec3::from_array(p)).collect();
         let mut star = vec![Vec::new(); n];
@@ -485,8 +552,8 @@ impl<'a> Simplifier<'a> {
             });
         let m = tets.len();
         Self {
-            params,
-            f: input.scalars,
+            params: params.clone(),
+            f: input.scalars.to_vec(),
             alive: vec![true; m],
             removed: vec![false; n],
             kind,

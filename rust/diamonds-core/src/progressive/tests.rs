@@ -254,6 +254,38 @@ fn replay_to_a_level_equals_simplifying_directly_to_it() {
     }
 }
 
+/// The filter simplifies only as far as asked and continues later: the sequence made in steps
+/// (after an abort too) is the one a single run makes, each step's the one a run to its target
+/// makes, and a cursor on the mesh keeps its mesh while levels go in below the base.
+#[test]
+fn a_reduction_continued_in_steps_makes_the_sequence_of_one_run() {
+    let g = grid(4, smooth);
+    let whole = g.simplify(&params(0)).unwrap();
+    let mut r = Reduction::new(g.input(), &params(0)).unwrap();
+    assert_eq!(r.reduce_to(0, &mut |_| false), Err(Error::Aborted));
+    assert_eq!(r.mesh().levels(), 0);
+    let mut replay = Replay::new(r.mesh());
+    let m = g.tets.len();
+    for target in [3 * m / 4, m / 2, m / 10, 0] {
+        let before = r.mesh().levels();
+        let at = replay.mesh(g.points.len());
+        let added = r.reduce_to(target, &mut |_| true).unwrap();
+        assert_eq!(r.mesh().levels(), before + added);
+        assert!(r.mesh().error(0).tets <= target || r.exhausted());
+        assert_eq!(
+            &g.simplify(&params(target)).unwrap(),
+            r.mesh(),
+            "to {target}"
+        );
+        replay.rebase(r.mesh());
+        assert_eq!(replay.mesh(g.points.len()), at, "the cursor's mesh kept");
+        replay.set_level(r.mesh(), 0);
+        assert_eq!(replay.tets(), r.mesh().error(0).tets);
+    }
+    assert!(r.exhausted());
+    assert_eq!(r.into_mesh(), whole);
+}
+
 #[test]
 fn the_maximum_field_error_stops_the_reduction() {
     let g = grid(5, smooth);
