@@ -269,7 +269,7 @@ mod ffi {
         type IsoState;
 
         /// Builds the full hierarchy of `samples` (raw bytes of `scalar_type` values, x fastest) on
-        /// `grid`: per-diamond records (4 bytes per point) computed with progress and abort.
+        /// `grid`: per-diamond records (2 bytes per point) computed with progress and abort.
         fn build_hierarchy(
             grid: &GridSpec,
             scalar_type: ScalarType,
@@ -1664,7 +1664,7 @@ mod tests {
         let again = build_isosurface_hierarchy(&grid, ScalarType::F32, bytes).unwrap();
         assert!(again.id != iso.id && again.id != full.id);
         assert_eq!(iso.metadata_bytes(), 0);
-        assert_eq!(full.metadata_bytes(), 4 * values.len());
+        assert_eq!(full.metadata_bytes(), 2 * values.len());
         let err = iso
             .plan_mesh(&QuerySpec {
                 tolerance: 0.1,

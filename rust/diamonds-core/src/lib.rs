@@ -18,7 +18,7 @@
 //! - [`refine`]: the split set, the [`refine::SplitQueue`] and selective refinement with closure.
 //! - [`memory`]: fallible allocation of the large buffers (a failure is an error, not an abort).
 //! - [`mesh`]: extraction of the current mesh as deduplicated points and tetrahedra.
-//! - [`hierarchy`]: the precomputed per-diamond records (error, min, max) in 4 bytes per voxel
+//! - [`hierarchy`]: the precomputed per-diamond records (the error bound) in 2 bytes per voxel
 //!   ([`hierarchy::record`]: the record and its codecs) and the base mesh every query starts from.
 //! - [`isosurface`]: multiresolution isosurfaces (Gregorski §6), one file per stage: the isosurface
 //!   error measured per query at the samples that decide the surface (no precomputation:

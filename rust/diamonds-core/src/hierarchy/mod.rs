@@ -4,12 +4,9 @@
 //! Every lattice point of the domain is the central vertex of exactly one diamond, so the per-diamond data
 //! is a 3-D array parallel to the samples ("a hierarchy of diamonds built on a regular volume data set can be
 //! efficiently encoded as a three-dimensional array", Weiss & De Floriani §4). Each [`Record`] holds, in
-//! 4 bytes ([`record`]):
-//! - the diamond's **exact** maximum interpolation error over every sample inside its tetrahedra
-//!   (Marchesin's enumeration, [`crate::scan`]), rounded *up* to a bfloat16 — an upper bound within 0.8 %
-//!   that is 0 exactly when the error is 0, so tolerance 0 stays lossless;
-//! - the diamond's sample range, quantised outwards to 8 bits over the volume's range (exact for u8 data),
-//!   for the isosurface culling of Gregorski §6.1.
+//! 2 bytes ([`record`]), the diamond's **exact** maximum interpolation error over every sample inside its
+//! tetrahedra (Marchesin's enumeration, [`crate::scan`]), rounded *up* to a bfloat16 — an upper bound
+//! within 0.8 % that is 0 exactly when the error is 0, so tolerance 0 stays lossless.
 //!
 //! Diamonds with a tetrahedron straddling a far face of the domain are split unconditionally (see
 //! [`crate::lattice`]); their closure is the *base mesh*, computed once here.
@@ -26,7 +23,7 @@ use crate::scan::{scan_tet, Stencils, TetStats};
 use crate::volume::{Grid, Sample, ScalarSlice, Volume};
 use crate::{with_volume, Error, Result};
 use rayon::prelude::*;
-use record::{decode_error, Quantiser, Record};
+use record::{decode_error, Record};
 
 /// Progress callback: called on the calling thread with a fraction in `[0, 1]`; return `false` to abort.
 pub type Progress<'a> = &'a mut dyn FnMut(f64) -> bool;
@@ -148,7 +145,6 @@ impl Hierarchy {
         let grid = volume.grid;
         let lattice = Lattice::new(grid.dims)?;
         let value_range = volume.range();
-        let quantise = Quantiser::new(value_range);
         let stencils = Stencils::new(&grid);
         let mut records = memory::filled(grid.len(), Record::default(), "the diamond hierarchy")?;
         let nx = grid.dims[0];
@@ -168,13 +164,7 @@ impl Hierarchy {
                 );
                 for (x, rec) in row.iter_mut().enumerate() {
                     let d = Diamond::new(glam::IVec3::new(x as i32, y as i32, z as i32));
-                    *rec = diamond_record(
-                        volume,
-                        &lattice,
-                        &stencils,
-                        (d, glam::IVec3::ZERO),
-                        &quantise,
-                    );
+                    *rec = diamond_record(volume, &lattice, &stencils, (d, glam::IVec3::ZERO));
                 }
             });
         }
@@ -250,7 +240,7 @@ impl Hierarchy {
         !self.records.is_empty()
     }
 
-    /// Bytes of per-diamond metadata (4 per input point; 0 when built for isosurfaces only).
+    /// Bytes of per-diamond metadata (2 per input point; 0 when built for isosurfaces only).
     pub fn metadata_bytes(&self) -> usize {
         self.records.len() * std::mem::size_of::<Record>()
     }
@@ -274,13 +264,6 @@ impl Hierarchy {
         } else {
             0.0
         }
-    }
-
-    /// Conservative sample range of diamond `d`.
-    pub fn range(&self, d: Diamond) -> (f64, f64) {
-        let r = self.records[self.lattice.index(d.center)];
-        let q = Quantiser::new(self.value_range);
-        (q.decode(r.min), q.decode(r.max))
     }
 }
 
@@ -308,7 +291,6 @@ fn diamond_record<T: Sample>(
     lattice: &Lattice,
     stencils: &Stencils,
     (d, shift): (Diamond, glam::IVec3),
-    quantise: &Quantiser,
 ) -> Record {
     if is_root_corner(lattice, d.center) {
         return Record::default(); // a root-cube corner is no diamond
@@ -317,12 +299,12 @@ fn diamond_record<T: Sample>(
     if lattice.in_domain(lo) && lattice.in_domain(hi) {
         let c = d.center - shift;
         if d.scale() == 1 {
-            return quantise.record(stencils.scan_finest_diamond(volume, Diamond::new(c)));
+            return Record::of(stencils.scan_finest_diamond(volume, Diamond::new(c)));
         }
         // Scales 2 and 4: the tetrahedra's stencils found by the central vertex's residue.
         let center = volume.grid.index(c.x as usize, c.y as usize, c.z as usize);
         if let Some(stats) = stencils.scan_diamond(volume, d, center) {
-            return quantise.record(stats);
+            return Record::of(stats);
         }
     }
     let mut stats = TetStats::EMPTY;
@@ -334,14 +316,11 @@ fn diamond_record<T: Sample>(
                 stats = stats.merge(scan.unwrap_or_else(|| scan_tet(volume, &t)));
             }
             Placement::Outside => {}
-            // Split unconditionally in the base mesh: no error needed, and a range that culls nothing.
-            Placement::Straddling => return Record::UNKNOWN_RANGE,
+            // Split unconditionally in the base mesh: no error needed.
+            Placement::Straddling => return Record::default(),
         }
     }
-    if stats.min > stats.max {
-        return Record::default();
-    }
-    quantise.record(stats)
+    Record::of(stats)
 }
 
 #[cfg(test)]

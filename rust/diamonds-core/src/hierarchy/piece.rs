@@ -31,7 +31,7 @@
 //!    `[lo, hi)`, so each tetrahedron of the serial mesh is written by exactly one piece, with the
 //!    whole grid's point indices as point ids (global ids).
 
-use super::{base_mesh, diamond_record, is_root_corner, record, record::Quantiser};
+use super::{base_mesh, diamond_record, is_root_corner, record};
 use crate::diamond::Diamond;
 use crate::lattice::{Lattice, Placement, Tet};
 use crate::mesh::{self, PointSet, TetMesh};
@@ -420,7 +420,6 @@ impl PieceHierarchy {
         // Fine diamonds meeting the piece: exact errors from the padded box.
         let lattice = layout.lattice;
         let stencils = Stencils::new(&grid);
-        let quantise = Quantiser::new(volume.range());
         let mut fine = memory::filled(padded.len(), 0u16, "the piece's diamond errors")?;
         let [nx, ny, _] = padded.dims();
         fine.par_chunks_mut(nx).enumerate().for_each(|(r, row)| {
@@ -432,8 +431,7 @@ impl PieceHierarchy {
                 }
                 let d = Diamond::new(p);
                 if d.scale() < layout.stride && layout.meets(d) {
-                    let rec =
-                        diamond_record(&volume, &lattice, &stencils, (d, padded.lo), &quantise);
+                    let rec = diamond_record(&volume, &lattice, &stencils, (d, padded.lo));
                     *code = rec.error;
                 }
             }

@@ -1,35 +1,33 @@
-//! The per-diamond record and its codecs (Weiss & De Floriani §4: "a three-dimensional array" of
-//! diamond data; Marchesin §4.1 for the error it bounds; Gregorski §6.1 for the range).
+//! The per-diamond record and its codec (Weiss & De Floriani §4: "a three-dimensional array" of
+//! diamond data; Marchesin §4.1 for the error it bounds).
 //!
-//! A [`Record`] holds, in 4 bytes:
-//! - the diamond's **exact** maximum interpolation error, rounded *up* to a bfloat16
-//!   ([`encode_error`]) — an upper bound within 0.8 % that is 0 exactly when the error is 0, so
-//!   tolerance 0 stays lossless;
-//! - the diamond's sample range, quantised outwards to 8 bits over the volume's range
-//!   ([`Quantiser`]; exact for u8 data), for the isosurface culling of Gregorski §6.1.
+//! A [`Record`] holds, in 2 bytes, the diamond's **exact** maximum interpolation error, rounded *up* to
+//! a bfloat16 ([`encode_error`]) — an upper bound within 0.8 % that is 0 exactly when the error is 0,
+//! so tolerance 0 stays lossless. (No sample range: the isosurface queries that would cull by it keep
+//! their own brick ranges, `crate::isosurface::cache`, and build no records.)
 //!
 //! The same bfloat16 code, rounded down ([`encode_down`]), stores the gradient magnitudes the
 //! isosurface error divides by (Gregorski §6.2).
 
 use crate::scan::TetStats;
 
-/// Per-diamond data, 4 bytes, indexed by the central vertex's point index.
+/// Per-diamond data, 2 bytes, indexed by the central vertex's point index.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Record {
     /// Upper bound of the exact error, as the high half of an `f32` rounded up (bfloat16).
     pub(super) error: u16,
-    /// Sample range, quantised outwards over the volume's range.
-    pub(super) min: u8,
-    pub(super) max: u8,
 }
 
 impl Record {
-    /// A diamond split in the base mesh: error 0 and the whole value range, so that no query culls it.
-    pub(super) const UNKNOWN_RANGE: Self = Self {
-        error: 0,
-        min: 0,
-        max: u8::MAX,
-    };
+    /// The record of a diamond whose inside tetrahedra scan to `stats` (error 0 when it has none).
+    pub(super) fn of(stats: TetStats) -> Self {
+        if stats.min > stats.max {
+            return Self::default();
+        }
+        Self {
+            error: encode_error(stats.error),
+        }
+    }
 }
 
 /// Encodes a non-negative error as a bfloat16, rounding up.
@@ -61,35 +59,6 @@ pub fn encode_down(x: f64) -> u16 {
 #[inline]
 pub fn decode_error(code: u16) -> f64 {
     f32::from_bits((code as u32) << 16) as f64
-}
-
-/// Outward 8-bit quantisation of values over the volume's range.
-pub(super) struct Quantiser {
-    lo: f64,
-    step: f64,
-}
-
-impl Quantiser {
-    pub(super) fn new((lo, hi): (f64, f64)) -> Self {
-        let step = if hi > lo { (hi - lo) / 255.0 } else { 1.0 };
-        Self { lo, step }
-    }
-    fn floor(&self, v: f64) -> u8 {
-        ((v - self.lo) / self.step).floor().clamp(0.0, 255.0) as u8
-    }
-    fn ceil(&self, v: f64) -> u8 {
-        ((v - self.lo) / self.step).ceil().clamp(0.0, 255.0) as u8
-    }
-    pub(super) fn record(&self, stats: TetStats) -> Record {
-        Record {
-            error: encode_error(stats.error),
-            min: self.floor(stats.min),
-            max: self.ceil(stats.max),
-        }
-    }
-    pub(super) fn decode(&self, q: u8) -> f64 {
-        self.lo + q as f64 * self.step
-    }
 }
 
 #[cfg(test)]
