@@ -293,11 +293,17 @@ impl Stencils {
         }
     }
 
-    /// Error and range of a finest diamond (scale 1) whose bounds lie inside the domain
-    /// ([`scan_finest_diamond`]).
+    /// Error and range of a finest diamond (scale 1) whose bounds lie inside the domain, from the
+    /// sample of its central vertex at `center` ([`scan_finest_diamond`]; like
+    /// [`Stencils::scan_diamond`], `volume` may start anywhere in the lattice).
     #[inline]
-    pub fn scan_finest_diamond<T: Sample>(&self, volume: &Volume<'_, T>, d: Diamond) -> TetStats {
-        scan_finest_diamond(volume, &self.finest, d)
+    pub fn scan_finest_diamond<T: Sample>(
+        &self,
+        volume: &Volume<'_, T>,
+        d: Diamond,
+        center: usize,
+    ) -> TetStats {
+        scan_finest_diamond(volume, &self.finest, d, center)
     }
 
     /// [`scan_tet`] through the precomputed shape, when `t` has one.
@@ -407,18 +413,19 @@ fn scan_finest_diamond<T: Sample>(
     volume: &Volume<'_, T>,
     midpoints: &FinestMidpoints,
     d: Diamond,
+    center: usize,
 ) -> TetStats {
-    let c = d.center;
-    // The 3×3×3 block around the central vertex, x fastest.
+    // The 3×3×3 block around the central vertex (sample `center`), x fastest.
+    let (nx, nxy) = (
+        volume.grid.dims[0],
+        volume.grid.dims[0] * volume.grid.dims[1],
+    );
+    let corner = center - 1 - nx - nxy;
     let mut block = [0.0f64; 27];
     let (mut min, mut max) = (f64::INFINITY, f64::NEG_INFINITY);
     for (k, rows) in block.chunks_exact_mut(9).enumerate() {
         for (j, row) in rows.chunks_exact_mut(3).enumerate() {
-            let start = volume.grid.index(
-                c.x as usize - 1,
-                (c.y - 1) as usize + j,
-                (c.z - 1) as usize + k,
-            );
+            let start = corner + j * nx + k * nxy;
             for (v, s) in row.iter_mut().zip(&volume.samples[start..start + 3]) {
                 *v = s.to_f64();
                 min = min.min(*v);
@@ -428,7 +435,7 @@ fn scan_finest_diamond<T: Sample>(
     }
     // Twice the error at each midpoint `m` of a spine `(a, b)`.
     let mut worst = 0.0f64;
-    for &[m, a, b] in midpoints.of(c) {
+    for &[m, a, b] in midpoints.of(d.center) {
         let (m, a, b) = (m as usize, a as usize, b as usize);
         worst = worst.max((2.0 * block[m] - block[a] - block[b]).abs());
     }
@@ -525,14 +532,14 @@ pub fn brute_force_points(t: &Tet) -> Vec<IVec3> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::diamond::all_diamonds;
 
     /// A volume of deterministic pseudo-random samples (xorshift), 12 bits.
-    fn noise(grid: Grid) -> Vec<u16> {
+    /// Deterministic pseudo-random samples in `0..4096` on `grid` (xorshift).
+    pub(crate) fn noise(grid: Grid) -> Vec<u16> {
         let n = grid.len();
-        // Deterministic pseudo-random samples (xorshift).
         let mut x = 0x2545_f491_4f6c_dd1du64;
         (0..n)
             .map(|_| {
@@ -673,7 +680,7 @@ mod tests {
                 .tets(&l)
                 .iter()
                 .fold(TetStats::EMPTY, |acc, t| acc.merge(scan_tet(&vol, t)));
-            let fast = stencils.scan_finest_diamond(&vol, d);
+            let fast = stencils.scan_finest_diamond(&vol, d, i);
             assert_eq!(fast.error, by_tets.error, "{d:?}");
             assert!(fast.min <= by_tets.min && fast.max >= by_tets.max, "{d:?}");
             checked += 1;

@@ -284,8 +284,8 @@ fn is_root_corner(lattice: &Lattice, p: glam::IVec3) -> bool {
 }
 
 /// Scans the inside tetrahedra of `d` and packs the result. `volume` starts at the lattice point
-/// `shift` (zero for a whole grid; for a piece a multiple of `4 × d.scale()`, so that the shifted
-/// central vertex keeps the class and orientation bits [`Stencils::scan_finest_diamond`] reads).
+/// `shift` (zero for a whole grid; a piece's padded box for a piece): the samples are read at
+/// shifted positions, while the shapes of the tetrahedra come from `d` itself, so any shift works.
 fn diamond_record<T: Sample>(
     volume: &Volume<'_, T>,
     lattice: &Lattice,
@@ -298,11 +298,11 @@ fn diamond_record<T: Sample>(
     let (lo, hi) = d.bounds();
     if lattice.in_domain(lo) && lattice.in_domain(hi) {
         let c = d.center - shift;
+        let center = volume.grid.index(c.x as usize, c.y as usize, c.z as usize);
         if d.scale() == 1 {
-            return Record::of(stencils.scan_finest_diamond(volume, Diamond::new(c)));
+            return Record::of(stencils.scan_finest_diamond(volume, d, center));
         }
         // Scales 2 and 4: the tetrahedra's stencils found by the central vertex's residue.
-        let center = volume.grid.index(c.x as usize, c.y as usize, c.z as usize);
         if let Some(stats) = stencils.scan_diamond(volume, d, center) {
             return Record::of(stats);
         }
@@ -344,6 +344,57 @@ mod tests {
         .unwrap_err();
         assert!(matches!(err, Error::TooLarge { needed, available: 10, .. } if needed > 10));
         assert!(err.to_string().contains("needs"));
+    }
+
+    #[test]
+    fn records_do_not_depend_on_where_the_volume_starts() {
+        // A piece scans a box of the grid that starts at `shift` (its padded box); every fine diamond
+        // inside that box must get the whole grid's record, whatever the shift modulo 8 (the finest
+        // diamonds' midpoint table is keyed by the central vertex modulo 8).
+        let grid = Grid::new([33, 29, 31]);
+        let samples = crate::scan::tests::noise(grid);
+        let whole = Volume::new(grid, &samples).unwrap();
+        let lattice = Lattice::new(grid.dims).unwrap();
+        let stencils = Stencils::new(&grid);
+        let at = |p: glam::IVec3| grid.index(p.x as usize, p.y as usize, p.z as usize);
+        for shift in [
+            [4, 0, 0],
+            [0, 4, 0],
+            [0, 0, 4],
+            [4, 4, 4],
+            [2, 6, 5],
+            [16, 8, 0],
+        ] {
+            let shift = glam::IVec3::from_array(shift);
+            let dims = [0, 1, 2].map(|a| grid.dims[a] - shift[a] as usize);
+            let sub = Grid::new(dims);
+            let mut part = Vec::with_capacity(sub.len());
+            for z in 0..dims[2] {
+                for y in 0..dims[1] {
+                    for x in 0..dims[0] {
+                        part.push(
+                            samples[at(shift + glam::IVec3::new(x as i32, y as i32, z as i32))],
+                        );
+                    }
+                }
+            }
+            let volume = Volume::new(sub, &part).unwrap();
+            let sub_stencils = Stencils::new(&sub);
+            let mut checked = 0;
+            for i in 0..grid.len() {
+                let [x, y, z] = grid.ijk(i);
+                let d = Diamond::new(glam::IVec3::new(x as i32, y as i32, z as i32));
+                if d.center == glam::IVec3::ZERO || d.scale() > 4 || d.bounds().0.cmplt(shift).any()
+                {
+                    continue;
+                }
+                let expected = diamond_record(&whole, &lattice, &stencils, (d, glam::IVec3::ZERO));
+                let got = diamond_record(&volume, &lattice, &sub_stencils, (d, shift));
+                assert_eq!(got, expected, "{d:?} shifted by {shift}");
+                checked += 1;
+            }
+            assert!(checked > 5_000, "{checked}");
+        }
     }
 
     #[test]

@@ -107,7 +107,7 @@ pub struct PieceLayout {
     /// The points this piece holds.
     owned: PointBox,
     /// The owned box with a halo of [`PieceLayout::stride`] layers (clipped to the grid), its low
-    /// corner rounded down to a multiple of twice the stride (see `diamond_record`).
+    /// corner rounded down to a multiple of twice the stride.
     padded: PointBox,
     stride: i32,
 }
