@@ -31,15 +31,16 @@
 //! *orphan* vertices (§7.3 assigns them the spine's class; storing them is exact and costs about two
 //! bytes each). Encoding: [`Isodiamonds::to_bytes`].
 //!
-//! **Selective refinement (§6.3, §7.3).** From the roots (RI: the root diamond; MI: the root when
-//! stored and every creation isodiamond, the local roots of §7), every stored diamond split at the
-//! rung is visited through its stored children that are split too; each child tetrahedron of a
-//! visited diamond that is active and whose own diamond is not split is a leaf of the extracted
-//! mesh. Because each rung's split set is closed under parents (it is the full hierarchy's), the
-//! closure of §7.3 on the children of a creation isodiamond holds by construction, and every
-//! active leaf's parent is active or creation (Theorem 7.1), so the MI walk reaches every leaf the
-//! RI walk reaches: both give the full hierarchy's leaves, and the surface or volume is made from
-//! them by the same marching tetrahedra or clipping (points named by edges, so crack-free).
+//! **Selective refinement (§6.3, §7.3).** The paper walks from the roots (RI: the root diamond;
+//! MI: the root and every creation isodiamond, the local roots of §7) through the split
+//! isodiamonds. Since each rung stores the full hierarchy's split set, which is closed under
+//! parents, the leaves are read off it instead, each isodiamond on its own: every child tetrahedron
+//! of an isodiamond split at the rung that is active and whose own diamond is not split is a leaf
+//! of the extracted mesh (and the root's active tetrahedra when it is stored and not split). No
+//! leaf is missed in MI: an active tetrahedron's diamond is active, and an active leaf's parent is
+//! active or creation (Theorem 7.1), so both are stored. Both models give the full hierarchy's
+//! leaves, and the surface or volume is made from them by the same marching tetrahedra or
+//! clipping (points named by edges, so crack-free).
 
 mod encode;
 #[cfg(test)]
@@ -150,6 +151,9 @@ pub const DEFAULT_LADDER: [f64; 7] = [0.04, 0.02, 0.01, 0.005, 0.0025, 0.00125, 
 
 /// Class of a lattice point outside the grid.
 const NONE: u8 = 7;
+/// The class bits and the split bit of an [`Isodiamonds::grid_table`] entry.
+const CLASS_BITS: u8 = 7;
+const SPLIT_BIT: u8 = 8;
 /// Isodiamond types (§5).
 const ACTIVE: u8 = 1;
 const CREATION: u8 = 2;
@@ -673,86 +677,82 @@ impl Isodiamonds {
             .expect("the last rung is 0"))
     }
 
-    /// The leaves of the mesh at `rung` whose patch is not empty, by selective refinement from the
-    /// roots (module documentation), with the classes of their vertices. Each visited diamond looks
-    /// up the classes of its vertices and the split bits of its children once.
-    fn leaves(&self, rung: usize) -> Vec<(Tet, [u8; 4])> {
+    /// The leaves of the mesh at `rung` whose patch is not empty, with the classes of their
+    /// vertices (module documentation): the active child tetrahedra of the isodiamonds split at
+    /// `rung` whose own diamond is not split there, and the root's active tetrahedra when it is
+    /// stored and not split. Read off the stored split set, each isodiamond on its own (in
+    /// parallel, in isodiamond order), with no walk from the roots: a diamond that is not stored
+    /// has no active child tetrahedron, nor a stored one none outside the mesh, since each rung's
+    /// split set is the full hierarchy's (closed under parents). Classes and split bits come from a
+    /// [`Isodiamonds::grid_table`] of the extraction (one byte per grid point while it runs).
+    fn leaves(&self, rung: usize) -> Result<Vec<(Tet, [u8; 4])>> {
         let lattice = &self.lattice;
+        let table = self.grid_table(rung)?;
+        let class = |p: IVec3| {
+            if lattice.in_domain(p) {
+                table[lattice.index(p)] & CLASS_BITS
+            } else {
+                NONE
+            }
+        };
+        let split = |d: Diamond| {
+            if lattice.in_domain(d.center) {
+                table[lattice.index(d.center)] & SPLIT_BIT != 0
+            } else {
+                self.split(d, rung) == Some(true)
+            }
+        };
         let mut out = Vec::new();
         let root = Diamond::root(lattice);
-        // Diamonds to visit, with the class of their central vertex.
-        let mut stack: Vec<(Diamond, u8)> = Vec::new();
-        match self.split(root, rung) {
-            Some(true) => stack.push((root, self.class(root.center))),
-            Some(false) => out.extend(
+        if self.split(root, rung) == Some(false) {
+            out.extend(
                 (root.tets(lattice).into_iter())
-                    .map(|t| (t, t.map(|p| self.class(p))))
+                    .map(|t| (t, t.map(class)))
                     .filter(|(_, c)| self.target.active(*c)),
-            ),
-            None => {}
-        }
-        if self.model == Model::Minimal {
-            stack.extend(
-                (self.records.iter())
-                    .filter(|r| r.kind == CREATION && r.split >> rung & 1 == 1)
-                    .map(|r| (Diamond::new(point(lattice, r.key)), r.class)),
             );
         }
-        // Visited diamonds, by record.
-        let mut seen = vec![false; self.records.len()];
-        for (d, _) in &stack {
-            if let Some(&r) = self.index.get(&key(lattice, d.center)) {
-                seen[r as usize] = true;
-            }
-        }
-        // Per visited diamond: the classes of its vertices, the split bits of its children.
-        let mut classes: ArrayVec<(IVec3, u8), 16> = ArrayVec::new();
-        let mut children: ArrayVec<(Diamond, bool), 8> = ArrayVec::new();
-        while let Some((d, centre)) = stack.pop() {
-            classes.clear();
-            children.clear();
-            for c in d.children(lattice) {
-                let r = self
-                    .index
-                    .get(&key(lattice, c.center))
-                    .map(|&r| &self.records[r as usize]);
-                let split = r.is_some_and(|r| r.split >> rung & 1 == 1);
-                children.push((c, split));
-                if split {
-                    let r = self.index[&key(lattice, c.center)] as usize;
-                    if !std::mem::replace(&mut seen[r], true) {
-                        stack.push((c, self.records[r].class));
-                    }
-                }
-            }
-            for t in d.tets(lattice) {
-                let ct = t.map(|p| match classes.iter().find(|e| e.0 == p) {
-                    Some(e) => e.1,
-                    None => {
-                        let c = self.class(p);
-                        let _ = classes.try_push((p, c));
-                        c
-                    }
-                });
-                for (first, child) in [true, false].into_iter().zip(bisect(&t)) {
-                    let kept = ct[if first { 0 } else { 1 }];
-                    let c = child_of(&t, first, ct, kept, centre);
-                    if !self.target.active(c) {
-                        continue;
-                    }
-                    let split = Diamond::of_tet(&child).is_some_and(|cd| {
-                        match children.iter().find(|e| e.0 == cd) {
-                            Some(e) => e.1,
-                            None => self.split(cd, rung) == Some(true),
+        let inner = (self.records.par_iter())
+            .filter(|r| r.split >> rung & 1 == 1)
+            .flat_map_iter(|r| {
+                let d = Diamond::new(point(lattice, r.key));
+                let mut leaves: ArrayVec<(Tet, [u8; 4]), 16> = ArrayVec::new();
+                for t in d.tets(lattice) {
+                    let ct = t.map(class);
+                    for (first, child) in [true, false].into_iter().zip(bisect(&t)) {
+                        let kept = ct[if first { 0 } else { 1 }];
+                        let c = child_of(&t, first, ct, kept, r.class);
+                        if self.target.active(c) && !Diamond::of_tet(&child).is_some_and(split) {
+                            leaves.push((child, c));
                         }
-                    });
-                    if !split {
-                        out.push((child, c));
                     }
                 }
+                leaves
+            });
+        out.par_extend(inner);
+        Ok(out)
+    }
+
+    /// One byte per grid point for an extraction at `rung`: the class of the point (bits
+    /// [`CLASS_BITS`], [`NONE`] when neither its isodiamond nor an orphan class is stored) and
+    /// [`SPLIT_BIT`] when its isodiamond is stored and split at `rung`. Looked up by index where
+    /// [`Isodiamonds::class`] and [`Isodiamonds::split`] search the hash table.
+    fn grid_table(&self, rung: usize) -> Result<Vec<u8>> {
+        let mut table = memory::filled(self.grid.len(), NONE, "the isodiamond extraction")?;
+        for r in &self.records {
+            let p = point(&self.lattice, r.key);
+            if self.lattice.in_domain(p) {
+                let split = if r.split >> rung & 1 == 1 {
+                    SPLIT_BIT
+                } else {
+                    0
+                };
+                table[self.lattice.index(p)] = r.class | split;
             }
         }
-        out
+        for &(k, c) in &self.orphans {
+            table[self.lattice.index(point(&self.lattice, k))] = c;
+        }
+        Ok(table)
     }
 
     /// The world position of a grid point.
@@ -776,7 +776,7 @@ impl Isodiamonds {
     }
 
     /// A lookup of [`Isodiamonds::crossing_index`] for the many edges of one extraction.
-    fn crossing_lookup(&self) -> CrossingLookup<'_> {
+    fn crossing_lookup(&self) -> CrossingLookup {
         let runs = (self.grid.len() >> CrossingLookup::RUN) + 1;
         let mut start = Vec::with_capacity(runs + 1);
         let mut k = 0;
@@ -788,7 +788,9 @@ impl Isodiamonds {
             start.push(k as u32);
         }
         CrossingLookup {
-            points: &self.points,
+            keys: (self.points.iter())
+                .map(|c| CrossingLookup::key(c.i, c.j, c.level))
+                .collect(),
             start,
         }
     }
@@ -819,7 +821,7 @@ impl Isodiamonds {
                 "this isodiamond hierarchy encodes an interval volume, not an isosurface".into(),
             ));
         };
-        let (leaves, classes): (Vec<Tet>, Vec<[u8; 4]>) = self.leaves(rung).into_iter().unzip();
+        let (leaves, classes): (Vec<Tet>, Vec<[u8; 4]>) = self.leaves(rung)?.into_iter().unzip();
         // Straight from the stored crossings unless a vertex holds the isovalue (then points join
         // at samples, as marching tetrahedra on the values joins them).
         let lookup = self.crossing_lookup();
@@ -977,7 +979,7 @@ impl Isodiamonds {
             depths: Vec<u8>,
             leaves: usize,
         }
-        let runs: Vec<Run> = (self.leaves(rung).par_chunks(4096))
+        let runs: Vec<Run> = (self.leaves(rung)?.par_chunks(4096))
             .map(|chunk| {
                 let mut run = Run::default();
                 let mut patch = Vec::new();
@@ -1112,21 +1114,29 @@ impl Isodiamonds {
 }
 
 /// Where the crossings whose lower end lies in each run of 2^[`CrossingLookup::RUN`] grid indices
-/// begin among the sorted crossings: an edge is searched among the few of its run.
-struct CrossingLookup<'a> {
-    points: &'a [Crossing],
+/// begin among the sorted crossings, and the crossings as one number each ([`CrossingLookup::key`],
+/// in the same order): an edge is looked for among the few of its run.
+struct CrossingLookup {
+    keys: Vec<u64>,
     start: Vec<u32>,
 }
 
-impl CrossingLookup<'_> {
-    const RUN: usize = 6;
+impl CrossingLookup {
+    const RUN: usize = 4;
+
+    /// Edge `(i, j)` and level index `l` as one number, ordered as [`Crossing::edge`].
+    fn key(i: u32, j: u32, l: u8) -> u64 {
+        (i as u64) << 33 | (j as u64) << 1 | l as u64
+    }
 
     /// [`Isodiamonds::crossing_index`].
     fn find(&self, i: u32, j: u32, l: u8) -> Option<u32> {
         let run = i as usize >> Self::RUN;
         let (a, b) = (self.start[run] as usize, self.start[run + 1] as usize);
-        let k = self.points[a..b].binary_search_by_key(&(i, j, l), Crossing::edge);
-        k.ok().map(|k| (a + k) as u32)
+        let key = Self::key(i, j, l);
+        (self.keys[a..b].iter())
+            .position(|&k| k == key)
+            .map(|k| (a + k) as u32)
     }
 }
 

@@ -131,7 +131,7 @@ fn marching_from_stored_crossings_equals_marching_on_classes() {
                 let iso = build(&h, ScalarSlice::F32(&v), target, model, &ladder(&grid)).unwrap();
                 for rung in 0..iso.ladder().len() {
                     let (leaves, classes): (Vec<Tet>, Vec<[u8; 4]>) =
-                        iso.leaves(rung).into_iter().unzip();
+                        iso.leaves(rung).unwrap().into_iter().unzip();
                     let generic = marching_with_sources(&OnClasses(&iso), &leaves, false)
                         .unwrap()
                         .0;
