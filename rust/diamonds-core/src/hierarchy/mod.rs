@@ -86,7 +86,7 @@ impl Hierarchy {
         available: Option<u64>,
     ) -> Result<Self> {
         Self::check_size(&grid, available)?;
-        with_volume!(grid, scalars, |v| Self::skeleton(&v, Vec::new(), v.range()))
+        with_volume!(grid, scalars, |v| Self::skeleton(&v))
     }
 
     /// Refuses grids too large for 32-bit point ids or for the available memory.
@@ -109,34 +109,25 @@ impl Hierarchy {
         Ok(())
     }
 
-    /// The hierarchy of `volume` (samples in `value_range`) with `records` (empty: none) and its base mesh.
-    fn skeleton<T: Sample>(
-        volume: &Volume<'_, T>,
-        records: Vec<Record>,
-        value_range: (f64, f64),
-    ) -> Result<Self> {
+    /// The hierarchy of `volume` without records, starting from the root: isosurface queries split
+    /// the diamonds straddling a far face only where the surface passes (see `crate::isosurface`).
+    fn skeleton<T: Sample>(volume: &Volume<'_, T>) -> Result<Self> {
         let lattice = Lattice::new(volume.grid.dims)?;
-        let base = if records.is_empty() {
-            // Isosurface queries split the diamonds straddling a far face only where the surface
-            // passes (see `crate::isosurface`), so they start from the root.
-            let root = Diamond::root(&lattice);
-            BaseMesh {
-                split: SplitSet::new(&lattice),
-                tets: root
-                    .tets(&lattice)
-                    .iter()
-                    .filter(|t| lattice.place(t) == Placement::Inside)
-                    .count(),
-                candidates: vec![root],
-            }
-        } else {
-            base_mesh(lattice)
+        let root = Diamond::root(&lattice);
+        let base = BaseMesh {
+            split: SplitSet::new(&lattice),
+            tets: root
+                .tets(&lattice)
+                .iter()
+                .filter(|t| lattice.place(t) == Placement::Inside)
+                .count(),
+            candidates: vec![root],
         };
         Ok(Self {
             grid: volume.grid,
             lattice,
-            records,
-            value_range,
+            records: Vec::new(),
+            value_range: volume.range(),
             base,
         })
     }
@@ -149,31 +140,43 @@ impl Hierarchy {
         let mut records = memory::filled(grid.len(), Record::default(), "the diamond hierarchy")?;
         let nx = grid.dims[0];
         let rows = grid.dims[1] * grid.dims[2];
-        // Rows of records in parallel, in batches so that progress and abort are seen on this thread.
-        let batches = 64.min(rows);
-        let per_batch = rows.div_ceil(batches);
-        for (b, chunk) in records.chunks_mut(per_batch * nx).enumerate() {
-            if !progress(0.9 * b as f64 / batches as f64) {
-                return Err(Error::Aborted);
-            }
-            let first_row = b * per_batch;
-            chunk.par_chunks_mut(nx).enumerate().for_each(|(r, row)| {
-                let (y, z) = (
-                    (first_row + r) % grid.dims[1],
-                    (first_row + r) / grid.dims[1],
-                );
-                for (x, rec) in row.iter_mut().enumerate() {
-                    let d = Diamond::new(glam::IVec3::new(x as i32, y as i32, z as i32));
-                    *rec = diamond_record(volume, &lattice, &stencils, (d, glam::IVec3::ZERO));
+        // The base mesh depends on the lattice only: a thread of its own computes it (a serial walk)
+        // while the records are scanned, instead of after them.
+        let base = std::thread::scope(|scope| {
+            let base = scope.spawn(|| base_mesh(lattice));
+            // Rows of records in parallel, in batches so that progress and abort are seen on this thread.
+            let batches = 64.min(rows);
+            let per_batch = rows.div_ceil(batches);
+            for (b, chunk) in records.chunks_mut(per_batch * nx).enumerate() {
+                if !progress(0.9 * b as f64 / batches as f64) {
+                    return Err(Error::Aborted);
                 }
-            });
-        }
+                let first_row = b * per_batch;
+                chunk.par_chunks_mut(nx).enumerate().for_each(|(r, row)| {
+                    let (y, z) = (
+                        (first_row + r) % grid.dims[1],
+                        (first_row + r) / grid.dims[1],
+                    );
+                    for (x, rec) in row.iter_mut().enumerate() {
+                        let d = Diamond::new(glam::IVec3::new(x as i32, y as i32, z as i32));
+                        *rec = diamond_record(volume, &lattice, &stencils, (d, glam::IVec3::ZERO));
+                    }
+                });
+            }
+            // A panic there goes on here, where the callers' guards see it.
+            Ok(base.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
+        })?;
         if !progress(0.9) {
             return Err(Error::Aborted);
         }
-        let hierarchy = Self::skeleton(volume, records, value_range)?;
         progress(1.0);
-        Ok(hierarchy)
+        Ok(Self {
+            grid,
+            lattice,
+            records,
+            value_range,
+            base,
+        })
     }
 
     /// Extracts the adaptive mesh for `query` (Gregorski §4 selective refinement with closure):
