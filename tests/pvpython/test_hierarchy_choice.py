@@ -263,6 +263,14 @@ f = simple.AdaptiveIntervalVolume(Input=wavelet, ThresholdRange=[130.0, 180.0], 
 data, text = run(f)
 dc.check("region of interest" in text and data.GetNumberOfCells() == 0, f"interval volume, Minimal with a region of interest: a clear error, empty output ({text.strip().splitlines()[-1] if text.strip() else ''})")
 
+# ---- An isovalue or range missing the data: an empty output and a warning, as with Full.
+for choice in CHOICES:
+    for label, f in (("isosurface 1000", simple.AdaptiveIsosurface(Input=wavelet, Isosurfaces=[1000.0], Hierarchy=choice)),
+                     ("interval volume [500, 600]", simple.AdaptiveIntervalVolume(Input=wavelet, ThresholdRange=[500.0, 600.0], Hierarchy=choice))):
+        data, text = run(f)
+        dc.check("misses the data range" in text and data.GetNumberOfCells() == 0, f"{label}, {choice}, outside the data: empty output, a warning ({text.strip().splitlines()[-1] if text.strip() else ''})")
+        simple.Delete(f)
+
 doc = simple.AdaptiveIsosurface(Input=wavelet).GetProperty("Hierarchy")
 dc.check(doc is not None and "rung" in (doc.GetDocumentation().GetDescription() or ""), "the Hierarchy property is documented (the ladder)")
 dc.finish("test_hierarchy_choice")

@@ -875,6 +875,7 @@ impl Isodiamonds {
             |s| s.triangles.len(),
         )?;
         surface.warnings.extend(warning);
+        surface.warnings.extend(self.empty_warning());
         if query.compute_normals {
             surface.normals = area_weighted_normals(&surface.points, &surface.triangles);
         }
@@ -903,7 +904,23 @@ impl Isodiamonds {
             |v| v.tets.len(),
         )?;
         volume.warnings.extend(warning);
+        volume.warnings.extend(self.empty_warning());
         Ok(volume)
+    }
+
+    /// A warning when the hierarchy stores no isodiamond: no tetrahedron at any resolution has a
+    /// patch, i.e. the isovalue or range misses the samples (as the full hierarchy's queries warn;
+    /// the data range itself is not stored).
+    fn empty_warning(&self) -> Option<String> {
+        let what = match self.target {
+            Target::Isosurface(v) => format!("the isovalue {v}"),
+            Target::IntervalVolume([a, b]) => format!("the range [{a}, {b}]"),
+        };
+        self.records.is_empty().then(|| {
+            format!(
+                "{what} misses the data range: the isodiamond hierarchy is empty, so is the output"
+            )
+        })
     }
 
     /// What isodiamond extraction does not offer.
