@@ -57,8 +57,8 @@ struct InputKey
 class HierarchyCache
 {
 public:
-  // What the hierarchy serves. Tetrahedra: the full hierarchy (per-diamond errors and ranges,
-  // 4 bytes per point). Isosurfaces: the isosurface-only hierarchy (no per-diamond records: each
+  // What the hierarchy serves. Tetrahedra: the full hierarchy (per-diamond error bounds,
+  // 2 bytes per point). Isosurfaces: the isosurface-only hierarchy (no per-diamond records: each
   // query measures its errors at the samples that decide its surface), with a reference to the
   // samples it was built from, which its queries read again (costs nothing when the input keeps its
   // array anyway).

@@ -12,7 +12,7 @@ ParaView's own Contour is the reference surface):
   carrier tetrahedra of port 1;
 - an isovalue or tolerance change does not rebuild the hierarchy and equals a fresh filter; the
   hierarchy is the isosurface-only one (HierarchyMemorySize: the samples it reads and its caches, where
-  Adaptive Tetrahedra's is 4 bytes per point of records);
+  Adaptive Tetrahedra's is 2 bytes per point of records);
 - toggling ComputeNormals, ComputeScalars or the carriers reuses the adaptive mesh (NumberOfReusedMeshes)
   and gives the same triangles; an isovalue change or a new input (rebuilt hierarchy) does not reuse it
   and equals a fresh filter;
@@ -96,7 +96,7 @@ tetra_filter.UpdatePropertyInformation()
 iso_bytes = int(filt.GetProperty("HierarchyMemorySize").GetElement(0))
 tetra_bytes = int(tetra_filter.GetProperty("HierarchyMemorySize").GetElement(0))
 surface_bytes = dc.field_value(dc.fetch(filt), "HierarchyMemorySize")
-dc.check(iso_bytes >= 4 * image.GetNumberOfPoints() and iso_bytes == surface_bytes and tetra_bytes == 4 * image.GetNumberOfPoints(), f"HierarchyMemorySize: {iso_bytes} (= field data {surface_bytes}) for the isosurface-only hierarchy: its float samples (4 per point) and its extraction's caches; {tetra_bytes} (4 per point) for Adaptive Tetrahedra's records")
+dc.check(iso_bytes >= 4 * image.GetNumberOfPoints() and iso_bytes == surface_bytes and tetra_bytes == 2 * image.GetNumberOfPoints(), f"HierarchyMemorySize: {iso_bytes} (= field data {surface_bytes}) for the isosurface-only hierarchy: its float samples (4 per point) and its extraction's caches; {tetra_bytes} (2 per point) for Adaptive Tetrahedra's records")
 simple.Delete(tetra_filter)
 
 # An isovalue change re-extracts without a rebuild and equals a fresh filter.
