@@ -156,7 +156,8 @@ for isovalues, budget, phrase in (([1e9], 0, "outside"), ([150.0], 1, "budget of
     dc.check(phrase in messages.text(), f"isosurface {isovalues}, budget {budget}: warns {phrase!r}")
 
 # ---- An allocation failure is the filter's error, not the end of the process: a 300^3 Wavelet with
-# the process's address space limited to what it uses plus 64 MB (the hierarchy alone needs 108 MB).
+# the process's address space limited to what it uses plus 32 MiB (the hierarchy alone needs 54 MB,
+# 2 bytes per point).
 import resource  # noqa: E402
 
 dc.fetch(simple.AdaptiveTetrahedra(Input=wavelet, Tolerance=4.0))  # threads started before the limit
@@ -167,7 +168,7 @@ limited = simple.AdaptiveTetrahedra(Input=large, Tolerance=50.0)
 with open("/proc/self/status") as status:
     used = next(int(line.split()[1]) * 1024 for line in status if line.startswith("VmSize:"))
 soft, hard = resource.getrlimit(resource.RLIMIT_AS)
-resource.setrlimit(resource.RLIMIT_AS, (used + 64 * 2**20, hard))
+resource.setrlimit(resource.RLIMIT_AS, (used + 32 * 2**20, hard))
 try:
     expect_error(limited, "not enough memory", "300^3 under a memory limit")
     small = dc.fetch(simple.AdaptiveTetrahedra(Input=wavelet, Tolerance=4.0))
