@@ -108,7 +108,7 @@ def main():
     subprocess.run([dc.diamonds_binary(), "generate", impact, "--field", "impact", "--dims", "64", "64", "104"],
                    check=True, stdout=subprocess.DEVNULL)
     cases = [("AdaptiveTetrahedra", 119), ("AdaptiveIsosurface", 199), ("AdaptiveIntervalVolume", 149),
-             ("MaterialInterfaceApproximation", 1), ("ProgressiveTetrahedralMesh", 24)]
+             ("MaterialInterfaceApproximation", 1), ("ProgressiveTetrahedralMesh", 48)]
     for name, extent in cases:
         proc, reference = run_child(name, extent, None, impact)
         if not dc.check(proc.returncode == 0 and reference and not reference["errors"] and reference["cells"] > 0,

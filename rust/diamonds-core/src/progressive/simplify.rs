@@ -35,7 +35,10 @@ use crate::geometry::{
     closest_point_on_triangle, orient2d_along, orient3d, point_triangle_distance, triangles_meet,
 };
 use crate::hierarchy::Progress;
-use crate::{Error, Result};
+use crate::{memory, Error, Result};
+
+/// What the reduction was doing when memory ran out, for [`Error::OutOfMemory`].
+const PREPARING: &str = "preparing the progressive mesh (vertex links, boundary, quadrics)";
 use glam::DVec3;
 use priority_queue::PriorityQueue;
 use rayon::prelude::*;
@@ -378,7 +381,7 @@ impl Reduction {
     pub fn new(input: TetInput<'_>, params: &Params) -> Result<Self> {
         params.check()?;
         let cleaned = input.clean()?;
-        let mut s = Simplifier::new(input, &cleaned.tets, params);
+        let mut s = Simplifier::new(input, &cleaned.tets, params)?;
         for &(v, kept) in &cleaned.merged {
             s.seed_merged(v, kept);
         }
@@ -386,6 +389,7 @@ impl Reduction {
         let original_tet_errors = s.tet_max.clone();
         let all: Vec<u32> = (0..s.pos.len() as u32).collect();
         s.estimate_all(&all);
+        memory::check(PREPARING)?;
         Ok(Self {
             pm: ProgressiveMesh {
                 points: input.points.to_vec(),
@@ -486,7 +490,10 @@ impl Reduction {
 }
 
 impl Simplifier {
-    fn new(input: TetInput<'_>, tets: &[[u32; 4]], params: &Params) -> Self {
+    /// Fails with [`Error::OutOfMemory`] once an allocation failed ([`memory::exhausted`]): the
+    /// vertex links alone take about a kilobyte per vertex, more than the emergency reserve on large
+    /// meshes, so their construction stops at the first vertex after the failure.
+    fn new(input: TetInput<'_>, tets: &[[u32; 4]], params: &Params) -> Result<Self> {
         let n = input.points.len();
         let pos: Vec<DVec3> = input.points.iter().map(|&p| DVec3::from_array(p)).collect();
         let mut star = vec![Vec::new(); n];
@@ -495,11 +502,14 @@ impl Simplifier {
                 star[v as usize].push(t as u32);
             }
         }
+        memory::check(PREPARING)?;
         let tets = tets.to_vec();
-        let links: Vec<Link> = (0..n as u32)
+        let links: Option<Vec<Link>> = (0..n as u32)
             .into_par_iter()
-            .map(|v| Link::of(&tets, &star[v as usize], v))
+            .map(|v| (!memory::exhausted()).then(|| Link::of(&tets, &star[v as usize], v)))
             .collect();
+        memory::check(PREPARING)?;
+        let links = links.expect("links are only missing once memory is exhausted");
         let kind = links
             .par_iter()
             .enumerate()
@@ -551,7 +561,7 @@ impl Simplifier {
                 (a.min(v), b.max(v))
             });
         let m = tets.len();
-        Self {
+        Ok(Self {
             params: params.clone(),
             f: input.scalars.to_vec(),
             alive: vec![true; m],
@@ -581,7 +591,7 @@ impl Simplifier {
             pos,
             tets,
             star,
-        }
+        })
     }
 
     /// Counts the merged point `v` as removed from the start, carried by a tetrahedron around the point
@@ -1283,7 +1293,8 @@ mod tests {
             },
             &g.tets,
             &params,
-        );
+        )
+        .expect("memory is not exhausted");
         let (mut flat, mut embedded, mut folds) = (0, 0, 0);
         for i in 0..g.points.len() as u32 {
             let link = Link::of(&s.tets, &s.star[i as usize], i);
