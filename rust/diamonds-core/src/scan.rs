@@ -536,7 +536,6 @@ pub(crate) mod tests {
     use super::*;
     use crate::diamond::all_diamonds;
 
-    /// A volume of deterministic pseudo-random samples (xorshift), 12 bits.
     /// Deterministic pseudo-random samples in `0..4096` on `grid` (xorshift).
     pub(crate) fn noise(grid: Grid) -> Vec<u16> {
         let n = grid.len();
