@@ -29,7 +29,9 @@
 
 use super::cost::{interpolate, shape_measure, Frame, Quadric};
 use super::record::{LevelError, ProgressiveMesh, VertexSplit};
-use super::validity::{feature_edges_at, is_feature_edge, link_condition, Link};
+use super::validity::{
+    feature_edges_at, is_feature_edge, link_condition, link_condition_to_interior, Link,
+};
 use super::{Params, TetInput};
 use crate::geometry::{
     closest_point_on_triangle, orient2d_along, orient3d, point_triangle_distance, triangles_meet,
@@ -662,12 +664,12 @@ impl Simplifier {
         let bounds: Vec<Option<f64>> = if verts.len() > 64 {
             verts
                 .par_iter()
-                .map(|&v| Some(self.candidates(v)?.1.first()?.cost))
+                .map(|&v| Some(self.candidates(v, false)?.1.first()?.cost))
                 .collect()
         } else {
             verts
                 .iter()
-                .map(|&v| Some(self.candidates(v)?.1.first()?.cost))
+                .map(|&v| Some(self.candidates(v, false)?.1.first()?.cost))
                 .collect()
         };
         for (&v, bound) in verts.iter().zip(bounds) {
@@ -688,7 +690,7 @@ impl Simplifier {
     /// the first of its [`Self::candidates`] that passes the link condition and, `i` on the
     /// boundary, keeps the boundary embedded.
     fn best(&self, i: u32) -> Option<Candidate> {
-        let (link, candidates) = self.candidates(i)?;
+        let (link, candidates) = self.candidates(i, true)?;
         let on_boundary = link.on_boundary();
         candidates.into_iter().find(|c| {
             self.link_ok(i, &link, c.target)
@@ -698,14 +700,19 @@ impl Simplifier {
 
     /// The collapses of `i` that keep every tetrahedron proper and follow the boundary rules, with
     /// their costs (§3.3, the estimated field term), cheapest first (ties by target), and `i`'s
-    /// link.
-    fn candidates(&self, i: u32) -> Option<(Link, Vec<Candidate>)> {
+    /// link: the whole of it if `full_link`, else for an interior `i` only its vertices
+    /// ([`Link::of_interior`]; the estimates need no more).
+    fn candidates(&self, i: u32, full_link: bool) -> Option<(Link, Vec<Candidate>)> {
         let preserve = self.params.preserve_boundary;
         if self.removed[i as usize] || (preserve && self.kind[i as usize] == Kind::Corner) {
             return None;
         }
         let star = &self.star[i as usize];
-        let link = Link::of(&self.tets, star, i);
+        let link = if full_link || self.kind[i as usize] != Kind::Interior {
+            Link::of(&self.tets, star, i)
+        } else {
+            Link::of_interior(&self.tets, star, i)
+        };
         let on_boundary = link.on_boundary();
         let carried = star
             .iter()
@@ -874,15 +881,21 @@ impl Simplifier {
             })
     }
 
-    /// The link condition of `hec(i → j)`.
+    /// The link condition of `hec(i → j)` (`link` the link of `i`), without `j`'s link for `j` not
+    /// on the boundary ([`link_condition_to_interior`]).
     fn link_ok(&self, i: u32, link: &Link, j: u32) -> bool {
         let edge: Vec<u32> = self.star[i as usize]
             .iter()
             .copied()
             .filter(|&t| self.tets[t as usize].contains(&j))
             .collect();
-        let lj = Link::of(&self.tets, &self.star[j as usize], j);
-        link_condition(&self.tets, &edge, (i, link), (j, &lj))
+        let star_j = &self.star[j as usize];
+        if self.kind[j as usize] == Kind::Interior {
+            link_condition_to_interior(&self.tets, &edge, (i, link), j, star_j)
+        } else {
+            let lj = Link::of(&self.tets, star_j, j);
+            link_condition(&self.tets, &edge, (i, link), (j, &lj))
+        }
     }
 
     /// Is `hec(i → j)` still valid? (Its offer was made before neighbouring collapses changed `j`'s
@@ -1267,6 +1280,54 @@ mod tests {
     use super::*;
     use crate::progressive::tests::grid;
     use crate::validate::check_manifold_tets;
+
+    /// The link condition read from an interior `j`'s star decides as the one from both links, and
+    /// an interior vertex's link has the vertices of its whole link, on a cube reduced to a quarter
+    /// of its tetrahedra (some of its collapses break the link condition; none of the grid's do).
+    #[test]
+    fn the_link_condition_to_an_interior_vertex_decides_as_the_one_from_both_links() {
+        let g = grid(5, |p| p.x * p.y + p.z);
+        let mut reduction = Reduction::new(
+            TetInput {
+                points: &g.points,
+                tets: &g.tets,
+                scalars: &g.scalars,
+            },
+            &Params::default(),
+        )
+        .expect("a valid cube");
+        reduction
+            .reduce_to(g.tets.len() / 4, &mut |_| true)
+            .expect("not aborted");
+        let s = &reduction.s;
+        let (mut kept, mut broken) = (0, 0);
+        for i in 0..g.points.len() as u32 {
+            let li = Link::of(&s.tets, &s.star[i as usize], i);
+            if s.kind[i as usize] == Kind::Interior {
+                let lean = Link::of_interior(&s.tets, &s.star[i as usize], i);
+                assert_eq!(lean.verts(), li.verts());
+                assert!(!li.on_boundary());
+            }
+            for &j in li.verts() {
+                if s.kind[j as usize] != Kind::Interior {
+                    continue;
+                }
+                let edge: Vec<u32> = s.star[i as usize]
+                    .iter()
+                    .copied()
+                    .filter(|&t| s.tets[t as usize].contains(&j))
+                    .collect();
+                let lj = Link::of(&s.tets, &s.star[j as usize], j);
+                let both = link_condition(&s.tets, &edge, (i, &li), (j, &lj));
+                let from_star =
+                    link_condition_to_interior(&s.tets, &edge, (i, &li), j, &s.star[j as usize]);
+                assert_eq!(from_star, both, "hec({i} -> {j})");
+                kept += usize::from(both);
+                broken += usize::from(!both);
+            }
+        }
+        assert!(kept > 0 && broken > 0, "{kept} kept, {broken} broken");
+    }
 
     /// The flat-umbrella test accepts only collapses the face-by-face test accepts, and decides
     /// most of those on a cube whose bottom side's points are jittered within its plane (some

@@ -80,6 +80,24 @@ impl Link {
         link
     }
 
+    /// The link of an interior vertex `v` as far as the collapse costs need it: its vertices only
+    /// (no face is sorted: most vertices of a volume mesh are interior, and their offers are
+    /// estimated after every collapse around them). `on_boundary` is `false`; only for `v` not on
+    /// the boundary, which a collapse never changes (§3.2: boundary faces only move along the
+    /// boundary, interior ones stay interior).
+    pub(super) fn of_interior(tets: &[[u32; 4]], star: &[u32], v: u32) -> Self {
+        let mut verts = Vec::with_capacity(3 * star.len());
+        for &t in star {
+            verts.extend_from_slice(&others(tets[t as usize], v));
+        }
+        verts.sort_unstable();
+        verts.dedup();
+        Link {
+            verts,
+            ..Link::default()
+        }
+    }
+
     /// The vertices adjacent to `v`.
     pub(super) fn verts(&self) -> &[u32] {
         &self.verts
@@ -118,6 +136,41 @@ fn disjoint<T: Ord>(a: &[T], b: &[T]) -> bool {
     !a.iter().any(|x| b.binary_search(x).is_ok())
 }
 
+/// The link of the edge `ij` from the tetrahedra `edge_tets` around it: its vertices (sorted), its
+/// edges (sorted pairs) and the vertices `a` of its boundary faces `ija` (faces seen once).
+struct EdgeLink {
+    verts: Vec<u32>,
+    edges: Vec<[u32; 2]>,
+    boundary: Vec<u32>,
+}
+
+impl EdgeLink {
+    fn of(tets: &[[u32; 4]], edge_tets: &[u32], i: u32, j: u32) -> Self {
+        let mut verts = Vec::with_capacity(2 * edge_tets.len());
+        let mut edges = Vec::with_capacity(edge_tets.len());
+        for &t in edge_tets {
+            let mut ab = others(tets[t as usize], i).into_iter().filter(|&c| c != j);
+            let (a, b) = (ab.next().unwrap_or(j), ab.next().unwrap_or(j));
+            verts.extend([a, b]);
+            edges.push(sorted_pair(a, b));
+        }
+        verts.sort_unstable();
+        // A face `ija` seen once around the edge is on the boundary.
+        let boundary = verts
+            .chunk_by(|a, b| a == b)
+            .filter(|g| g.len() == 1)
+            .map(|g| g[0])
+            .collect();
+        verts.dedup();
+        edges.sort_unstable();
+        Self {
+            verts,
+            edges,
+            boundary,
+        }
+    }
+}
+
 /// The link condition of the collapse of the edge `ij` (§3.2, "the mesh stays a manifold"): with
 /// `li`, `lj` the links of `i` and `j` and `edge_tets` the tetrahedra around `ij`, the simplices
 /// common to both links are those of the edge's link, the boundary closed by a vertex ω at infinity
@@ -131,39 +184,46 @@ pub(super) fn link_condition(
     (i, li): (u32, &Link),
     (j, lj): (u32, &Link),
 ) -> bool {
-    let mut edge_verts = Vec::with_capacity(2 * edge_tets.len());
-    let mut edge_edges = Vec::with_capacity(edge_tets.len());
-    let mut edge_faces: Vec<u32> = Vec::with_capacity(2 * edge_tets.len());
-    for &t in edge_tets {
-        let o = others(tets[t as usize], i);
-        let ab: Vec<u32> = o.into_iter().filter(|&c| c != j).collect();
-        let (a, b) = (ab[0], ab[1]);
-        edge_verts.extend([a, b]);
-        edge_edges.push(sorted_pair(a, b));
-        edge_faces.extend([a, b]);
-    }
-    edge_verts.sort_unstable();
-    edge_verts.dedup();
-    edge_edges.sort_unstable();
-    // A face `ija` seen once around the edge is on the boundary.
-    edge_faces.sort_unstable();
-    let boundary_faces: Vec<u32> = edge_faces
-        .chunk_by(|a, b| a == b)
-        .filter(|g| g.len() == 1)
-        .map(|g| g[0])
-        .collect();
-    let edge_on_boundary = !boundary_faces.is_empty();
+    let edge = EdgeLink::of(tets, edge_tets, i, j);
+    let edge_on_boundary = !edge.boundary.is_empty();
     let strip =
         |v: &[u32], other: u32| -> Vec<u32> { v.iter().copied().filter(|&a| a != other).collect() };
     let (vi, vj) = (strip(&li.verts, j), strip(&lj.verts, i));
     let (bi, bj) = (strip(&li.boundary_verts, j), strip(&lj.boundary_verts, i));
     let boundary_edges = |l: &Link| -> Vec<[u32; 2]> { l.boundary.iter().map(|b| b.0).collect() };
-    common_within(&vi, &vj, &edge_verts)
-        && common_within(&li.edges, &lj.edges, &edge_edges)
+    common_within(&vi, &vj, &edge.verts)
+        && common_within(&li.edges, &lj.edges, &edge.edges)
         && disjoint(&li.tris, &lj.tris)
         && (!li.on_boundary() || !lj.on_boundary() || edge_on_boundary)
-        && common_within(&bi, &bj, &boundary_faces)
+        && common_within(&bi, &bj, &edge.boundary)
         && disjoint(&boundary_edges(li), &boundary_edges(lj))
+}
+
+/// [`link_condition`] for `j` not on the boundary, read from `j`'s star (`star_j`) without building
+/// `Lk(j)`: the simplices joined to ω are then not common, and each vertex, edge and face of `Lk(j)`
+/// (a face of a tetrahedron around `j`) is looked up in the sorted `Lk(i)` — no sort, no
+/// allocation beyond the edge's link (the test runs for every target a vertex's offer tries).
+pub(super) fn link_condition_to_interior(
+    tets: &[[u32; 4]],
+    edge_tets: &[u32],
+    (i, li): (u32, &Link),
+    j: u32,
+    star_j: &[u32],
+) -> bool {
+    let edge = EdgeLink::of(tets, edge_tets, i, j);
+    let has = |x: &[u32], a: u32| x.binary_search(&a).is_ok();
+    star_j.iter().all(|&t| {
+        let o = others(tets[t as usize], j);
+        let mut tri = o;
+        tri.sort_unstable();
+        let [a, b, c] = tri;
+        li.tris.binary_search(&tri).is_err()
+            && o.iter()
+                .all(|&v| v == i || !has(&li.verts, v) || has(&edge.verts, v))
+            && [[a, b], [a, c], [b, c]]
+                .iter()
+                .all(|e| li.edges.binary_search(e).is_err() || edge.edges.binary_search(e).is_ok())
+    })
 }
 
 /// The outward normal (not normalised) of the boundary face `vab` whose tetrahedron's fourth corner
