@@ -11,8 +11,9 @@
 //!
 //! Distances are certified cheaply where possible ([`super::blocks`]): a point of `F` within a block
 //! of a sample of `S` is within the tolerance of `S`, and a sample of `S` within a block of a vertex
-//! of `F` is within it of `F`. The rest are measured exactly: the vertices of `F` within the
-//! tolerance of each triangle of `S` from an [`rstar`] R-tree of the vertices left, the triangles of
+//! of `F` is within it of `F`. The rest are measured exactly: each vertex of `F` left against the
+//! triangles of `S` near it, from an [`rstar`] R-tree of them (stopping at the first within the
+//! tolerance), the triangles of
 //! `F` within the tolerance of a sample of `S` from the grid cells around it that `F` crosses
 //! ([`super::fine::cell_triangles`]). Every point that fails is a *violation*: the leaf holding it is
 //! split — the diamonds on the path from the root down to the tetrahedra around the point no larger
@@ -35,7 +36,7 @@ use super::marching::carries;
 use super::{value, world};
 use super::{Extraction, IsoQuery};
 use crate::diamond::{child_of, Diamond};
-use crate::geometry::{point_triangle_distance, triangle_samples};
+use crate::geometry::{point_triangle_distance, triangle_samples, triangle_tree};
 use crate::lattice::Tet;
 use crate::mesh;
 use crate::refine::{Refiner, SplitSet};
@@ -43,8 +44,6 @@ use crate::volume::{Grid, Sample};
 use crate::Result;
 use glam::{DVec3, IVec3};
 use rayon::prelude::*;
-use rstar::primitives::GeomWithData;
-use rstar::{RTree, AABB};
 use rustc_hash::FxHashSet;
 use std::sync::atomic::AtomicU64;
 
@@ -263,43 +262,35 @@ impl<T: Sample> Extraction<'_, '_, T> {
                     .map(move |p| (p, k as u32))
             })
             .unzip();
-        // F → S: in the first round, vertices of F near a block of the surface's samples are
-        // within `reach` of it (blocks: a point near a block of the other set is within `reach` of
-        // it); the others from each triangle of S: those within `reach` of it, in an R-tree of the
-        // points (much cheaper to build than one of S).
+        // F → S: vertices of F near a block of the checked surface's samples are within `reach` of
+        // it (blocks: a point near a block of the other set is within `reach` of it); each of the
+        // others is looked up in an R-tree of the triangles of S, stopping at the first within
+        // `reach` — most are, so a vertex costs a few distance tests.
+        let with_samples = fine.blocks.alike(&samples)?;
+        let near_samples = |i: &u32| !with_samples.near(fine.vertices[*i as usize]);
         let open: Vec<u32> = match pending {
-            Pending::All => {
-                let with_samples = fine.blocks.alike(&samples)?;
-                (0..fine.vertices.len() as u32)
-                    .into_par_iter()
-                    .filter(|&i| !with_samples.near(fine.vertices[i as usize]))
-                    .collect()
-            }
-            Pending::Some { vertices, .. } => vertices.clone(),
-        };
-        let tree = RTree::bulk_load(
-            (open.iter().enumerate())
-                .map(|(k, &i)| GeomWithData::new(fine.vertices[i as usize].to_array(), k))
+            Pending::All => (0..fine.vertices.len() as u32)
+                .into_par_iter()
+                .filter(near_samples)
                 .collect(),
-        );
-        let covered = bits(open.len());
-        if !open.is_empty() {
-            carriers.par_iter().flat_map_iter(surface_of).for_each(|t| {
-                let lo = t[0].min(t[1]).min(t[2]) - reach;
-                let hi = t[0].max(t[1]).max(t[2]) + reach;
-                let envelope = AABB::from_corners(lo.to_array(), hi.to_array());
-                for q in tree.locate_in_envelope(&envelope) {
-                    if point_triangle_distance(DVec3::from(*q.geom()), t) <= reach {
-                        set_bit(&covered, q.data);
-                    }
-                }
-            });
-        }
-        let covered: Vec<u64> = covered.into_iter().map(AtomicU64::into_inner).collect();
-        let vertices: Vec<u32> = (open.iter().enumerate())
-            .filter(|(k, _)| covered[k / 64] & (1 << (k % 64)) == 0)
-            .map(|(_, &i)| i)
-            .collect();
+            Pending::Some { vertices, .. } => {
+                vertices.par_iter().copied().filter(near_samples).collect()
+            }
+        };
+        let vertices: Vec<u32> = if open.is_empty() {
+            Vec::new()
+        } else {
+            let triangles: Vec<[DVec3; 3]> =
+                carriers.par_iter().flat_map_iter(surface_of).collect();
+            let tree = triangle_tree(triangles.into_iter());
+            let reach2 = reach * reach;
+            open.into_par_iter()
+                .filter(|&i| {
+                    let p = fine.vertices[i as usize].to_array();
+                    tree.locate_within_distance(p, reach2).next().is_none()
+                })
+                .collect()
+        };
         // S → F.
         let (origin, spacing) = (DVec3::from(grid.origin), DVec3::from(grid.spacing));
         let hi = IVec3::from(grid.dims.map(|d| d as i32 - 2));
