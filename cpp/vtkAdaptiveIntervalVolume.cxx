@@ -188,11 +188,11 @@ try
   if (this->Hierarchy != HIERARCHY_FULL)
   {
     const std::vector<double> range(this->ThresholdRange, this->ThresholdRange + 2);
-    isodiamonds = cache.PrepareIsodiamonds(
-      this, Text, range, this->Hierarchy == HIERARCHY_MINIMAL, this->NumberOfIsodiamondBuilds);
+    isodiamonds = cache.PrepareIsodiamonds(this, Text, range, this->Hierarchy == HIERARCHY_MINIMAL,
+      0.3, 0.5, this->NumberOfIsodiamondBuilds, result);
     if (!isodiamonds)
     {
-      return 0;
+      return result;
     }
   }
   else

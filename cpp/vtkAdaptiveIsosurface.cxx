@@ -329,11 +329,11 @@ try
                     << " contour values are set: keep one value, or choose Hierarchy Full.");
       return 0;
     }
-    isodiamonds = cache.PrepareIsodiamonds(
-      this, Text, *isovalues, this->Hierarchy == HIERARCHY_MINIMAL, this->NumberOfIsodiamondBuilds);
+    isodiamonds = cache.PrepareIsodiamonds(this, Text, *isovalues,
+      this->Hierarchy == HIERARCHY_MINIMAL, 0.7, 0.75, this->NumberOfIsodiamondBuilds, result);
     if (!isodiamonds)
     {
-      return 0;
+      return result;
     }
   }
   else

@@ -182,21 +182,32 @@ void HierarchyCache::ReleaseIsodiamonds()
 }
 
 const bridge::Isodiamonds* HierarchyCache::PrepareIsodiamonds(vtkAlgorithm* filter,
-  const FilterText& text, const std::vector<double>& levels, bool minimal, vtkIdType& builds)
+  const FilterText& text, const std::vector<double>& levels, bool minimal, double from, double to,
+  vtkIdType& builds, int& result)
 {
   if (this->Isodiamonds && this->IsodiamondLevels == levels && this->IsodiamondMinimal == minimal)
   {
     return &**this->Isodiamonds;
   }
   this->ReleaseIsodiamonds();
+  ProgressForwarder progress(filter, from, to);
+  filter->UpdateProgress(from);
   try
   {
-    this->Isodiamonds.emplace((*this->Hierarchy)
-                                ->build_isodiamonds(this->SampleType, this->GetSamples(),
-                                  rust::Slice<const double>(levels.data(), levels.size()), minimal));
+    this->Isodiamonds.emplace(
+      (*this->Hierarchy)
+        ->build_isodiamonds(this->SampleType, this->GetSamples(),
+          rust::Slice<const double>(levels.data(), levels.size()), minimal, progress));
   }
   catch (const rust::Error& e)
   {
+    if (progress.Aborted)
+    {
+      vtkDebugWithObjectMacro(filter, << "Isodiamond hierarchy build aborted.");
+      result = 1;
+      return nullptr;
+    }
+    result = 0;
     vtkErrorWithObjectMacro(filter,
       << text.Name << " cannot build the " << (minimal ? "minimal" : "relevant")
       << " isodiamond hierarchy: " << e.what());

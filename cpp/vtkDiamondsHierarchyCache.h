@@ -92,10 +92,13 @@ public:
 
   // Makes the kept isodiamond hierarchy (Weiss & De Floriani §6-§7) that of `levels` (one isovalue,
   // or the two bounds of an interval volume), relevant or `minimal`, building it from the cached
-  // hierarchy and samples when they, `levels` or `minimal` changed, counting the build in `builds`.
-  // Returns null after reporting an error on `filter`.
+  // hierarchy and samples when they, `levels` or `minimal` changed, counting the build in `builds`;
+  // the build reports progress from `from` to `to` on `filter` and stops on AbortExecute. Returns
+  // null with `result` 1 when aborted (nothing kept, nothing reported: the output stays empty), or
+  // with `result` 0 after reporting an error on `filter`.
   const bridge::Isodiamonds* PrepareIsodiamonds(vtkAlgorithm* filter, const FilterText& text,
-    const std::vector<double>& levels, bool minimal, vtkIdType& builds);
+    const std::vector<double>& levels, bool minimal, double from, double to, vtkIdType& builds,
+    int& result);
   // Drops the isodiamond hierarchy (the full hierarchy is in use again).
   void ReleaseIsodiamonds();
 

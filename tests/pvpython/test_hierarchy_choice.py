@@ -16,7 +16,9 @@
   one equals Full at the new value;
 - the budget picks the finest rung that fits;
 - bad combinations (several contour values, a region of interest, carrier tetrahedra) give a clear
-  error and an empty output.
+  error and an empty output;
+- AbortExecute during the isodiamond build (progress reported per rung) gives an empty output, no
+  error, and nothing kept; the next update builds it.
 
   PV_PLUGIN_PATH=$PWD/build/lib/paraview-5.11/plugins/Diamonds pvpython tests/pvpython/test_hierarchy_choice.py
 """
@@ -269,6 +271,41 @@ for choice in CHOICES:
                      ("interval volume [500, 600]", simple.AdaptiveIntervalVolume(Input=wavelet, ThresholdRange=[500.0, 600.0], Hierarchy=choice))):
         data, text = run(f)
         dc.check("misses the data range" in text and data.GetNumberOfCells() == 0, f"{label}, {choice}, outside the data: empty output, a warning ({text.strip().splitlines()[-1] if text.strip() else ''})")
+        simple.Delete(f)
+
+# ---- Abort during the isodiamond build: the diamond hierarchy is built first (Full), then the
+# observer sets AbortExecute at the first progress report of the isodiamond build (progress strictly
+# inside its share of the filter's progress): empty output, no error, nothing kept or counted; the
+# next update (another rung) builds it and gives Full's mesh.
+for make, window, what in (
+    (lambda h: simple.AdaptiveIsosurface(Input=wavelet, Isosurfaces=[157.0], Hierarchy=h, Tolerance=float(steps[3])), (0.7, 0.75), "isosurface"),
+    (lambda h: simple.AdaptiveIntervalVolume(Input=wavelet, ThresholdRange=[130.0, 180.0], Hierarchy=h, Tolerance=float(steps[3])), (0.3, 0.5), "interval volume"),
+):
+    for choice in CHOICES:
+        f = make("Full")
+        f.Tolerance = float(steps[2])
+        reference = dc.fetch(f)
+        f.Tolerance = float(steps[3])
+        f.Hierarchy = choice
+        vtk_filter = f.GetClientSideObject()
+        seen = []
+
+        def abort_in_build(obj, _event, seen=seen, window=window):
+            p = obj.GetProgress()
+            if window[0] < p < window[1]:
+                seen.append(p)
+                obj.SetAbortExecute(1)
+
+        tag = vtk_filter.AddObserver("ProgressEvent", abort_in_build)
+        aborted, text = run(f)
+        vtk_filter.RemoveObserver(tag)
+        vtk_filter.SetAbortExecute(0)
+        dc.check(len(seen) == 1 and aborted.GetNumberOfCells() == 0 and not text.strip(), f"{what}, {choice}: AbortExecute at progress {seen} during the isodiamond build gives an empty output and no error ({text.strip()!r})")
+        dc.check(isodiamond_builds(f) == 0 and dc.hierarchy_builds(f) == 1, f"{what}, {choice}: the aborted build is not counted or kept ({isodiamond_builds(f)} builds)")
+        f.Tolerance = float(steps[2])
+        after = dc.fetch(f)
+        dc.check(isodiamond_builds(f) == 1, f"{what}, {choice}: the next update builds the isodiamond hierarchy")
+        same_as_full(reference, after, image_of(wavelet)[1], f"{what}, {choice} after an aborted build", surface=what == "isosurface")
         simple.Delete(f)
 
 doc = simple.AdaptiveIsosurface(Input=wavelet).GetProperty("Hierarchy")

@@ -8,9 +8,10 @@ use diamonds::isodiamond::{self, Model, Target, DEFAULT_LADDER};
 use diamonds::validate::{check_interval_arrays, check_isosurface_arrays};
 use diamonds::IsoSurface;
 
-use crate::ffi::{IntervalSpec, IsoSpec, ScalarType};
+use crate::ffi::{IntervalSpec, IsoSpec, ProgressObserver, ScalarType};
 use crate::interval::IntervalVolume;
-use crate::{check_core, guard, typed_slice, Hierarchy, IsoState, Surface};
+use crate::{check_core, guard, reporter, typed_slice, Hierarchy, IsoState, Surface};
+use std::pin::Pin;
 
 /// Opaque handle on a [`diamonds::isodiamond::Isodiamonds`] for C++.
 pub struct Isodiamonds {
@@ -27,8 +28,10 @@ impl Hierarchy {
         samples: &[u8],
         levels: &[f64],
         minimal: bool,
+        mut progress: Pin<&mut ProgressObserver>,
     ) -> Result<Box<Isodiamonds>, String> {
         guard("building the isodiamond hierarchy", || {
+            let mut report = reporter(progress.as_mut());
             let target = match *levels {
                 [v] => Target::Isosurface(v),
                 [a, b] => Target::IntervalVolume([a, b]),
@@ -47,8 +50,15 @@ impl Hierarchy {
             } else {
                 Model::Relevant
             };
-            let hierarchy = isodiamond::build(&self.hierarchy, scalars, target, model, &ladder)
-                .map_err(|e| e.to_string())?;
+            let hierarchy = isodiamond::build(
+                &self.hierarchy,
+                scalars,
+                target,
+                model,
+                &ladder,
+                &mut report,
+            )
+            .map_err(|e| e.to_string())?;
             Ok(Box::new(Isodiamonds {
                 hierarchy,
                 grid_points: grid.len(),

@@ -519,13 +519,15 @@ mod ffi {
         /// Builds the RI (`minimal` false) or MI hierarchy of the isosurface `levels[0]` (one
         /// level) or of the interval volume `[levels[0], levels[1]]` (two) from this hierarchy and
         /// `samples` (of `scalar_type`), the very samples it was built from. Its ladder is the
-        /// default one: 4 % down to 1/16 % of the image diagonal, halving, then 0.
+        /// default one: 4 % down to 1/16 % of the image diagonal, halving, then 0. With progress
+        /// (one step per rung) and abort.
         fn build_isodiamonds(
             self: &Hierarchy,
             scalar_type: ScalarType,
             samples: &[u8],
             levels: &[f64],
             minimal: bool,
+            progress: Pin<&mut ProgressObserver>,
         ) -> Result<Box<Isodiamonds>>;
         /// The isosurface of `spec` (`isovalues`: this hierarchy's one isovalue) at the finest rung
         /// whose tolerance is at most `spec.tolerance`, raised to the finest that fits a triangle

@@ -49,9 +49,11 @@ fn main() {
         Target::IntervalVolume([level(0.3), level(0.6)]),
     ] {
         let start = Instant::now();
-        let ri = isodiamond::build(&h, scalars, target, Model::Relevant, &ladder).expect("RI");
+        let ri = isodiamond::build(&h, scalars, target, Model::Relevant, &ladder, &mut |_| true)
+            .expect("RI");
         let ri_seconds = start.elapsed().as_secs_f64();
-        let mi = isodiamond::build(&h, scalars, target, Model::Minimal, &ladder).expect("MI");
+        let mi = isodiamond::build(&h, scalars, target, Model::Minimal, &ladder, &mut |_| true)
+            .expect("MI");
         let (vertices, cells, indexed) = match target {
             Target::Isosurface(v) => {
                 let query = IsoQuery {

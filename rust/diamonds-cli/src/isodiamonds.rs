@@ -81,6 +81,7 @@ pub fn build(opts: &BuildOptions) -> Result<BuildSummary> {
         opts.target,
         model,
         &ladder,
+        &mut |_| true,
     )?;
     let build_seconds = start.elapsed().as_secs_f64();
     let bytes = iso.to_bytes();

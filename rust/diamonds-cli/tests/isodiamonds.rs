@@ -283,7 +283,8 @@ fn shared_volumes_equal_the_full_hierarchy() {
         let mut bytes = Vec::new();
         for target in [Target::Isosurface(middle), Target::IntervalVolume(range)] {
             for model in [Model::Relevant, Model::Minimal] {
-                let iso = isodiamond::build(&h, scalars, target, model, &ladder).unwrap();
+                let iso =
+                    isodiamond::build(&h, scalars, target, model, &ladder, &mut |_| true).unwrap();
                 bytes.push(iso.to_bytes().len());
                 for &tol in iso.ladder() {
                     let what = format!("{name} {target:?} {model:?} at {tol}");

@@ -47,7 +47,7 @@ mod encode;
 mod tests;
 
 use crate::diamond::{bisect, child_of, Diamond};
-use crate::hierarchy::Hierarchy;
+use crate::hierarchy::{Hierarchy, Progress};
 use crate::interval::{self, clip, IntervalQuery, IntervalVolume, PointKey, ALPHA, SAMPLE};
 use crate::isosurface::{
     crosses, marching_on_listed_edges, marching_with_sources, EdgeKey, IsoState, Marching,
@@ -267,12 +267,17 @@ fn dequantise(q: u8) -> f64 {
 /// (§6.2, §7.2): `ladder` holds the rung tolerances (world units, decreasing, positive, at most
 /// [`MAX_RUNGS`] − 1; the rung 0 is added), each rung's split set is the full hierarchy's
 /// ([`crate::isosurface::extract`] or [`crate::interval::extract`] at that tolerance).
+///
+/// `progress` is called on this thread with the fraction done (0 first, then after the types and
+/// after each rung's extraction, which take the time: one step each) and stops the build with
+/// [`Error::Aborted`] when it returns false.
 pub fn build(
     hierarchy: &Hierarchy,
     scalars: ScalarSlice<'_>,
     target: Target,
     model: Model,
     ladder: &[f64],
+    progress: Progress<'_>,
 ) -> Result<Isodiamonds> {
     target.check()?;
     if ladder.len() >= MAX_RUNGS
@@ -294,7 +299,7 @@ pub fn build(
     let mut ladder = ladder.to_vec();
     ladder.push(0.0);
     with_volume!(*hierarchy.grid(), scalars, |v| build_from(
-        hierarchy, scalars, &v, target, model, ladder
+        hierarchy, scalars, &v, target, model, ladder, progress
     ))
 }
 
@@ -306,7 +311,18 @@ fn build_from<T: Sample>(
     target: Target,
     model: Model,
     ladder: Vec<f64>,
+    progress: Progress<'_>,
 ) -> Result<Isodiamonds> {
+    // Steps: the types, then one per rung.
+    let steps = (ladder.len() + 1) as f64;
+    let mut step = |done: usize| {
+        if progress(done as f64 / steps) {
+            Ok(())
+        } else {
+            Err(Error::Aborted)
+        }
+    };
+    step(0)?;
     let grid = *hierarchy.grid();
     let lattice = *hierarchy.lattice();
     let classes: Vec<u8> = (0..grid.len())
@@ -386,6 +402,7 @@ fn build_from<T: Sample>(
         .collect();
     drop(kinds);
     records.par_sort_unstable_by_key(|r| r.key);
+    step(1)?;
     // The split set of every rung, as the full hierarchy refines it.
     for (rung, &tolerance) in ladder.iter().enumerate() {
         let split = full_split_set(hierarchy, scalars, volume, target, tolerance)?;
@@ -394,6 +411,7 @@ fn build_from<T: Sample>(
                 r.split |= 1 << rung;
             }
         });
+        step(rung + 2)?;
     }
     // Orphans: grid vertices of split isodiamonds (and of the root's tetrahedra) whose own
     // isodiamond is not stored.
@@ -923,17 +941,23 @@ impl Isodiamonds {
         })
     }
 
-    /// What isodiamond extraction does not offer.
+    /// What isodiamond extraction does not offer. A region of interest: the full hierarchy's result
+    /// for a box comes from its two-sided bound check inside the box, which reads the samples and
+    /// splits according to the mesh the box makes ([`crate::isosurface`]); the stored split sets
+    /// are the whole image's, without the samples, so they cannot reproduce it.
     fn refuse_unsupported(&self, region: bool, carrier: bool) -> Result<()> {
-        let what = if region {
-            "a region of interest"
+        let (what, why) = if region {
+            ("a region of interest", "it stores the whole image's split set per rung of its ladder, not the samples the full hierarchy's bound check reads inside the region")
         } else if carrier {
-            "carrier tetrahedra"
+            (
+                "carrier tetrahedra",
+                "it stores one split set per rung of its ladder, for the whole image",
+            )
         } else {
             return Ok(());
         };
         Err(Error::Parameter(format!(
-            "{what} is not available with an isodiamond hierarchy (it stores one split set per rung of its ladder, for the whole image): use the full hierarchy"
+            "{what} is not available with an isodiamond hierarchy ({why}): use the full hierarchy"
         )))
     }
 

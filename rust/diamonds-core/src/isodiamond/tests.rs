@@ -35,6 +35,19 @@ fn ladder(grid: &Grid) -> Vec<f64> {
     [0.04, 0.01, 0.0025].map(|f| f * grid.diagonal()).to_vec()
 }
 
+/// The `model` hierarchy of `target` on the test [`ladder`], without progress.
+fn built(h: &Hierarchy, grid: &Grid, v: &[f32], target: Target, model: Model) -> Isodiamonds {
+    build(
+        h,
+        ScalarSlice::F32(v),
+        target,
+        model,
+        &ladder(grid),
+        &mut |_| true,
+    )
+    .unwrap()
+}
+
 fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
     DVec3::from(a).distance(DVec3::from(b))
 }
@@ -75,7 +88,7 @@ fn isosurfaces_equal_the_full_hierarchy_at_every_rung_and_between() {
             let target = Target::Isosurface(isovalue.round().max(lo + 1e-3));
             let mut sizes = Vec::new();
             for model in [Model::Relevant, Model::Minimal] {
-                let iso = build(&h, ScalarSlice::F32(&v), target, model, &ladder(&grid)).unwrap();
+                let iso = built(&h, &grid, &v, target, model);
                 sizes.push((iso.counts(), iso.to_bytes().len()));
                 let Target::Isosurface(value) = target else {
                     unreachable!()
@@ -128,7 +141,7 @@ fn marching_from_stored_crossings_equals_marching_on_classes() {
         for value in [0.5 * (lo + hi), (0.5 * (lo + hi)).round()] {
             for model in [Model::Relevant, Model::Minimal] {
                 let target = Target::Isosurface(value);
-                let iso = build(&h, ScalarSlice::F32(&v), target, model, &ladder(&grid)).unwrap();
+                let iso = built(&h, &grid, &v, target, model);
                 for rung in 0..iso.ladder().len() {
                     let (leaves, classes): (Vec<Tet>, Vec<[u8; 4]>) =
                         iso.leaves(rung).unwrap().into_iter().unzip();
@@ -176,14 +189,7 @@ fn interval_volumes_equal_the_full_hierarchy_at_every_rung() {
             [lo + 0.35 * (hi - lo), lo + 0.6 * (hi - lo)]
         };
         for model in [Model::Relevant, Model::Minimal] {
-            let iso = build(
-                &h,
-                ScalarSlice::F32(&v),
-                Target::IntervalVolume(range),
-                model,
-                &ladder(&grid),
-            )
-            .unwrap();
+            let iso = built(&h, &grid, &v, Target::IntervalVolume(range), model);
             for (rung, &tol) in iso.ladder().iter().enumerate() {
                 let what = format!("{name} {model:?} {range:?} rung {rung}");
                 let full =
@@ -264,14 +270,7 @@ fn minimal_isosurfaces_do_not_self_intersect() {
         let h = hierarchy(grid, &v);
         let (lo, hi) = h.value_range();
         let target = Target::Isosurface(0.5 * (lo + hi));
-        let iso = build(
-            &h,
-            ScalarSlice::F32(&v),
-            target,
-            Model::Minimal,
-            &ladder(&grid),
-        )
-        .unwrap();
+        let iso = built(&h, &grid, &v, target, Model::Minimal);
         for &tol in iso.ladder() {
             let s = iso.isosurface(tol).unwrap();
             let crossing = self_intersections(&s);
@@ -340,7 +339,7 @@ fn saved_hierarchies_extract_the_same() {
         Target::IntervalVolume([lo + 0.1 * (hi - lo), 0.0]),
     ] {
         for model in [Model::Relevant, Model::Minimal] {
-            let iso = build(&h, ScalarSlice::F32(&v), target, model, &ladder(&grid)).unwrap();
+            let iso = built(&h, &grid, &v, target, model);
             let bytes = iso.to_bytes();
             let back = Isodiamonds::from_bytes(&bytes).unwrap();
             assert_eq!(back.to_bytes(), bytes, "{name}");
@@ -389,27 +388,45 @@ fn bad_input_is_refused() {
         Target::IntervalVolume([f64::NEG_INFINITY, 0.5]),
     ] {
         assert!(matches!(
-            build(&h, s, target, m, &l),
+            build(&h, s, target, m, &l, &mut |_| true),
             Err(Error::Parameter(_))
         ));
     }
     let t = Target::Isosurface(0.5);
     for bad in [vec![0.1, 0.2], vec![0.1, 0.0], vec![f64::NAN], vec![0.1; 8]] {
-        assert!(matches!(build(&h, s, t, m, &bad), Err(Error::Parameter(_))));
+        assert!(matches!(
+            build(&h, s, t, m, &bad, &mut |_| true),
+            Err(Error::Parameter(_))
+        ));
     }
     let short = ScalarSlice::F32(&v[1..]);
     assert!(matches!(
-        build(&h, short, t, m, &l),
+        build(&h, short, t, m, &l, &mut |_| true),
         Err(Error::Length { .. })
     ));
-    let iso = build(&h, s, t, m, &l).unwrap();
+    // Progress: from 0 to 1, one report per rung after the types; false stops the build.
+    let mut seen = Vec::new();
+    let iso = build(&h, s, t, m, &l, &mut |f| {
+        seen.push(f);
+        true
+    })
+    .unwrap();
+    assert_eq!(seen.len(), l.len() + 3, "{seen:?}");
+    assert!(seen[0] == 0.0 && seen[seen.len() - 1] == 1.0, "{seen:?}");
+    assert!(seen.windows(2).all(|w| w[0] < w[1]), "{seen:?}");
+    for stop in [-1.0, 0.5] {
+        assert_eq!(
+            build(&h, s, t, m, &l, &mut |f| f <= stop).unwrap_err(),
+            Error::Aborted
+        );
+    }
     assert!(iso.interval_volume(0.1).is_err());
     assert!(iso.isosurface(-1.0).is_err());
     assert!(iso.isosurface(f64::NAN).is_err());
-    let iv = build(&h, s, Target::IntervalVolume([0.2, 0.5]), m, &l).unwrap();
+    let iv = built(&h, &grid, &v, Target::IntervalVolume([0.2, 0.5]), m);
     assert!(iv.isosurface(0.1).is_err());
     // A range missing the data: nothing stored, empty extraction.
-    let none = build(&h, s, Target::IntervalVolume([5.0, 6.0]), m, &l).unwrap();
+    let none = built(&h, &grid, &v, Target::IntervalVolume([5.0, 6.0]), m);
     assert_eq!(none.counts(), Counts::default());
     assert!(none.interval_volume(0.0).unwrap().tets.is_empty());
 }
