@@ -444,8 +444,13 @@ int vtkAdaptiveIsosurface::RequestDistributed(vtkMultiProcessController* control
   const auto started = std::chrono::steady_clock::now();
   const bool empty = input->GetNumberOfPoints() == 0;
   // Every rank takes part in every collective step below; a failure on one rank is agreed on
-  // before the next one.
+  // before the next one. Each step between two collective ones runs in Pieces::Run: whatever fails
+  // on this rank (out of memory among it) is reported here and agreed on, so that all ranks leave
+  // together with empty outputs.
   vtkDiamonds::Pieces pieces(controller, inputVector[0]->GetInformationObject(0), input);
+  const auto run = [&](const char* failure, auto&& work) {
+    return vtkDiamonds::Pieces::Run(this, Text.Name, failure, work);
+  };
   const auto agree = [&](bool mine, const char* what) {
     if (pieces.Agree(this, Text.Name, mine, what))
     {
@@ -473,11 +478,13 @@ int vtkAdaptiveIsosurface::RequestDistributed(vtkMultiProcessController* control
   }
   if (ok && !empty)
   {
-    int association = vtkDataObject::FIELD_ASSOCIATION_POINTS;
-    vtkDataArray* selected = this->GetInputArrayToProcess(0, inputVector, association);
-    ok = vtkDiamonds::CheckAxisAligned(this, Text, input) &&
-      (array = vtkDiamonds::SelectPointArray(this, Text, input, selected, association)) &&
-      vtkDiamonds::CoreSamples(this, Text, array, samples, type);
+    ok = run("cannot read its input", [&] {
+      int association = vtkDataObject::FIELD_ASSOCIATION_POINTS;
+      vtkDataArray* selected = this->GetInputArrayToProcess(0, inputVector, association);
+      return vtkDiamonds::CheckAxisAligned(this, Text, input) &&
+        (array = vtkDiamonds::SelectPointArray(this, Text, input, selected, association)) &&
+        vtkDiamonds::CoreSamples(this, Text, array, samples, type);
+    });
   }
   if (!agree(ok, "reading the input"))
   {
@@ -522,30 +529,29 @@ int vtkAdaptiveIsosurface::RequestDistributed(vtkMultiProcessController* control
   std::optional<rust::Box<bridge::Surface>> surface;
   if (whole)
   {
-    int result = 0; // the agreement below decides what to return
-    ok = cache.Prepare(this, Text, whole, whole->GetPointData()->GetScalars(), 0.1, 0.7,
-      this->NumberOfHierarchyBuilds, result);
-    if (ok)
+    const std::string failed =
+      std::string("extraction failed for array \"") + array->GetName() + "\"";
+    ok = run(failed.c_str(), [&] {
+      int result = 0; // the agreement below decides what to return
+      if (!cache.Prepare(this, Text, whole, whole->GetPointData()->GetScalars(), 0.1, 0.7,
+            this->NumberOfHierarchyBuilds, result))
+      {
+        return false;
+      }
+      surface.emplace(cache.GetHierarchy().isosurface_piece(cache.GetIsoState(),
+        cache.GetSampleType(), cache.GetSamples(),
+        rust::Slice<const double>(isovalues->data(), isovalues->size()), spec, pieces.Extents(),
+        static_cast<std::size_t>(pieces.Rank())));
+      for (const rust::String& warning : (*surface)->warnings())
+      {
+        vtkWarningMacro(<< "Adaptive Isosurface, array \"" << array->GetName()
+                        << "\": " << std::string(warning));
+      }
+      return true;
+    });
+    if (!ok)
     {
-      try
-      {
-        surface.emplace(cache.GetHierarchy().isosurface_piece(cache.GetIsoState(),
-          cache.GetSampleType(), cache.GetSamples(),
-          rust::Slice<const double>(isovalues->data(), isovalues->size()), spec, pieces.Extents(),
-          static_cast<std::size_t>(pieces.Rank())));
-        for (const rust::String& warning : (*surface)->warnings())
-        {
-          vtkWarningMacro(<< "Adaptive Isosurface, array \"" << array->GetName()
-                          << "\": " << std::string(warning));
-        }
-      }
-      catch (const rust::Error& e)
-      {
-        vtkErrorMacro(<< "Adaptive Isosurface extraction failed for array \"" << array->GetName()
-                      << "\": " << e.what());
-        surface.reset();
-        ok = false;
-      }
+      surface.reset();
     }
   }
   if (!agree(ok && !this->CheckAbort(), "the extraction"))
@@ -560,15 +566,11 @@ int vtkAdaptiveIsosurface::RequestDistributed(vtkMultiProcessController* control
 
   // ---- Output: this rank's triangles with global point ids, and its carrier tetrahedra.
   std::vector<double> errorBound{ 0.0 };
-  if (surface)
-  {
+  ok = !surface || run("could not write its output", [&] {
     this->Internals->FillSurface(this, **surface, array, output);
     output->GetPointData()->SetGlobalIds(vtkDiamonds::GlobalPointIds((*surface)->global_point_ids()));
     errorBound[0] = (*surface)->error_bound();
-  }
-  if (surface && this->GenerateCarrierTetrahedra)
-  {
-    try
+    if (this->GenerateCarrierTetrahedra)
     {
       rust::Box<bridge::Mesh> mesh = (*surface)->take_carrier();
       vtkDiamonds::MeshToUnstructuredGrid(*mesh, whole, "IsosurfaceError", carrier);
@@ -576,12 +578,9 @@ int vtkAdaptiveIsosurface::RequestDistributed(vtkMultiProcessController* control
         OneValue<vtkIdTypeArray>("NumberOfTetrahedra", carrier->GetNumberOfCells()));
       carrier->GetFieldData()->AddArray(OneValue<vtkDoubleArray>("MaximumError", mesh->max_error()));
     }
-    catch (const rust::Error& e)
-    {
-      vtkErrorMacro(<< e.what());
-      ok = false;
-    }
-  }
+    return true;
+  });
+  surface.reset();
   if (!agree(ok, "the output"))
   {
     return 0;

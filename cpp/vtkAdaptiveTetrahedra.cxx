@@ -226,19 +226,12 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
   // failure on one rank is agreed on before the next collective step).
   vtkDiamonds::Pieces pieces(controller, inInfo, input);
 
-  // ---- This piece's samples (an empty piece has none and reads no array).
-  vtkDataArray* array = nullptr;
-  vtkSmartPointer<vtkDataArray> samples;
-  bridge::ScalarType type = bridge::ScalarType::F64;
-  bool ok = true;
-  if (!empty)
-  {
-    int association = vtkDataObject::FIELD_ASSOCIATION_POINTS;
-    vtkDataArray* selected = this->GetInputArrayToProcess(0, inputVector, association);
-    ok = vtkDiamonds::CheckAxisAligned(this, Text, input) &&
-      (array = vtkDiamonds::SelectPointArray(this, Text, input, selected, association)) &&
-      vtkDiamonds::CoreSamples(this, Text, array, samples, type);
-  }
+  // ---- This piece's samples (an empty piece has none and reads no array). Each step between
+  // two collective ones runs in Pieces::Run: whatever fails on this rank (out of memory among it)
+  // is reported here and agreed on, so that all ranks leave together with empty outputs.
+  const auto run = [&](const char* failure, auto&& work) {
+    return vtkDiamonds::Pieces::Run(this, Text.Name, failure, work);
+  };
   const auto agree = [&](bool mine, const char* what) {
     if (pieces.Agree(this, Text.Name, mine, what))
     {
@@ -247,6 +240,16 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
     output->Initialize();
     return false;
   };
+  vtkDataArray* array = nullptr;
+  vtkSmartPointer<vtkDataArray> samples;
+  bridge::ScalarType type = bridge::ScalarType::F64;
+  bool ok = empty || run("cannot read its input", [&] {
+    int association = vtkDataObject::FIELD_ASSOCIATION_POINTS;
+    vtkDataArray* selected = this->GetInputArrayToProcess(0, inputVector, association);
+    return vtkDiamonds::CheckAxisAligned(this, Text, input) &&
+      (array = vtkDiamonds::SelectPointArray(this, Text, input, selected, association)) &&
+      vtkDiamonds::CoreSamples(this, Text, array, samples, type);
+  });
   if (!agree(ok, "reading the input"))
   {
     return 0;
@@ -271,27 +274,30 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
   if (pieces.Sum(stale ? 1 : 0) > 0)
   {
     this->Internals->Piece.reset();
+    const char* cannotBuild = "cannot build this rank's hierarchy";
+    // The points of the piece's lattice held by other ranks (none asked for after a failure,
+    // but the fetch is collective: every rank takes part).
+    std::optional<rust::Vec<std::uint64_t>> needed;
+    ok = run(cannotBuild, [&] {
+      needed.emplace(bridge::piece_needed_points(pieces.Whole(), pieces.OwnExtent()));
+      return true;
+    });
+    std::vector<vtkDataArray*> arrays;
+    if (samples)
+    {
+      arrays.push_back(samples);
+    }
     std::string error;
     std::vector<vtkSmartPointer<vtkDataArray>> fetched;
-    ok = true;
-    try
+    const bool got = pieces.Fetch(needed ? rust::Slice<const std::uint64_t>(needed->data(), needed->size())
+                                         : rust::Slice<const std::uint64_t>(),
+      arrays, fetched, error);
+    if (ok && !got)
     {
-      const rust::Vec<std::uint64_t> needed =
-        bridge::piece_needed_points(pieces.Whole(), pieces.OwnExtent());
-      std::vector<vtkDataArray*> arrays;
-      if (samples)
-      {
-        arrays.push_back(samples);
-      }
-      ok = pieces.Fetch({ needed.data(), needed.size() }, arrays, fetched, error);
+      vtkErrorMacro(<< "Adaptive Tetrahedra " << cannotBuild << ": " << error);
     }
-    catch (const rust::Error& e)
-    {
-      error = e.what();
-      ok = false;
-    }
-    if (ok)
-    {
+    needed.reset();
+    ok = ok && got && run(cannotBuild, [&] {
       vtkDiamonds::ProgressForwarder progress(this, 0.0, 0.6);
       try
       {
@@ -299,25 +305,44 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
           pieces.OwnExtent(), type, bytesOf(samples),
           bytesOf(fetched.empty() ? nullptr : fetched[0].GetPointer()), progress));
       }
-      catch (const rust::Error& e)
+      catch (const rust::Error&)
       {
-        error = progress.Aborted ? "" : e.what();
-        ok = false;
+        if (!progress.Aborted)
+        {
+          throw;
+        }
+        return false; // aborted: no error
       }
-    }
-    if (!ok && !error.empty())
-    {
-      vtkErrorMacro(<< "Adaptive Tetrahedra cannot build this rank's hierarchy: " << error);
-    }
+      return true;
+    });
+    fetched.clear();
     if (!agree(ok, "building the hierarchy"))
     {
       this->Internals->Piece.reset();
       return 0;
     }
-    bridge::PieceHierarchy& piece = **this->Internals->Piece;
-    std::vector<double> coarse(piece.coarse_errors().begin(), piece.coarse_errors().end());
+    // The coarse errors (one per point of the coarse sublattice, as many on every rank), combined.
+    bridge::PieceHierarchy& built = **this->Internals->Piece;
+    std::vector<double> coarse;
+    ok = run(cannotBuild, [&] {
+      coarse.assign(built.coarse_errors().begin(), built.coarse_errors().end());
+      return true;
+    });
+    if (!agree(ok, "building the hierarchy"))
+    {
+      this->Internals->Piece.reset();
+      return 0;
+    }
     pieces.MaxInPlace(coarse);
-    piece.combine_coarse_errors({ coarse.data(), coarse.size() });
+    ok = run(cannotBuild, [&] {
+      built.combine_coarse_errors({ coarse.data(), coarse.size() });
+      return true;
+    });
+    if (!agree(ok, "building the hierarchy"))
+    {
+      this->Internals->Piece.reset();
+      return 0;
+    }
     this->Internals->PieceBuilt = key;
     ++this->NumberOfHierarchyBuilds;
   }
@@ -331,34 +356,24 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
   query.use_region_of_interest = this->UseRegionOfInterest != 0;
   std::copy(this->RegionOfInterest, this->RegionOfInterest + 6, query.region_of_interest.begin());
   std::optional<rust::Box<bridge::PieceRefinement>> refinement;
-  std::string error;
-  try
-  {
+  ok = run("query failed", [&] {
     refinement.emplace(piece.start_refinement(query));
-  }
-  catch (const rust::Error& e)
-  {
-    vtkErrorMacro(<< "Adaptive Tetrahedra query failed: " << e.what());
-    ok = false;
-  }
-  if (!agree(ok && refinement.has_value(), "the query"))
+    return true;
+  });
+  if (!agree(ok, "the query"))
   {
     return 0;
   }
   int rounds = 0;
+  const char* refinementFailed = "refinement failed";
   for (;;)
   {
     std::vector<std::int32_t> outgoing;
-    try
-    {
+    ok = ok && run(refinementFailed, [&] {
       const rust::Vec<std::int32_t> out = piece.outgoing(**refinement, pieces.Extents());
       outgoing.assign(out.begin(), out.end());
-    }
-    catch (const rust::Error& e)
-    {
-      vtkErrorMacro(<< "Adaptive Tetrahedra refinement failed: " << e.what());
-      ok = false;
-    }
+      return true;
+    });
     if (!agree(ok && !this->CheckAbort(), "the refinement"))
     {
       return this->GetAbortExecute() ? 1 : 0;
@@ -368,44 +383,24 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
       break;
     }
     const std::vector<std::int32_t> all = pieces.Concatenate(outgoing);
-    try
-    {
+    ok = run(refinementFailed, [&] {
       piece.receive(**refinement, { all.data(), all.size() });
-    }
-    catch (const rust::Error& e)
-    {
-      vtkErrorMacro(<< "Adaptive Tetrahedra refinement failed: " << e.what());
-      ok = false;
-    }
+      return true;
+    });
     ++rounds;
     this->UpdateProgress(std::min(0.8, 0.6 + 0.02 * rounds));
   }
 
   // ---- This rank's tetrahedra, and the point data of their points held by other ranks.
   std::optional<rust::Box<bridge::Mesh>> mesh;
-  try
-  {
-    mesh.emplace(piece.piece_mesh(
-      **refinement, pieces.Extents(), static_cast<std::size_t>(pieces.Rank())));
-  }
-  catch (const rust::Error& e)
-  {
-    vtkErrorMacro(<< "Adaptive Tetrahedra could not extract this rank's mesh: " << e.what());
-    ok = false;
-  }
-  if (!agree(ok, "the mesh extraction"))
-  {
-    return 0;
-  }
-  refinement.reset();
-  this->UpdateProgress(0.85);
-  const rust::Slice<const std::size_t> ids = (*mesh)->point_ids();
-  const vtkIdType numPoints = static_cast<vtkIdType>(ids.size());
-  // Which of them this rank holds (with their ids in its input), and which others hold.
+  // Which of their points this rank holds (with their ids in its input), and which others hold.
   std::vector<vtkIdType> localSlots, localIds, remoteSlots;
   std::vector<std::uint64_t> remote;
-  try
-  {
+  ok = run("could not extract this rank's mesh", [&] {
+    mesh.emplace(piece.piece_mesh(
+      **refinement, pieces.Extents(), static_cast<std::size_t>(pieces.Rank())));
+    refinement.reset();
+    const rust::Slice<const std::size_t> ids = (*mesh)->point_ids();
     const rust::Vec<std::int64_t> local =
       bridge::piece_local_ids(pieces.Whole(), pieces.OwnExtent(), ids);
     for (std::size_t k = 0; k < local.size(); ++k)
@@ -421,12 +416,15 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
         remote.push_back(ids[k]);
       }
     }
-  }
-  catch (const rust::Error& e)
+    return true;
+  });
+  refinement.reset();
+  if (!ok)
   {
-    error = e.what();
-    ok = false;
+    // Fetch nothing, but take part in the fetch below.
+    remote.clear();
   }
+  this->UpdateProgress(0.85);
   vtkPointData* inPD = input->GetPointData();
   std::vector<vtkDataArray*> pointArrays;
   for (int i = 0; !empty && i < inPD->GetNumberOfArrays(); ++i)
@@ -437,10 +435,11 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
     }
   }
   std::vector<vtkSmartPointer<vtkDataArray>> fetched;
-  ok = pieces.Fetch({ remote.data(), remote.size() }, pointArrays, fetched, error) && ok;
-  if (!ok)
+  std::string error;
+  if (!pieces.Fetch({ remote.data(), remote.size() }, pointArrays, fetched, error) && ok)
   {
     vtkErrorMacro(<< "Adaptive Tetrahedra could not fetch point data from other ranks: " << error);
+    ok = false;
   }
   if (!agree(ok, "fetching point data"))
   {
@@ -448,36 +447,44 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
   }
 
   // ---- Output.
-  output->SetPoints(vtkDiamonds::PointsFrom((*mesh)->points()));
-  output->SetCells(VTK_TETRA, vtkDiamonds::FixedSizeCells(4, (*mesh)->tets(), numPoints));
-  vtkPointData* outPD = output->GetPointData();
-  for (std::size_t a = 0; a < pointArrays.size(); ++a)
-  {
-    vtkSmartPointer<vtkDataArray> out =
-      vtkSmartPointer<vtkDataArray>::Take(pointArrays[a]->NewInstance());
-    out->SetName(pointArrays[a]->GetName());
-    out->SetNumberOfComponents(pointArrays[a]->GetNumberOfComponents());
-    out->SetNumberOfTuples(numPoints);
-    out->InsertTuples(vtkDiamonds::IdList(localSlots), vtkDiamonds::IdList(localIds), pointArrays[a]);
-    out->InsertTuples(vtkDiamonds::IdList(remoteSlots),
-      vtkDiamonds::IdList(0, static_cast<vtkIdType>(remote.size())), fetched[a]);
-    const int attribute = inPD->IsArrayAnAttribute(static_cast<int>(a));
-    outPD->AddArray(out);
-    if (attribute >= 0 && attribute != vtkDataSetAttributes::GLOBALIDS)
+  const vtkIdType numPoints = static_cast<vtkIdType>((*mesh)->point_ids().size());
+  ok = run("could not write its output", [&] {
+    const rust::Slice<const std::size_t> ids = (*mesh)->point_ids();
+    output->SetPoints(vtkDiamonds::PointsFrom((*mesh)->points()));
+    vtkDiamonds::SetTetrahedra(output, vtkDiamonds::FixedSizeCells(4, (*mesh)->tets(), numPoints));
+    vtkPointData* outPD = output->GetPointData();
+    for (std::size_t a = 0; a < pointArrays.size(); ++a)
     {
-      outPD->SetActiveAttribute(out->GetName(), attribute);
+      vtkSmartPointer<vtkDataArray> out =
+        vtkSmartPointer<vtkDataArray>::Take(pointArrays[a]->NewInstance());
+      out->SetName(pointArrays[a]->GetName());
+      out->SetNumberOfComponents(pointArrays[a]->GetNumberOfComponents());
+      vtkDiamonds::Allocate(out, numPoints * out->GetNumberOfComponents());
+      out->InsertTuples(
+        vtkDiamonds::IdList(localSlots), vtkDiamonds::IdList(localIds), pointArrays[a]);
+      out->InsertTuples(vtkDiamonds::IdList(remoteSlots),
+        vtkDiamonds::IdList(0, static_cast<vtkIdType>(remote.size())), fetched[a]);
+      const int attribute = inPD->IsArrayAnAttribute(static_cast<int>(a));
+      outPD->AddArray(out);
+      if (attribute >= 0 && attribute != vtkDataSetAttributes::GLOBALIDS)
+      {
+        outPD->SetActiveAttribute(out->GetName(), attribute);
+      }
     }
+    outPD->SetGlobalIds(vtkDiamonds::GlobalPointIds(ids));
+    const vtkIdType numTets = output->GetNumberOfCells();
+    output->GetCellData()->AddArray(vtkDiamonds::NamedArray<vtkUnsignedCharArray>(
+      "BisectionDepth", numTets, (*mesh)->depths().data()));
+    output->GetCellData()->AddArray(vtkDiamonds::NamedArray<vtkFloatArray>(
+      "ApproximationError", numTets, (*mesh)->errors().data()));
+    return true;
+  });
+  fetched.clear();
+  if (!agree(ok, "writing the output"))
+  {
+    return 0;
   }
-  vtkNew<vtkIdTypeArray> globalIds;
-  globalIds->SetName("GlobalPointIds");
-  globalIds->SetNumberOfValues(numPoints);
-  std::copy(ids.begin(), ids.end(), globalIds->GetPointer(0));
-  outPD->SetGlobalIds(globalIds);
   const vtkIdType numTets = output->GetNumberOfCells();
-  output->GetCellData()->AddArray(vtkDiamonds::NamedArray<vtkUnsignedCharArray>(
-    "BisectionDepth", numTets, (*mesh)->depths().data()));
-  output->GetCellData()->AddArray(vtkDiamonds::NamedArray<vtkFloatArray>(
-    "ApproximationError", numTets, (*mesh)->errors().data()));
 
   std::vector<double> maxError{ (*mesh)->max_error() };
   pieces.MaxInPlace(maxError);

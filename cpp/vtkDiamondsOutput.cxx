@@ -95,6 +95,11 @@ void ReportOutOfMemory(
       output->Initialize();
     }
   }
+  ReportOutOfMemory(filter, name, e);
+}
+
+void ReportOutOfMemory(vtkAlgorithm* filter, const char* name, const std::bad_alloc& e)
+{
   vtkErrorWithObjectMacro(filter,
     << name << " ran out of memory: " << OutOfMemoryMessage(e)
     << ". Its outputs are empty; raise the tolerance, set a maximum number of cells, restrict the "

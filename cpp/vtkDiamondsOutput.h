@@ -63,6 +63,9 @@ std::string OutOfMemoryMessage(const std::bad_alloc& e);
 // `name`.
 void ReportOutOfMemory(
   vtkAlgorithm* filter, const char* name, vtkInformationVector* outputVector, const std::bad_alloc& e);
+// The error of ReportOutOfMemory alone (for a distributed step, whose outputs are emptied when the
+// ranks agree on the failure).
+void ReportOutOfMemory(vtkAlgorithm* filter, const char* name, const std::bad_alloc& e);
 
 // Fills `output` with the tetrahedra of `mesh` over `input`: points at the sample positions, every
 // input point array passed through, cell data "BisectionDepth" and the mesh's per-tetrahedron errors named

@@ -21,6 +21,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <functional>
 #include <limits>
 #include <numeric>
 
@@ -33,6 +34,7 @@ namespace
 // Message tags of the point fetch (requests, then one response per array).
 constexpr int RequestTag = 0x4449; // "DI"
 constexpr int ResponseTag = 0x4450;
+constexpr int SizeTag = 0x4451;
 
 // Adds the seconds of its lifetime to `total`.
 struct Clock
@@ -46,16 +48,83 @@ struct Clock
   }
 };
 
-// An array of `n` tuples of `like`'s type, components and name.
+// A contiguous array of `n` tuples of `like`'s type, components and name; throws OutOfMemory.
 vtkSmartPointer<vtkDataArray> SameKind(vtkDataArray* like, vtkIdType n)
 {
-  auto out = vtkSmartPointer<vtkDataArray>::Take(like->NewInstance());
+  auto out = vtkSmartPointer<vtkDataArray>::Take(vtkDataArray::CreateDataArray(like->GetDataType()));
   out->SetName(like->GetName());
   out->SetNumberOfComponents(like->GetNumberOfComponents());
-  out->SetNumberOfTuples(n);
+  Allocate(out, n * like->GetNumberOfComponents());
   return out;
 }
+
+// Point-to-point with rank `q` in the global pair order (the lower rank sends first): sends the `n`
+// values at `out` and receives `m` values into `in` (no message when a count is 0; both ranks know
+// both counts).
+template <class T>
+void Pair(vtkMultiProcessController* c, int me, int q, const T* out, vtkIdType n, T* in, vtkIdType m,
+  int tag)
+{
+  const auto send = [&] {
+    if (n > 0)
+    {
+      c->Send(out, n, q, tag);
+    }
+  };
+  const auto receive = [&] {
+    if (m > 0)
+    {
+      c->Receive(in, m, q, tag);
+    }
+  };
+  if (me < q)
+  {
+    send();
+    receive();
+  }
+  else
+  {
+    receive();
+    send();
+  }
+}
 } // namespace
+
+//------------------------------------------------------------------------------
+bool Pieces::Swap(int q, const void* out, vtkIdType bytes,
+  const std::function<void*(vtkIdType)>& receive, std::string& error)
+{
+  vtkIdType theirs = 0;
+  Pair(this->Controller, this->Me, q, &bytes, 1, &theirs, 1, SizeTag);
+  int have = 1;
+  void* in = nullptr;
+  try
+  {
+    in = receive(theirs);
+  }
+  catch (const std::bad_alloc& e)
+  {
+    error = "out of memory for " + std::to_string(theirs) + " bytes from rank " +
+      std::to_string(q) + ": " + OutOfMemoryMessage(e);
+    have = 0;
+  }
+  int theyHave = 0;
+  Pair(this->Controller, this->Me, q, &have, 1, &theyHave, 1, SizeTag);
+  this->Sent += sizeof(vtkIdType) + sizeof(int);
+  if (!have || !theyHave)
+  {
+    if (have)
+    {
+      error = "rank " + std::to_string(q) +
+        " ran out of memory for the data this rank sends it (see its error)";
+    }
+    return false;
+  }
+  Pair(this->Controller, this->Me, q, static_cast<const unsigned char*>(out), bytes,
+    static_cast<unsigned char*>(in), theirs, ResponseTag);
+  this->Sent += bytes;
+  return true;
+}
 
 //------------------------------------------------------------------------------
 vtkSmartPointer<vtkIdList> IdList(const std::vector<vtkIdType>& ids)
@@ -201,15 +270,15 @@ vtkIdType TupleCount(Layout layout, const std::int64_t* e)
   }
 }
 
-// A contiguous array of `a`'s values (`a` itself when it already is one).
+// A contiguous array of `a`'s values (`a` itself when it already is one); throws OutOfMemory.
 vtkSmartPointer<vtkDataArray> Contiguous(vtkDataArray* a)
 {
   if (a->HasStandardMemoryLayout())
   {
     return a;
   }
-  auto copy = vtkSmartPointer<vtkDataArray>::Take(vtkDataArray::CreateDataArray(a->GetDataType()));
-  copy->DeepCopy(a);
+  auto copy = SameKind(a, a->GetNumberOfTuples());
+  copy->InsertTuples(0, a->GetNumberOfTuples(), 0, a);
   return copy;
 }
 } // namespace
@@ -339,8 +408,36 @@ bool Pieces::GatherWhole(vtkDataSet* input, const std::vector<vtkDataArray*>& po
         " bytes, more than an MPI all-gather takes (2 GiB)";
       return false; // decided alike on every rank
     }
-    vtkSmartPointer<vtkDataArray> send = empty ? nullptr : Contiguous(mine[k].first);
-    std::vector<unsigned char> received(static_cast<std::size_t>(total));
+    // Every buffer of this array is allocated before its all-gather, and the ranks agree that
+    // they all were: a rank out of memory fails here with the others, never inside the exchange.
+    vtkSmartPointer<vtkDataArray> send;
+    std::vector<unsigned char> received;
+    bool allocated = true;
+    try
+    {
+      send = empty ? nullptr : Contiguous(mine[k].first);
+      received.resize(static_cast<std::size_t>(total));
+      if (!empty)
+      {
+        out->SetName(mine[k].first->GetName());
+        out->SetNumberOfComponents(kind[2]);
+        Allocate(out, TupleCount(layout, wholeRel) * kind[2]);
+      }
+    }
+    catch (const std::bad_alloc& e)
+    {
+      error = "out of memory for an array of the whole image (" + std::to_string(total) +
+        " bytes to receive): " + OutOfMemoryMessage(e);
+      allocated = false;
+    }
+    if (!this->AllOk(allocated))
+    {
+      if (allocated)
+      {
+        error = "another rank ran out of memory for an array of the whole image (see its error)";
+      }
+      return false;
+    }
     {
       Clock clock{ this->Seconds };
       this->Controller->AllGatherV(
@@ -352,9 +449,6 @@ bool Pieces::GatherWhole(vtkDataSet* input, const std::vector<vtkDataArray*>& po
     {
       continue;
     }
-    out->SetName(mine[k].first->GetName());
-    out->SetNumberOfComponents(kind[2]);
-    Allocate(out, TupleCount(layout, wholeRel) * kind[2]);
     auto* target = static_cast<unsigned char*>(out->GetVoidPointer(0));
     for (int r = 0; r < this->Ranks; ++r)
     {
@@ -468,6 +562,27 @@ void Pieces::AddFigures(vtkFieldData* fieldData, const char* cellsName, vtkIdTyp
 }
 
 //------------------------------------------------------------------------------
+void Pieces::ReportCaught(vtkAlgorithm* filter, const char* name, const char* failure)
+{
+  try
+  {
+    throw;
+  }
+  catch (const std::bad_alloc& e)
+  {
+    ReportOutOfMemory(filter, name, e);
+  }
+  catch (const std::exception& e) // rust::Error among them
+  {
+    vtkErrorWithObjectMacro(filter, << name << " " << failure << ": " << e.what());
+  }
+  catch (...)
+  {
+    vtkErrorWithObjectMacro(filter, << name << " " << failure << ": unknown error.");
+  }
+}
+
+//------------------------------------------------------------------------------
 bool Pieces::AllOk(bool ok)
 {
   Clock clock{ this->Seconds };
@@ -545,16 +660,24 @@ bool Pieces::Fetch(rust::Slice<const std::uint64_t> ids, const std::vector<vtkDa
   Clock clock{ this->Seconds };
   fetched.clear();
   const vtkIdType n = static_cast<vtkIdType>(ids.size());
-  for (vtkDataArray* a : arrays)
-  {
-    fetched.push_back(SameKind(a, n));
-  }
   // Which rank holds each point; what to ask each rank for, and where the answers go.
+  // The first failure is the one reported (later ones follow from it).
   bool ok = true;
+  const auto fail = [&](const std::string& what) {
+    if (ok)
+    {
+      error = what;
+    }
+    ok = false;
+  };
   std::vector<std::vector<std::uint64_t>> want(this->Ranks);
   std::vector<std::vector<vtkIdType>> slots(this->Ranks);
   try
   {
+    for (vtkDataArray* a : arrays)
+    {
+      fetched.push_back(SameKind(a, n));
+    }
     const rust::Vec<std::uint32_t> owners =
       bridge::piece_point_owners(this->WholeGrid, this->Extents(), ids);
     for (vtkIdType k = 0; k < n; ++k)
@@ -562,8 +685,7 @@ bool Pieces::Fetch(rust::Slice<const std::uint64_t> ids, const std::vector<vtkDa
       const std::uint32_t o = owners[k];
       if (static_cast<int>(o) >= this->Ranks || static_cast<int>(o) == this->Me)
       {
-        error = "point " + std::to_string(ids[k]) + " of the whole image is held by no other rank";
-        ok = false;
+        fail("point " + std::to_string(ids[k]) + " of the whole image is held by no other rank");
         break;
       }
       want[o].push_back(ids[k]);
@@ -572,8 +694,11 @@ bool Pieces::Fetch(rust::Slice<const std::uint64_t> ids, const std::vector<vtkDa
   }
   catch (const rust::Error& e)
   {
-    error = e.what();
-    ok = false;
+    fail(e.what());
+  }
+  catch (const std::bad_alloc& e)
+  {
+    fail("out of memory for the points to fetch: " + OutOfMemoryMessage(e));
   }
   if (!ok)
   {
@@ -584,35 +709,34 @@ bool Pieces::Fetch(rust::Slice<const std::uint64_t> ids, const std::vector<vtkDa
     }
   }
 
-  // Requests: each message carries this rank's number of arrays, then the point indices.
+  std::string swapError;
+  // Requests: this rank's number of arrays, then the point indices it wants from each rank. How
+  // many points each rank asks for is known even when the indices could not be received: the
+  // messages of the responses depend on it alone, so that both ranks of a pair exchange as many.
   std::vector<std::vector<std::uint64_t>> asked(this->Ranks);
-  std::vector<std::uint64_t> theirArrays(this->Ranks, 0);
+  std::vector<std::size_t> askedCount(this->Ranks, 0);
+  std::vector<vtkIdType> theirArrays(this->Ranks, 0);
   for (int q = 0; q < this->Ranks; ++q)
   {
     if (q == this->Me)
     {
       continue;
     }
-    vtkNew<vtkTypeUInt64Array> mine;
-    mine->SetNumberOfValues(static_cast<vtkIdType>(want[q].size() + 1));
-    mine->SetValue(0, arrays.size());
-    std::copy(want[q].begin(), want[q].end(), mine->GetPointer(1));
-    vtkNew<vtkTypeUInt64Array> theirs;
-    if (this->Me < q)
+    const vtkIdType mine = static_cast<vtkIdType>(arrays.size());
+    Pair(this->Controller, this->Me, q, &mine, 1, &theirArrays[q], 1, RequestTag);
+    this->Sent += sizeof(vtkIdType);
+    const bool moved = this->Swap(
+      q, want[q].data(), static_cast<vtkIdType>(want[q].size() * sizeof(std::uint64_t)),
+      [&](vtkIdType bytes) {
+        askedCount[q] = static_cast<std::size_t>(bytes) / sizeof(std::uint64_t);
+        asked[q].resize(askedCount[q]);
+        return static_cast<void*>(asked[q].data());
+      },
+      swapError);
+    if (!moved)
     {
-      this->Controller->Send(mine, q, RequestTag);
-      this->Controller->Receive(theirs, q, RequestTag);
-    }
-    else
-    {
-      this->Controller->Receive(theirs, q, RequestTag);
-      this->Controller->Send(mine, q, RequestTag);
-    }
-    this->Sent += mine->GetNumberOfValues() * sizeof(std::uint64_t);
-    if (theirs->GetNumberOfValues() > 0)
-    {
-      theirArrays[q] = theirs->GetValue(0);
-      asked[q].assign(theirs->GetPointer(1), theirs->GetPointer(0) + theirs->GetNumberOfValues());
+      asked[q].clear(); // not received: answered with no tuples
+      fail(swapError);
     }
   }
 
@@ -624,12 +748,12 @@ bool Pieces::Fetch(rust::Slice<const std::uint64_t> ids, const std::vector<vtkDa
       continue;
     }
     // What q asked for, from this rank's arrays (an answer of no tuples, refused by q, when this
-    // rank does not hold every point asked for).
+    // rank does not hold every point asked for or could not make the answer).
     std::vector<vtkSmartPointer<vtkDataArray>> answers;
-    vtkNew<vtkIdList> held;
-    if (!asked[q].empty())
+    try
     {
-      try
+      vtkNew<vtkIdList> held;
+      if (!asked[q].empty())
       {
         const rust::Vec<std::int64_t> local = bridge::piece_local_ids(
           this->WholeGrid, this->OwnExtent(), { asked[q].data(), asked[q].size() });
@@ -639,71 +763,65 @@ bool Pieces::Fetch(rust::Slice<const std::uint64_t> ids, const std::vector<vtkDa
           std::copy(local.begin(), local.end(), held->GetPointer(0));
         }
       }
-      catch (const rust::Error& e)
+      for (vtkDataArray* a : arrays)
       {
-        error = e.what();
-        ok = false;
+        auto answer = SameKind(a, held->GetNumberOfIds());
+        if (held->GetNumberOfIds() > 0)
+        {
+          a->GetTuples(held, answer);
+        }
+        answers.push_back(answer);
       }
     }
-    for (vtkDataArray* a : arrays)
+    catch (const rust::Error& e)
     {
-      auto answer = SameKind(a, held->GetNumberOfIds());
-      if (held->GetNumberOfIds() > 0)
-      {
-        a->GetTuples(held, answer);
-      }
-      answers.push_back(answer);
+      fail(e.what());
+    }
+    catch (const std::bad_alloc& e)
+    {
+      fail("out of memory for the points asked for: " + OutOfMemoryMessage(e));
+    }
+    for (std::size_t m = answers.size(); m < arrays.size(); ++m)
+    {
+      answers.push_back(SameKind(arrays[m], 0));
     }
     // Arrays go only where points were asked for, as many as both ranks hold (non-empty pieces
     // of one image hold the same point arrays; a difference is an error below).
     const std::size_t common = std::min(arrays.size(), static_cast<std::size_t>(theirArrays[q]));
-    const std::size_t toSend = asked[q].empty() ? 0 : common;
+    const std::size_t toSend = askedCount[q] == 0 ? 0 : common;
     const std::size_t toReceive = want[q].empty() ? 0 : common;
-    if (!want[q].empty() && theirArrays[q] != arrays.size())
+    if (!want[q].empty() && theirArrays[q] != static_cast<vtkIdType>(arrays.size()))
     {
-      error = "rank " + std::to_string(q) + " holds other point arrays than this rank";
-      ok = false;
+      fail("rank " + std::to_string(q) + " holds other point arrays than this rank");
     }
     for (std::size_t m = 0; m < std::max(toSend, toReceive); ++m)
     {
-      const bool send = m < toSend;
-      const bool receive = m < toReceive;
-      vtkSmartPointer<vtkDataArray> incoming = receive ? SameKind(arrays[m], 0) : nullptr;
-      if (this->Me < q)
+      vtkDataArray* answer = m < toSend ? answers[m].GetPointer() : nullptr;
+      vtkSmartPointer<vtkDataArray> incoming;
+      const bool moved = this->Swap(q, answer ? answer->GetVoidPointer(0) : nullptr,
+        answer ? answer->GetNumberOfValues() * answer->GetDataTypeSize() : 0,
+        [&](vtkIdType bytes) -> void* {
+          if (m >= toReceive)
+          {
+            return nullptr;
+          }
+          const vtkIdType tupleBytes =
+            arrays[m]->GetNumberOfComponents() * arrays[m]->GetDataTypeSize();
+          incoming = SameKind(arrays[m], tupleBytes > 0 ? bytes / tupleBytes : 0);
+          return incoming->GetVoidPointer(0);
+        },
+        swapError);
+      if (!moved)
       {
-        if (send)
-        {
-          this->Controller->Send(answers[m], q, ResponseTag);
-        }
-        if (receive)
-        {
-          this->Controller->Receive(incoming, q, ResponseTag);
-        }
+        fail(swapError);
       }
-      else
-      {
-        if (receive)
-        {
-          this->Controller->Receive(incoming, q, ResponseTag);
-        }
-        if (send)
-        {
-          this->Controller->Send(answers[m], q, ResponseTag);
-        }
-      }
-      if (send)
-      {
-        this->Sent += answers[m]->GetNumberOfValues() * answers[m]->GetDataTypeSize();
-      }
-      if (!receive)
+      if (!moved || m >= toReceive)
       {
         continue;
       }
-      if (incoming->GetNumberOfTuples() != static_cast<vtkIdType>(slots[q].size()) ||
-        incoming->GetNumberOfComponents() != fetched[m]->GetNumberOfComponents())
+      if (incoming->GetNumberOfTuples() != static_cast<vtkIdType>(slots[q].size()))
       {
-        error = "rank " + std::to_string(q) + " answered with other arrays or points than asked";
-        ok = false;
+        fail("rank " + std::to_string(q) + " answered with other arrays or points than asked");
         continue;
       }
       fetched[m]->InsertTuples(IdList(slots[q]), IdList(0, incoming->GetNumberOfTuples()), incoming);

@@ -16,6 +16,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -62,6 +63,26 @@ public:
   // Collective: AllOk, and where `ok` held but another rank failed, an error on `filter` saying that
   // `name` stopped because `what` failed on another rank (which reported its own error).
   bool Agree(vtkAlgorithm* filter, const char* name, bool ok, const char* what);
+  // This rank's part of a step between two collective ones: runs `work` (a callable returning false
+  // when it failed and reported why) and returns its outcome. Whatever `work` throws is caught and
+  // reported on `filter` here: a std::bad_alloc as the serial filters report running out of memory,
+  // a core error (rust::Error, e.g. the core's out of memory) as "`name` `failure`: error". So the
+  // rank always reaches the next collective step (an Agree), where the other ranks wait for it, and
+  // all ranks leave together. Every distributed filter runs each step between collectives in Run.
+  template <class Work>
+  static bool Run(vtkAlgorithm* filter, const char* name, const char* failure, Work&& work)
+  {
+    try
+    {
+      return work();
+    }
+    catch (...)
+    {
+      ReportCaught(filter, name, failure);
+      return false;
+    }
+  }
+
   // Collective: element-wise maximum over the ranks, in place.
   void MaxInPlace(std::vector<double>& values);
   // Collective: sum over the ranks.
@@ -105,6 +126,17 @@ public:
   double ExchangeSeconds() const { return this->Seconds; }
 
 private:
+  // Reports the exception being handled (see Run).
+  static void ReportCaught(vtkAlgorithm* filter, const char* name, const char* failure);
+
+  // Point-to-point with rank `q` in the global pair order (the lower rank sends first): sends
+  // `bytes` bytes at `out` and receives what `q` sends into the buffer `receive(size)` gives (of
+  // `size` bytes; it may throw std::bad_alloc). The sizes go first, then whether each rank has its
+  // buffer, and the payloads only when both have: a rank out of memory never leaves the other
+  // blocked in a send or a receive. Returns false, with `error` set, when either could not allocate.
+  bool Swap(int q, const void* out, vtkIdType bytes, const std::function<void*(vtkIdType)>& receive,
+    std::string& error);
+
   struct InputGeometry;
   Pieces(vtkMultiProcessController* controller, const InputGeometry& geometry);
 

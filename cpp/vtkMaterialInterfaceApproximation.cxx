@@ -733,8 +733,13 @@ int vtkMaterialInterfaceApproximation::vtkInternals::RequestDistributed(
   const auto started = std::chrono::steady_clock::now();
   const bool empty = input->GetNumberOfPoints() == 0;
   // Every rank takes part in every collective step below; a failure on one rank is agreed on
-  // before the next one.
+  // before the next one. Each step between two collective ones runs in Pieces::Run: whatever fails
+  // on this rank (out of memory among it) is reported here and agreed on, so that all ranks leave
+  // together with empty outputs.
   vtkDiamonds::Pieces pieces(controller, inputVector[0]->GetInformationObject(0), input);
+  const auto run = [&](const char* failure, auto&& work) {
+    return vtkDiamonds::Pieces::Run(self, FilterName, failure, work);
+  };
   const auto clear = [&]() {
     tetOutput->Initialize();
     interfaceOutput->Initialize();
@@ -755,12 +760,14 @@ int vtkMaterialInterfaceApproximation::vtkInternals::RequestDistributed(
   std::vector<vtkDataArray*> cellArrays;
   if (ok && !empty)
   {
-    const std::optional<bridge::ArraySelection> selection = this->SelectArrays(self, input);
-    ok = selection.has_value();
-    std::vector<bridge::SelectedArray> read;
-    if (ok)
-    {
-      read.assign(selection->fractions.begin(), selection->fractions.end());
+    ok = run("cannot read its input", [&] {
+      const std::optional<bridge::ArraySelection> selection = this->SelectArrays(self, input);
+      if (!selection)
+      {
+        return false;
+      }
+      std::vector<bridge::SelectedArray> read(
+        selection->fractions.begin(), selection->fractions.end());
       for (const bridge::SelectedField& f : selection->fields)
       {
         if (!f.from_materials)
@@ -772,11 +779,12 @@ int vtkMaterialInterfaceApproximation::vtkInternals::RequestDistributed(
       {
         read.push_back(m.array);
       }
-    }
-    for (const bridge::SelectedArray& a : read)
-    {
-      (a.cell ? cellArrays : pointArrays).push_back(ArrayOf(input, a));
-    }
+      for (const bridge::SelectedArray& a : read)
+      {
+        (a.cell ? cellArrays : pointArrays).push_back(ArrayOf(input, a));
+      }
+      return true;
+    });
   }
   if (!agree(ok, "reading the input"))
   {
@@ -826,27 +834,26 @@ int vtkMaterialInterfaceApproximation::vtkInternals::RequestDistributed(
   Status status = Status::Done;
   if (whole)
   {
-    bridge::GridSpec grid{};
-    status = this->Update(self, whole, interfaces, grid);
-    if (status == Status::Done)
+    const bool done = run("failed", [&] {
+      bridge::GridSpec grid{};
+      status = this->Update(self, whole, interfaces, grid);
+      if (status != Status::Done)
+      {
+        return false;
+      }
+      const bridge::MaterialMesh& mesh = **this->Mesh;
+      const std::size_t rank = static_cast<std::size_t>(pieces.Rank());
+      this->FillTetrahedra(self, input, *mesh.piece(grid, pieces.Extents(), rank), tetOutput, true);
+      this->FillInterfaces(
+        *mesh.interface_polygons_piece(grid, pieces.Extents(), rank), interfaceOutput, true);
+      this->FillSlice(
+        *mesh.slice_piece(this->Plane(self), this->FieldNames(), grid, pieces.Extents(), rank),
+        sliceOutput, true);
+      return true;
+    });
+    if (!done && status == Status::Done)
     {
-      try
-      {
-        const bridge::MaterialMesh& mesh = **this->Mesh;
-        const std::size_t rank = static_cast<std::size_t>(pieces.Rank());
-        this->FillTetrahedra(
-          self, input, *mesh.piece(grid, pieces.Extents(), rank), tetOutput, true);
-        this->FillInterfaces(
-          *mesh.interface_polygons_piece(grid, pieces.Extents(), rank), interfaceOutput, true);
-        this->FillSlice(*mesh.slice_piece(this->Plane(self), this->FieldNames(), grid,
-                          pieces.Extents(), rank),
-          sliceOutput, true);
-      }
-      catch (const rust::Error& e)
-      {
-        vtkErrorWithObjectMacro(self, << FilterName << ": " << e.what());
-        status = Status::Failed;
-      }
+      status = Status::Failed;
     }
   }
   if (!agree(status == Status::Done, "the approximation"))

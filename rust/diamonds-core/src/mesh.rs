@@ -217,17 +217,29 @@ fn subtrees(lattice: &Lattice, split: &SplitSet) -> Vec<(Tet, u64)> {
 }
 
 /// What `keep` makes of the inside leaves of the split set (those it keeps), in a deterministic
-/// order (depth first); subtrees of tetrahedra for which `prune` holds are skipped.
+/// order (depth first); subtrees of tetrahedra for which `prune` holds are skipped. Fails with
+/// [`Error::OutOfMemory`] when an allocation failed meanwhile ([`memory::exhausted`]): no subtree is
+/// walked after that, and the result is allocated fallibly.
 pub(crate) fn leaves_where<X: Send>(
     lattice: &Lattice,
     split: &SplitSet,
     prune: impl Fn(&Tet) -> bool + Sync,
     keep: impl Fn(&Tet) -> Option<X> + Sync,
-) -> Vec<X> {
-    subtrees(lattice, split)
+) -> Result<Vec<X>> {
+    const WHAT: &str = "the leaves of the refined mesh";
+    let parts: Vec<Option<Vec<X>>> = subtrees(lattice, split)
         .into_par_iter()
-        .flat_map_iter(|(t, _)| leaves_below(lattice, split, t, &prune, &keep))
-        .collect()
+        .map(|(t, _)| {
+            (!memory::exhausted()).then(|| leaves_below(lattice, split, t, &prune, &keep))
+        })
+        .collect();
+    memory::check(WHAT)?;
+    let total = parts.iter().flatten().map(Vec::len).sum();
+    let mut out = memory::with_capacity(total, WHAT)?;
+    for part in parts.into_iter().flatten() {
+        out.extend(part);
+    }
+    Ok(out)
 }
 
 /// [`leaves_where`] below the tetrahedron `t` of the hierarchy (`t` itself when it is a leaf), on
@@ -350,21 +362,16 @@ impl PointSet {
     }
 
     /// The grid indices of the used points, ascending.
-    pub(crate) fn indices(&self) -> Vec<usize> {
-        self.used
-            .par_iter()
-            .enumerate()
-            .flat_map_iter(|(w, &word)| {
-                let mut bits = word;
-                std::iter::from_fn(move || {
-                    (bits != 0).then(|| {
-                        let b = bits.trailing_zeros() as usize;
-                        bits &= bits - 1;
-                        w * 64 + b
-                    })
-                })
-            })
-            .collect()
+    pub(crate) fn indices(&self) -> Result<Vec<usize>> {
+        let mut out = memory::with_capacity(self.len, "the mesh's point ids")?;
+        for (w, &word) in self.used.iter().enumerate() {
+            let mut bits = word;
+            while bits != 0 {
+                out.push(w * 64 + bits.trailing_zeros() as usize);
+                bits &= bits - 1;
+            }
+        }
+        Ok(out)
     }
 }
 

@@ -686,11 +686,12 @@ impl PieceHierarchy {
                 !owned.meets(lo, hi)
             },
             |t: &Tet| owner.owns(t).then(|| mesh::output_tet(lattice, t, &error)),
-        );
-        // The points: a bitset over the whole grid, a point's id its rank there.
-        let used: Vec<AtomicU64> = (0..self.layout.grid.len().div_ceil(64))
-            .map(|_| AtomicU64::new(0))
-            .collect();
+        )?;
+        // The points: a bitset over the whole grid, a point's id its rank there. Every buffer is
+        // allocated fallibly (a rank out of memory reports it to the others instead of aborting).
+        let words = self.layout.grid.len().div_ceil(64);
+        let mut used: Vec<AtomicU64> = memory::with_capacity(words, "the mesh's point set")?;
+        used.extend((0..words).map(|_| AtomicU64::new(0)));
         leaves.par_iter().for_each(|(t, _, _)| {
             for p in t {
                 let i = lattice.index(*p);
@@ -698,19 +699,25 @@ impl PieceHierarchy {
             }
         });
         let points = PointSet::new(used.into_iter().map(AtomicU64::into_inner).collect())?;
-        let point_ids = points.indices();
+        let point_ids = points.indices()?;
         let grid = &self.layout.grid;
+        let mut positions = memory::with_capacity(point_ids.len(), "the mesh's points")?;
+        positions.par_extend(point_ids.par_iter().map(|&i| grid.point(grid.ijk(i))));
+        let mut tets = memory::with_capacity(leaves.len(), "the mesh's tetrahedra")?;
+        tets.par_extend(
+            leaves
+                .par_iter()
+                .map(|(t, _, _)| t.map(|p| points.id(lattice.index(p)) as u32)),
+        );
+        let mut depths = memory::with_capacity(leaves.len(), "the mesh's depths")?;
+        depths.extend(leaves.iter().map(|l| l.1));
+        let mut errors = memory::with_capacity(leaves.len(), "the mesh's errors")?;
+        errors.extend(leaves.iter().map(|l| l.2));
         let mut out = TetMesh {
-            points: point_ids
-                .par_iter()
-                .map(|&i| grid.point(grid.ijk(i)))
-                .collect(),
-            tets: leaves
-                .par_iter()
-                .map(|(t, _, _)| t.map(|p| points.id(lattice.index(p)) as u32))
-                .collect(),
-            depths: leaves.iter().map(|l| l.1).collect(),
-            errors: leaves.iter().map(|l| l.2).collect(),
+            points: positions,
+            tets,
+            depths,
+            errors,
             max_error: 0.0,
             point_ids,
         };

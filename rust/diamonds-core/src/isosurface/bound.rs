@@ -71,7 +71,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
         criterion: impl Fn(Diamond) -> f64,
     ) -> Result<(SplitSet, Vec<Tet>)> {
         let isovalues = &query.isovalues;
-        let mut carriers = self.carriers_of(isovalues, &split);
+        let mut carriers = self.carriers_of(isovalues, &split)?;
         let grid = &self.volume.grid;
         let reach = tolerance - (1e-6 * grid.diagonal()).min(0.5 * tolerance);
         let inside = |p: DVec3| {
@@ -489,7 +489,7 @@ mod tests {
                 })
                 .unwrap();
             assert!(split.len() > plain.len(), "nothing forced at {tol}");
-            let fresh = x.carriers_of(&query.isovalues, &split);
+            let fresh = x.carriers_of(&query.isovalues, &split).unwrap();
             assert_eq!(sorted(&carriers), sorted(&fresh), "tolerance {tol}");
         }
     }

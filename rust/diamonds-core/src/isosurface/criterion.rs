@@ -9,6 +9,7 @@ use crate::lattice::{Placement, Tet};
 use crate::mesh;
 use crate::refine::SplitSet;
 use crate::volume::Sample;
+use crate::Result;
 use glam::IVec3;
 
 /// Boxes of at most this many samples get their exact range where it decides a split.
@@ -53,7 +54,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
     }
 
     /// The leaves of the mesh of `split` that carry the surface of `isovalues`.
-    pub(super) fn carriers_of(&self, isovalues: &[f64], split: &SplitSet) -> Vec<Tet> {
+    pub(super) fn carriers_of(&self, isovalues: &[f64], split: &SplitSet) -> Result<Vec<Tet>> {
         let empty = |t: &Tet| self.misses(isovalues, t);
         mesh::leaves_where(self.lattice(), split, empty, |t| {
             carries(self.volume, isovalues, t).then_some(*t)

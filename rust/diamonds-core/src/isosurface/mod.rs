@@ -320,7 +320,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
         let split = refine(criterion)?;
         if tolerance == 0.0 {
             // Full resolution wherever the surface may pass: nothing is hidden.
-            let carriers = self.carriers_of(&query.isovalues, &split);
+            let carriers = self.carriers_of(&query.isovalues, &split)?;
             return Ok((split, carriers));
         }
         self.certify(query, tolerance, split, criterion)

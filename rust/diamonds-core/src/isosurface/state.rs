@@ -312,7 +312,7 @@ impl IsoState {
                 t[0].max(t[1]).max(t[2].max(t[3])),
             )
         };
-        let leaves = mesh::leaves_where(&lattice, &split, outside, keep);
+        let leaves = mesh::leaves_where(&lattice, &split, outside, keep)?;
         Ok((leaves, error_bound, split))
     }
 }

@@ -820,7 +820,7 @@ impl MaterialModel {
             &mut round,
         )
         .ok_or(Error::Aborted)?;
-        let mut mesh = self.extract((&split, shift), query.ghost_values, &infos, &evals);
+        let mut mesh = self.extract((&split, shift), query.ghost_values, &infos, &evals)?;
         mesh.interface_tetrahedra = interface_tets;
         if !progress(1.0) {
             return Err(Error::Aborted);
@@ -836,7 +836,7 @@ impl MaterialModel {
         ghost_values: bool,
         infos: &Memo<usize, Arc<VertexInfo>>,
         evals: &Memo<Diamond, DiamondEval>,
-    ) -> MaterialMesh {
+    ) -> Result<MaterialMesh> {
         let lattice = split.lattice();
         // Each leaf with its errors when refinement measured them exactly.
         let measured = |t: &Tet| -> Option<TetEval> {
@@ -853,7 +853,7 @@ impl MaterialModel {
                 .and_then(|i| exact.get(i).copied())
         };
         let mut leaves =
-            crate::mesh::leaves_where(lattice, split, |_| false, |t| Some((*t, measured(t))));
+            crate::mesh::leaves_where(lattice, split, |_| false, |t| Some((*t, measured(t))))?;
         for (t, _) in &mut leaves {
             if signed_volume6(t) < 0 {
                 t.swap(2, 3);
@@ -889,7 +889,7 @@ impl MaterialModel {
         let k = self.materials;
         let nf = self.fields.len();
         let column = |f: &dyn Fn(&VertexInfo) -> f32| infos.iter().map(|v| f(v)).collect();
-        MaterialMesh {
+        Ok(MaterialMesh {
             materials: k,
             fields: nf,
             points: ids
@@ -922,7 +922,7 @@ impl MaterialModel {
             max_field_error: evals.iter().fold(0.0, |a, e| a.max(e.field)),
             interface_tetrahedra: 0,
             ghost_values,
-        }
+        })
     }
 }
 
