@@ -187,6 +187,18 @@ try
   const bridge::Isodiamonds* isodiamonds = nullptr;
   if (this->Hierarchy != HIERARCHY_FULL)
   {
+    // A region of interest, which its extraction refuses, is refused before the build.
+    try
+    {
+      bridge::check_isodiamond_query(this->UseRegionOfInterest != 0, false);
+    }
+    catch (const rust::Error& e)
+    {
+      vtkErrorMacro(<< Text.Name << ", Hierarchy "
+                    << (this->Hierarchy == HIERARCHY_MINIMAL ? "Minimal" : "Relevant") << ": "
+                    << e.what());
+      return 0;
+    }
     const std::vector<double> range(this->ThresholdRange, this->ThresholdRange + 2);
     isodiamonds = cache.PrepareIsodiamonds(this, Text, range, this->Hierarchy == HIERARCHY_MINIMAL,
       0.3, 0.5, this->NumberOfIsodiamondBuilds, result);

@@ -329,6 +329,19 @@ try
                     << " contour values are set: keep one value, or choose Hierarchy Full.");
       return 0;
     }
+    // Options its extraction refuses are refused before the build, not after it.
+    try
+    {
+      bridge::check_isodiamond_query(
+        this->UseRegionOfInterest != 0, this->GenerateCarrierTetrahedra != 0);
+    }
+    catch (const rust::Error& e)
+    {
+      vtkErrorMacro(<< Text.Name << ", Hierarchy "
+                    << (this->Hierarchy == HIERARCHY_MINIMAL ? "Minimal" : "Relevant") << ": "
+                    << e.what());
+      return 0;
+    }
     isodiamonds = cache.PrepareIsodiamonds(this, Text, *isovalues,
       this->Hierarchy == HIERARCHY_MINIMAL, 0.7, 0.75, this->NumberOfIsodiamondBuilds, result);
     if (!isodiamonds)

@@ -260,10 +260,13 @@ for label, changes, phrase in [
     data, text = run(f)
     print(f"   [{label}] {text.strip().splitlines()[-1] if text.strip() else '(no message)'}")
     dc.check(phrase in text and data.GetNumberOfCells() == 0, f"isosurface, Relevant with {label}: error mentions {phrase!r}, empty output")
+    # Refused before the isodiamond hierarchy is built: the user does not wait for a useless build.
+    dc.check(isodiamond_builds(f) == 0, f"isosurface, Relevant with {label}: refused before any isodiamond build ({isodiamond_builds(f)})")
     simple.Delete(f)
 f = simple.AdaptiveIntervalVolume(Input=wavelet, ThresholdRange=[130.0, 180.0], Hierarchy="Minimal", UseRegionOfInterest=1, RegionOfInterest=[-5, 5, -5, 5, -5, 5])
 data, text = run(f)
 dc.check("region of interest" in text and data.GetNumberOfCells() == 0, f"interval volume, Minimal with a region of interest: a clear error, empty output ({text.strip().splitlines()[-1] if text.strip() else ''})")
+dc.check(isodiamond_builds(f) == 0, f"interval volume, Minimal with a region of interest: refused before any isodiamond build ({isodiamond_builds(f)})")
 
 # ---- An isovalue or range missing the data: an empty output and a warning, as with Full.
 for choice in CHOICES:

@@ -67,6 +67,18 @@ impl Hierarchy {
     }
 }
 
+/// Whether an isodiamond hierarchy's extraction accepts these options (see
+/// `ffi::check_isodiamond_query`).
+pub fn check_isodiamond_query(
+    region_of_interest: bool,
+    carrier_tetrahedra: bool,
+) -> Result<(), String> {
+    guard("checking the isodiamond query", || {
+        isodiamond::Isodiamonds::refuse_unsupported(region_of_interest, carrier_tetrahedra)
+            .map_err(|e| e.to_string())
+    })
+}
+
 impl Isodiamonds {
     /// The isosurface of `spec` (see `ffi::Isodiamonds::isosurface`).
     pub fn isosurface(&self, isovalues: &[f64], spec: &IsoSpec) -> Result<Box<Surface>, String> {

@@ -529,6 +529,10 @@ mod ffi {
             minimal: bool,
             progress: Pin<&mut ProgressObserver>,
         ) -> Result<Box<Isodiamonds>>;
+        /// Fails with the reason when an isodiamond hierarchy's extraction would refuse a region
+        /// of interest or carrier tetrahedra: asked before building one.
+        fn check_isodiamond_query(region_of_interest: bool, carrier_tetrahedra: bool)
+            -> Result<()>;
         /// The isosurface of `spec` (`isovalues`: this hierarchy's one isovalue) at the finest rung
         /// whose tolerance is at most `spec.tolerance`, raised to the finest that fits a triangle
         /// budget; normals of the surface itself. Refuses a region of interest and carrier
@@ -801,7 +805,7 @@ pub mod interval;
 pub use interval::IntervalVolume;
 
 pub mod isodiamonds;
-pub use isodiamonds::Isodiamonds;
+pub use isodiamonds::{check_isodiamond_query, Isodiamonds};
 
 pub mod material;
 pub mod piece;

@@ -885,7 +885,7 @@ impl Isodiamonds {
                 query.isovalues
             )));
         }
-        self.refuse_unsupported(query.region_of_interest.is_some(), query.carrier_tetrahedra)?;
+        Self::refuse_unsupported(query.region_of_interest.is_some(), query.carrier_tetrahedra)?;
         let (mut surface, warning) = self.within_budget(
             query.tolerance,
             query.max_triangles,
@@ -914,7 +914,7 @@ impl Isodiamonds {
                 query.range
             )));
         }
-        self.refuse_unsupported(query.region_of_interest.is_some(), false)?;
+        Self::refuse_unsupported(query.region_of_interest.is_some(), false)?;
         let (mut volume, warning) = self.within_budget(
             query.tolerance,
             query.max_tetrahedra,
@@ -941,11 +941,12 @@ impl Isodiamonds {
         })
     }
 
-    /// What isodiamond extraction does not offer. A region of interest: the full hierarchy's result
+    /// What isodiamond extraction does not offer (filters ask before building a hierarchy, so that
+    /// the user does not wait for a build whose extraction is refused). A region of interest: the full hierarchy's result
     /// for a box comes from its two-sided bound check inside the box, which reads the samples and
     /// splits according to the mesh the box makes ([`crate::isosurface`]); the stored split sets
     /// are the whole image's, without the samples, so they cannot reproduce it.
-    fn refuse_unsupported(&self, region: bool, carrier: bool) -> Result<()> {
+    pub fn refuse_unsupported(region: bool, carrier: bool) -> Result<()> {
         let (what, why) = if region {
             ("a region of interest", "it stores the whole image's split set per rung of its ladder, not the samples the full hierarchy's bound check reads inside the region")
         } else if carrier {
