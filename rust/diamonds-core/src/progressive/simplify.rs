@@ -38,9 +38,6 @@ use crate::geometry::{
 };
 use crate::hierarchy::Progress;
 use crate::{memory, Error, Result};
-
-/// What the reduction was doing when memory ran out, for [`Error::OutOfMemory`].
-const PREPARING: &str = "preparing the progressive mesh (vertex links, boundary, quadrics)";
 use glam::DVec3;
 use priority_queue::PriorityQueue;
 use rayon::prelude::*;
@@ -48,6 +45,9 @@ use rstar::primitives::{GeomWithData, Rectangle};
 use rstar::{Envelope, PointDistance, RTree, RTreeObject, AABB};
 use rustc_hash::FxBuildHasher;
 use std::cmp::Ordering;
+
+/// What the reduction was doing when memory ran out, for [`Error::OutOfMemory`].
+const PREPARING: &str = "preparing the progressive mesh (vertex links, boundary, quadrics)";
 
 /// A collapse cost in the queue: the lowest comes first.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -511,7 +511,10 @@ impl Simplifier {
             .map(|v| (!memory::exhausted()).then(|| Link::of(&tets, &star[v as usize], v)))
             .collect();
         memory::check(PREPARING)?;
-        let links = links.expect("links are only missing once memory is exhausted");
+        let links = links.ok_or_else(|| Error::OutOfMemory {
+            what: PREPARING.to_string(),
+            bytes: 0,
+        })?;
         let kind = links
             .par_iter()
             .enumerate()
