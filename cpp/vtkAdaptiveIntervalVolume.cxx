@@ -22,6 +22,7 @@
 #include "vtkDiamondsHierarchyCache.h"
 #include "vtkDiamondsImageGeometry.h"
 #include "vtkDiamondsOutput.h"
+#include "vtkDiamondsProgress.h"
 
 #include <cmath>
 #include <cstddef>
@@ -77,6 +78,8 @@ void FillVolume(const bridge::IntervalVolume& volume, vtkImageData* input, vtkUn
 class vtkAdaptiveIntervalVolume::vtkInternals
 {
 public:
+  // Clears a stale abort (see AbortLatch).
+  vtkDiamonds::AbortLatch Abort;
   // The extraction reads the samples again: keep them with the hierarchy.
   vtkDiamonds::HierarchyCache Cache{ vtkDiamonds::HierarchyCache::Use::Isosurfaces };
 };
@@ -141,6 +144,7 @@ int vtkAdaptiveIntervalVolume::RequestData(
   vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
 try
 {
+  const vtkDiamonds::AbortLatch::Execution execution(this, this->Internals->Abort);
   vtkImageData* input = vtkImageData::GetData(inputVector[0]);
   vtkUnstructuredGrid* output = vtkUnstructuredGrid::GetData(outputVector, 0);
   if (!input || !output)

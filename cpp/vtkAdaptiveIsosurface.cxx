@@ -27,6 +27,7 @@
 #include "vtkDiamondsImageGeometry.h"
 #include "vtkDiamondsOutput.h"
 #include "vtkDiamondsPieces.h"
+#include "vtkDiamondsProgress.h"
 
 #include <algorithm>
 #include <array>
@@ -54,6 +55,8 @@ const vtkDiamonds::FilterText Text = { "Adaptive Isosurface", "contour", "contou
 class vtkAdaptiveIsosurface::vtkInternals
 {
 public:
+  // Clears a stale abort (see AbortLatch).
+  vtkDiamonds::AbortLatch Abort;
   // The extraction reads the samples again: keep them with the hierarchy.
   vtkDiamonds::HierarchyCache Cache{ vtkDiamonds::HierarchyCache::Use::Isosurfaces };
 
@@ -275,6 +278,7 @@ int vtkAdaptiveIsosurface::RequestData(
   vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
 try
 {
+  const vtkDiamonds::AbortLatch::Execution execution(this, this->Internals->Abort);
   vtkImageData* input = vtkImageData::GetData(inputVector[0]);
   vtkPolyData* output = vtkPolyData::GetData(outputVector, 0);
   vtkUnstructuredGrid* carrier = vtkUnstructuredGrid::GetData(outputVector, 1);
@@ -501,7 +505,7 @@ int vtkAdaptiveIsosurface::RequestDistributed(vtkMultiProcessController* control
   }
   if (!agree(ok, "reading the input"))
   {
-    return 0;
+    return pieces.Failed();
   }
 
   // ---- The whole image on every rank with a piece, fetched again when any rank's input changed.
@@ -530,7 +534,7 @@ int vtkAdaptiveIsosurface::RequestDistributed(vtkMultiProcessController* control
     if (!agree(ok, "fetching the image"))
     {
       this->Internals->Whole = nullptr;
-      return 0;
+      return pieces.Failed();
     }
     this->Internals->WholeBuilt = key;
   }
@@ -567,9 +571,9 @@ int vtkAdaptiveIsosurface::RequestDistributed(vtkMultiProcessController* control
       surface.reset();
     }
   }
-  if (!agree(ok && !this->CheckAbort(), "the extraction"))
+  if (!agree(ok, "the extraction"))
   {
-    return this->GetAbortExecute() ? 1 : 0;
+    return pieces.Failed();
   }
   if (surface && cache.GetIsoState().reused())
   {
@@ -596,7 +600,7 @@ int vtkAdaptiveIsosurface::RequestDistributed(vtkMultiProcessController* control
   surface.reset();
   if (!agree(ok, "the output"))
   {
-    return 0;
+    return pieces.Failed();
   }
   const vtkIdType numTriangles = output->GetNumberOfCells();
   pieces.MaxInPlace(errorBound);

@@ -122,7 +122,8 @@
  *
  * Progress is reported through UpdateProgress (after the hierarchy build, after the extraction,
  * then the output); AbortExecute / CheckAbort, checked between these steps, leaves the outputs
- * empty (a hierarchy already built is kept).
+ * empty (a hierarchy already built is kept); under MPI an abort on one rank ends every rank's
+ * execution. The flag is cleared by the next execution after a property or the input changed.
  *
  * The core is written in Rust (crate diamonds-core) and reached through one cxx bridge (crate
  * diamonds-bridge); it runs on a thread pool of its own, independent of VTK's SMP backend.

@@ -51,6 +51,8 @@ const vtkDiamonds::FilterText Text = { "Adaptive Tetrahedra", "approximate", "ap
 class vtkAdaptiveTetrahedra::vtkInternals
 {
 public:
+  // Clears a stale abort (see AbortLatch).
+  vtkDiamonds::AbortLatch Abort;
   // The mesh query does not read the samples again: no need to keep them.
   vtkDiamonds::HierarchyCache Cache{ vtkDiamonds::HierarchyCache::Use::Tetrahedra };
 
@@ -126,6 +128,7 @@ int vtkAdaptiveTetrahedra::RequestData(
   vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
 try
 {
+  const vtkDiamonds::AbortLatch::Execution execution(this, this->Internals->Abort);
   vtkImageData* input = vtkImageData::GetData(inputVector[0]);
   vtkUnstructuredGrid* output = vtkUnstructuredGrid::GetData(outputVector);
   if (!input || !output)
@@ -252,7 +255,7 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
   });
   if (!agree(ok, "reading the input"))
   {
-    return 0;
+    return pieces.Failed();
   }
   const auto bytesOf = [](vtkDataArray* a) {
     return a ? rust::Slice<const std::uint8_t>(static_cast<const std::uint8_t*>(a->GetVoidPointer(0)),
@@ -319,7 +322,7 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
     if (!agree(ok, "building the hierarchy"))
     {
       this->Internals->Piece.reset();
-      return 0;
+      return pieces.Failed();
     }
     // The coarse errors (one per point of the coarse sublattice, as many on every rank), combined.
     bridge::PieceHierarchy& built = **this->Internals->Piece;
@@ -331,7 +334,7 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
     if (!agree(ok, "building the hierarchy"))
     {
       this->Internals->Piece.reset();
-      return 0;
+      return pieces.Failed();
     }
     pieces.MaxInPlace(coarse);
     ok = run(cannotBuild, [&] {
@@ -341,7 +344,7 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
     if (!agree(ok, "building the hierarchy"))
     {
       this->Internals->Piece.reset();
-      return 0;
+      return pieces.Failed();
     }
     this->Internals->PieceBuilt = key;
     ++this->NumberOfHierarchyBuilds;
@@ -362,7 +365,7 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
   });
   if (!agree(ok, "the query"))
   {
-    return 0;
+    return pieces.Failed();
   }
   int rounds = 0;
   const char* refinementFailed = "refinement failed";
@@ -374,9 +377,9 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
       outgoing.assign(out.begin(), out.end());
       return true;
     });
-    if (!agree(ok && !this->CheckAbort(), "the refinement"))
+    if (!agree(ok, "the refinement"))
     {
-      return this->GetAbortExecute() ? 1 : 0;
+      return pieces.Failed();
     }
     if (pieces.Sum(static_cast<vtkIdType>(outgoing.size())) == 0)
     {
@@ -443,7 +446,7 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
   }
   if (!agree(ok, "fetching point data"))
   {
-    return 0;
+    return pieces.Failed();
   }
 
   // ---- Output.
@@ -482,7 +485,7 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
   fetched.clear();
   if (!agree(ok, "writing the output"))
   {
-    return 0;
+    return pieces.Failed();
   }
   const vtkIdType numTets = output->GetNumberOfCells();
 

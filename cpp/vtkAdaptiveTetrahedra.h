@@ -89,7 +89,9 @@
  * the conversion is inexact).
  *
  * Progress is reported through UpdateProgress (hierarchy build, then the query, then the
- * output); AbortExecute / CheckAbort interrupts the build and leaves the output empty.
+ * output); AbortExecute / CheckAbort interrupts the build and leaves the output empty; under
+ * MPI an abort on one rank ends every rank's execution. The flag is cleared by the next execution
+ * after a property or the input changed.
  *
  * The core of this filter is written in Rust (crate diamonds-core) and reached through one cxx
  * bridge (crate diamonds-bridge); the build runs on a thread pool of its own, independent of

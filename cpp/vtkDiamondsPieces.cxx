@@ -595,11 +595,29 @@ bool Pieces::AllOk(bool ok)
 
 bool Pieces::Agree(vtkAlgorithm* filter, const char* name, bool ok, const char* what)
 {
-  if (this->AllOk(ok))
+  // 0: done, 1: failed, 2: aborted (CheckAbort sets AbortOutput; the executive sets it too when
+  // an input arrived ABORTED). The maximum over the ranks decides.
+  const bool aborted = filter->CheckAbort() || filter->GetAbortOutput();
+  const int mine = aborted ? 2 : ok ? 0 : 1;
+  int all = 0;
+  {
+    Clock clock{ this->Seconds };
+    this->Controller->AllReduce(&mine, &all, 1, vtkCommunicator::MAX_OP);
+    this->Sent += sizeof(int);
+  }
+  if (all == 0)
   {
     return true;
   }
-  if (ok)
+  if (all == 2)
+  {
+    // Every rank ends this execution as an aborted one: its outputs are emptied and marked
+    // ABORTED on every rank alike, so a later request for any port executes the filter on every
+    // rank, never on the aborting rank alone.
+    this->Aborted = true;
+    filter->SetAbortOutput(true);
+  }
+  else if (ok)
   {
     vtkErrorWithObjectMacro(
       filter, << name << " stopped: " << what << " failed on another rank (see its error).");

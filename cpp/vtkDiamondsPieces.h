@@ -60,9 +60,16 @@ public:
 
   // Collective: true on every rank when `ok` is true on every rank.
   bool AllOk(bool ok);
-  // Collective: AllOk, and where `ok` held but another rank failed, an error on `filter` saying that
-  // `name` stopped because `what` failed on another rank (which reported its own error).
+  // Collective: true on every rank when `ok` is true on every rank and no rank's execution of
+  // `filter` was aborted (CheckAbort: its AbortExecute or an abort upstream). Where `ok` held but
+  // another rank failed, an error on `filter` saying that `name` stopped because `what` failed on
+  // another rank (which reported its own error). When a rank was aborted, every rank ends the
+  // execution aborted, without an error: AbortOutput set (the executive empties the outputs and
+  // marks them ABORTED alike on every rank), and Failed() is 1.
   bool Agree(vtkAlgorithm* filter, const char* name, bool ok, const char* what);
+  // What RequestData returns after an Agree that failed: 1 after an abort (not an error, as a
+  // serial filter's abort), else 0.
+  int Failed() const { return this->Aborted ? 1 : 0; }
   // This rank's part of a step between two collective ones: runs `work` (a callable returning false
   // when it failed and reported why) and returns its outcome. Whatever `work` throws is caught and
   // reported on `filter` here: a std::bad_alloc as the serial filters report running out of memory,
@@ -150,6 +157,7 @@ private:
   std::vector<std::int64_t> All;
   double Sent = 0.0;
   double Seconds = 0.0;
+  bool Aborted = false; // an Agree found a rank aborted
 };
 
 } // namespace vtkDiamonds

@@ -239,6 +239,8 @@ bool SetInterfaces(vtkAlgorithm* filter, bridge::MaterialBuilder& builder, vtkPo
 class vtkMaterialInterfaceApproximation::vtkInternals
 {
 public:
+  // Clears a stale abort (see AbortLatch).
+  vtkDiamonds::AbortLatch Abort;
   std::vector<std::string> FractionArrays;
   std::vector<std::string> FieldArrays;
   std::vector<std::string> MaterialFieldArrays;
@@ -788,7 +790,7 @@ int vtkMaterialInterfaceApproximation::vtkInternals::RequestDistributed(
   }
   if (!agree(ok, "reading the input"))
   {
-    return 0;
+    return pieces.Failed();
   }
 
   // ---- The whole input on every rank with a piece, gathered again when any rank's input changed.
@@ -824,7 +826,7 @@ int vtkMaterialInterfaceApproximation::vtkInternals::RequestDistributed(
     if (!agree(ok, "gathering the input"))
     {
       this->Whole = nullptr;
-      return 0;
+      return pieces.Failed();
     }
     this->WholeBuilt = key;
   }
@@ -858,7 +860,7 @@ int vtkMaterialInterfaceApproximation::vtkInternals::RequestDistributed(
   }
   if (!agree(status == Status::Done, "the approximation"))
   {
-    return status == Status::Aborted ? 1 : 0;
+    return pieces.Failed();
   }
 
   // ---- Totals over the ranks and the per-rank figures.
@@ -1079,6 +1081,7 @@ int vtkMaterialInterfaceApproximation::RequestData(
   vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
 try
 {
+  const vtkDiamonds::AbortLatch::Execution execution(this, this->Internals->Abort);
   vtkDataSet* input = vtkDataSet::GetData(inputVector[0]);
   vtkPolyData* interfaceInput = vtkPolyData::GetData(inputVector[1]);
   vtkUnstructuredGrid* tetOutput = vtkUnstructuredGrid::GetData(outputVector, 0);

@@ -93,7 +93,9 @@
  * takes part and outputs nothing.
  *
  * Progress: model build, then refinement (reported by the core), then the outputs; AbortExecute
- * stops the refinement and leaves the outputs empty.
+ * stops the refinement and leaves the outputs empty; under MPI an abort on one rank ends every
+ * rank's execution. The flag is cleared by the next execution after a property or the input
+ * changed.
  *
  * The core is written in Rust (crate diamonds-core, module material) and reached through the cxx
  * bridge (crate diamonds-bridge); this class only reads arrays, calls the bridge and builds VTK

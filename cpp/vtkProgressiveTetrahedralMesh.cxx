@@ -59,6 +59,8 @@ struct Key
 class vtkProgressiveTetrahedralMesh::vtkInternals
 {
 public:
+  // Clears a stale abort (see AbortLatch).
+  vtkDiamonds::AbortLatch Abort;
   std::optional<rust::Box<bridge::Progressive>> Progressive;
   Key Built;
   // The tetrahedralised input when the input had other cells (kept: the key points at it).
@@ -139,6 +141,7 @@ int vtkProgressiveTetrahedralMesh::RequestData(
   vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
 try
 {
+  const vtkDiamonds::AbortLatch::Execution execution(this, this->Internals->Abort);
   vtkUnstructuredGrid* input = vtkUnstructuredGrid::GetData(inputVector[0]);
   vtkUnstructuredGrid* output = vtkUnstructuredGrid::GetData(outputVector, 0);
   vtkPolyData* surface = vtkPolyData::GetData(outputVector, 1);
@@ -315,6 +318,10 @@ try
     return 0;
   }
   this->UpdateProgress(0.95);
+  if (this->CheckAbort()) // also when no collapse was needed (the core reported no progress)
+  {
+    return 1;
+  }
 
   // ---- Output: the level's points with all point data, its tetrahedra, FieldError.
   rust::Slice<const std::uint32_t> pointIds = pm.level_point_ids();

@@ -3,6 +3,7 @@
 #include "vtkCellData.h"
 #include "vtkDataArray.h"
 #include "vtkDataSetAttributes.h"
+#include "vtkDiamondsProgress.h"
 #include "vtkDiamondsVisibilitySort.h"
 #include "vtkDoubleArray.h"
 #include "vtkFieldData.h"
@@ -42,6 +43,8 @@ const vtkDiamonds::FilterText Text = { "View Dependent Tetrahedra", "mesh", "mes
 class vtkViewDependentTetrahedra::vtkInternals
 {
 public:
+  // Clears a stale abort (see AbortLatch).
+  vtkDiamonds::AbortLatch Abort;
   vtkDiamonds::HierarchyCache Cache{ vtkDiamonds::HierarchyCache::Use::Tetrahedra };
   // The split and merge queues' state of the last execution (belongs to the cached hierarchy).
   std::optional<rust::Box<bridge::ViewMesh>> View;
@@ -83,6 +86,7 @@ int vtkViewDependentTetrahedra::RequestData(
   vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
 try
 {
+  const vtkDiamonds::AbortLatch::Execution execution(this, this->Internals->Abort);
   vtkImageData* input = vtkImageData::GetData(inputVector[0]);
   vtkUnstructuredGrid* output = vtkUnstructuredGrid::GetData(outputVector);
   if (!input || !output)

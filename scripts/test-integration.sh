@@ -13,7 +13,8 @@
 #    with cargo).
 # 3. tests/pvpython/mpi_pieces.py, mpi_isosurface.py and mpi_material.py under `mpiexec -n 2 pvbatch`,
 #    all three again under `mpiexec -n 3 pvbatch`, and all three as pvpython
-#    clients of `mpiexec -n 2 pvserver`; mpi_memory_limit.py (out of memory on one rank of two).
+#    clients of `mpiexec -n 2 pvserver`; mpi_memory_limit.py (out of memory on one rank of two);
+#    mpi_abort.py (a user's abort on one rank of two, and after an abort in every filter).
 # 4. scripts/demo.py under `xvfb-run -a pvbatch`, into build/test-demo, and
 #    tests/pvpython/render_visibility_sort.py and render_adaptive_volume.py under `xvfb-run -a`
 #    (the steps that render), the latter also as a pvpython client of `mpiexec -n 1` and `-n 2 pvserver`.
@@ -94,9 +95,11 @@ step "mpiexec -n 3 pvbatch tests/pvpython/mpi_isosurface.py" env DIAMONDS_EXPECT
   mpiexec --allow-run-as-root --oversubscribe -n 3 pvbatch tests/pvpython/mpi_isosurface.py
 step "mpiexec -n 3 pvbatch tests/pvpython/mpi_material.py" env DIAMONDS_EXPECTED_RANKS=3 \
   mpiexec --allow-run-as-root --oversubscribe -n 3 pvbatch tests/pvpython/mpi_material.py
-# Out of memory (and an abort) on one rank of two: each child run is under its own `timeout` too.
+# Out of memory, or an abort, on one rank of two: each child run is under its own `timeout` too.
 step "pvpython tests/pvpython/mpi_memory_limit.py (children: mpiexec -n 2 pvbatch --symmetric)" \
   timeout 900 pvpython tests/pvpython/mpi_memory_limit.py
+step "pvpython tests/pvpython/mpi_abort.py (children: mpiexec -n 2 pvbatch --symmetric)" \
+  timeout 900 pvpython tests/pvpython/mpi_abort.py
 step "pvpython tests/pvpython/mpi_pieces.py --client-server (mpiexec -n 2 pvserver)" \
   timeout 1200 pvpython tests/pvpython/mpi_pieces.py --client-server
 step "pvpython tests/pvpython/mpi_isosurface.py --client-server (mpiexec -n 2 pvserver)" \

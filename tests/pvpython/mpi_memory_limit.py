@@ -1,5 +1,5 @@
-"""Running out of memory, or a user's abort, on one MPI rank ends the distributed filters on every
-rank together: no hang, no crash, no partial result. Run with
+"""Running out of memory on one MPI rank ends the distributed filters on every rank together: no
+hang, no crash, no partial result (a user's abort on one rank: mpi_abort.py). Run with
 
   PV_PLUGIN_PATH=$PWD/build/lib/paraview-5.11/plugins/Diamonds pvpython tests/pvpython/mpi_memory_limit.py
 
@@ -8,16 +8,13 @@ Approximation), the parent runs children `mpiexec -n 2 pvbatch --symmetric` unde
 is a failure). In a child every rank runs the filter once on a tiny input (libraries, thread pools
 and the core's emergency reserve set up as in a session that has done some work), then rank 1 alone
 limits its address space (RLIMIT_AS) to what it uses plus a headroom, and both ranks run the filter
-on a large input; or, for the abort case, rank 1 aborts the filter at its first progress report.
-Independently of the filter, the parent checks for every headroom of a sweep (from far too little to
-enough) and for the abort:
+on a large input. Independently of the filter, the parent checks for every headroom of a sweep (from
+far too little to enough):
 - every rank exits normally and reports (the child's exit code is 0, not timeout's 124);
 - either every rank's output equals the unlimited run's (cells and points per rank), or every rank's
   output is empty, rank 1's error says memory ran out and rank 0's that another rank (rank 1) failed;
 - the sweep reaches the out-of-memory path for every filter (the test tests something), and after
-  the limit is lifted the same session recomputes the unlimited result on every rank;
-- an abort on rank 1 (Adaptive Tetrahedra) leaves every rank's output empty and rank 0 with an error
-  naming another rank.
+  the limit is lifted the same session recomputes the unlimited result on every rank.
 Before the fix, the ranks hung (rank 1 left a step early and missed a collective the other entered)
 or rank 1 aborted the process ("memory allocation of N bytes failed"), leaving rank 0 waiting.
 """
@@ -34,11 +31,7 @@ import diamonds_checks as dc  # noqa: E402
 from test_memory_limit import MiB, make, vm_size  # noqa: E402
 
 HEADROOMS = ["4", "32", "96"]
-# The filters, and whether the sweep includes an abort on rank 1. Adaptive Isosurface and Material
-# Interface Approximation are left out of it: after an abort on rank 1, rank 1 executes the filter
-# once more than rank 0 (cause not found yet) and waits in a collective no other rank joins; a known
-# open issue (an abort on one rank still hangs them).
-FILTERS = [("AdaptiveTetrahedra", True), ("AdaptiveIsosurface", False), ("MaterialInterfaceApproximation", False)]
+FILTERS = ["AdaptiveTetrahedra", "AdaptiveIsosurface", "MaterialInterfaceApproximation"]
 # Seconds a child may take before it counts as hung (a run takes well under a minute).
 TIMEOUT = 240
 
@@ -58,7 +51,6 @@ def counts(algorithm):
 
 def child(name, mode, impact, prefix):
     simple = dc.require_plugin()
-    from vtkmodules.vtkCommonCore import vtkCommand
     from vtkmodules.vtkParallelCore import vtkMultiProcessController
 
     rank = vtkMultiProcessController.GetGlobalController().GetLocalProcessId()
@@ -68,26 +60,13 @@ def child(name, mode, impact, prefix):
     source.UpdatePipeline()
     algorithm = filt.GetClientSideObject()
     soft, hard = resource.getrlimit(resource.RLIMIT_AS)
-    tag = None
-    if rank == 1 and mode == "abort":
-        clicked = []
-
-        def abort_once(obj, _event):  # as a user's click on Abort: once, at the first report
-            if not clicked:
-                clicked.append(True)
-                obj.SetAbortExecute(1)
-
-        tag = algorithm.AddObserver(vtkCommand.ProgressEvent, abort_once)
-    elif rank == 1 and mode != "none":
+    if rank == 1 and mode != "none":
         resource.setrlimit(resource.RLIMIT_AS, (vm_size() + int(mode) * MiB, hard))
     with dc.ErrorCapture(filt) as errors:
         filt.UpdatePipeline()
     resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
-    if tag is not None:
-        algorithm.RemoveObserver(tag)
-        algorithm.SetAbortExecute(0)  # as after an abort in a session, before the next update
     result = {"rank": rank, "counts": counts(algorithm), "errors": errors.text()}
-    # The same session, the limit lifted (or no abort): the filter works again on every rank.
+    # The same session, the limit lifted: the filter works again on every rank.
     algorithm.Modified()
     with dc.ErrorCapture(filt) as again:
         algorithm.UpdatePiece(rank, 2, 0)  # this rank's piece, as the proxy requested it
@@ -97,10 +76,12 @@ def child(name, mode, impact, prefix):
         json.dump(result, f)
 
 
-def run_child(name, mode, impact):
-    prefix = os.path.join(os.path.dirname(impact), f"{name}-{mode}-rank")
-    cmd = ["timeout", str(TIMEOUT), "mpiexec", "--allow-run-as-root", "--oversubscribe", "-n", "2",
-           "pvbatch", "--symmetric", os.path.abspath(__file__), "--child", name, mode, impact, prefix]
+def run_symmetric(script, args, prefix, timeout):
+    """Runs `script --child *args prefix` on 2 ranks (`mpiexec -n 2 pvbatch --symmetric`) under
+    `timeout` seconds (a hang is a failure: exit code 124); returns the process and the results the
+    ranks wrote, {rank: the JSON in f"{prefix}{rank}.json"}."""
+    cmd = ["timeout", str(timeout), "mpiexec", "--allow-run-as-root", "--oversubscribe", "-n", "2",
+           "pvbatch", "--symmetric", os.path.abspath(script), "--child", *args, prefix]
     env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_", "PMIX_", "OPAL_"))}
     proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
     results = {}
@@ -111,13 +92,18 @@ def run_child(name, mode, impact):
     return proc, results
 
 
+def run_child(name, mode, impact):
+    prefix = os.path.join(os.path.dirname(impact), f"{name}-{mode}-rank")
+    return run_symmetric(__file__, [name, mode, impact], prefix, TIMEOUT)
+
+
 def main():
     dc.require_plugin()  # fails early without the plugin
     tmp = tempfile.mkdtemp(prefix="diamonds-mpi-memory-")
     impact = os.path.join(tmp, "impact.vti")
     subprocess.run([dc.diamonds_binary(), "generate", impact, "--field", "impact", "--dims", "64", "64", "104"],
                    check=True, stdout=subprocess.DEVNULL)
-    for name, abort in FILTERS:
+    for name in FILTERS:
         proc, reference = run_child(name, "none", impact)
         if not dc.check(proc.returncode == 0 and sorted(reference) == [0, 1]
                         and not any(r["errors"] for r in reference.values())
@@ -127,8 +113,8 @@ def main():
             continue
         full = {rank: r["counts"] for rank, r in reference.items()}
         ran_out = 0
-        for mode in HEADROOMS + (["abort"] if abort else []):
-            label = f"{name}, rank 1 " + ("aborting" if mode == "abort" else f"with {mode} MiB of headroom")
+        for mode in HEADROOMS:
+            label = f"{name}, rank 1 with {mode} MiB of headroom"
             proc, results = run_child(name, mode, impact)
             finished = proc.returncode == 0 and sorted(results) == [0, 1]
             if not dc.check(finished, f"{label}: every rank finishes (exit code {proc.returncode}"
@@ -140,7 +126,7 @@ def main():
                      f"{label}: run again, the same session gets the full result on every rank "
                      f"({[results[r]['again'] for r in (0, 1)]})")
             failed = [r for r in (0, 1) if results[r]["errors"]]
-            if not failed and mode != "abort":
+            if not failed:
                 dc.check(all(results[r]["counts"] == full[r] for r in (0, 1)),
                          f"{label}: completed with the unlimited result on every rank")
                 continue
@@ -150,9 +136,8 @@ def main():
             dc.check(all(not any(results[r]["counts"]) for r in (0, 1)), f"{label}: every rank's output is empty")
             dc.check(any(words in results[0]["errors"] for words in ("another rank", "rank 1 ")),
                      f"{label}: rank 0 says another rank failed")
-            if mode != "abort":
-                ran_out += 1
-                dc.check("memory" in results[1]["errors"].lower(), f"{label}: rank 1's error says memory ran out")
+            ran_out += 1
+            dc.check("memory" in results[1]["errors"].lower(), f"{label}: rank 1's error says memory ran out")
         dc.check(ran_out > 0, f"{name}: the sweep ran out of memory at least once ({ran_out} of {len(HEADROOMS)})")
     dc.finish("mpi_memory_limit")
 
