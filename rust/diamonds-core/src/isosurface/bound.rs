@@ -254,14 +254,19 @@ impl<T: Sample> Extraction<'_, '_, T> {
             Pending::All => carriers,
             Pending::Some { carriers, .. } => carriers,
         };
-        let (samples, owners): (Vec<DVec3>, Vec<u32>) = (checked.par_iter().enumerate())
-            .flat_map_iter(|(k, t)| {
-                surface_of(t)
-                    .flat_map(|t| triangle_samples(t, h))
+        // The checked surface's triangles with their carriers, marched once: the samples come from
+        // them, and so does the R-tree below when every carrier is checked (the first round).
+        let checked_triangles: Vec<([DVec3; 3], u32)> = (checked.par_iter().enumerate())
+            .flat_map_iter(|(k, t)| surface_of(t).map(move |t| (t, k as u32)))
+            .collect();
+        let (samples, owners): (Vec<DVec3>, Vec<u32>) = (checked_triangles.par_iter())
+            .flat_map_iter(|&(t, k)| {
+                triangle_samples(t, h)
                     .filter(|&p| inside(p))
-                    .map(move |p| (p, k as u32))
+                    .map(move |p| (p, k))
             })
             .unzip();
+        let all_triangles = matches!(pending, Pending::All).then_some(checked_triangles);
         // F → S: vertices of F near a block of the checked surface's samples are within `reach` of
         // it (blocks: a point near a block of the other set is within `reach` of it); each of the
         // others is looked up in an R-tree of the triangles of S, stopping at the first within
@@ -280,9 +285,14 @@ impl<T: Sample> Extraction<'_, '_, T> {
         let vertices: Vec<u32> = if open.is_empty() {
             Vec::new()
         } else {
-            let triangles: Vec<[DVec3; 3]> =
-                carriers.par_iter().flat_map_iter(surface_of).collect();
-            let tree = triangle_tree(triangles.into_iter());
+            let tree = match all_triangles {
+                Some(triangles) => triangle_tree(triangles.into_iter().map(|(t, _)| t)),
+                None => {
+                    let triangles: Vec<[DVec3; 3]> =
+                        carriers.par_iter().flat_map_iter(surface_of).collect();
+                    triangle_tree(triangles.into_iter())
+                }
+            };
             let reach2 = reach * reach;
             open.into_par_iter()
                 .filter(|&i| {
