@@ -363,15 +363,46 @@ impl PointSet {
 
     /// The grid indices of the used points, ascending.
     pub(crate) fn indices(&self) -> Result<Vec<usize>> {
-        let mut out = memory::with_capacity(self.len, "the mesh's point ids")?;
-        for (w, &word) in self.used.iter().enumerate() {
-            let mut bits = word;
-            while bits != 0 {
-                out.push(w * 64 + bits.trailing_zeros() as usize);
-                bits &= bits - 1;
+        let mut out = memory::filled(self.len, 0, "the mesh's point ids")?;
+        self.for_points(&mut out, 1, |grid_ids, chunk| {
+            for (slot, i) in chunk.iter_mut().zip(grid_ids) {
+                *slot = i;
             }
-        }
+        });
         Ok(out)
+    }
+
+    /// Calls `write(i, chunk)` in parallel for consecutive chunks of `out` (`per` elements per
+    /// point), `i` the grid index of each used point of the chunk in order.
+    fn for_points<T: Send>(
+        &self,
+        out: &mut [T],
+        per: usize,
+        write: impl Fn(&mut dyn Iterator<Item = usize>, &mut [T]) + Sync,
+    ) {
+        let words: Vec<usize> = self
+            .used
+            .chunks(WORDS_PER_TASK)
+            .map(|ws| ws.iter().map(|w| w.count_ones() as usize).sum())
+            .collect();
+        pieces(out, &words, per)
+            .into_par_iter()
+            .enumerate()
+            .for_each(|(task, chunk)| {
+                let first = task * WORDS_PER_TASK;
+                let end = (first + WORDS_PER_TASK).min(self.used.len());
+                let mut ids = (first..end).flat_map(|w| {
+                    let mut bits = self.used[w];
+                    std::iter::from_fn(move || {
+                        (bits != 0).then(|| {
+                            let b = bits.trailing_zeros() as usize;
+                            bits &= bits - 1;
+                            w * 64 + b
+                        })
+                    })
+                });
+                write(&mut ids, chunk);
+            });
     }
 }
 
@@ -644,44 +675,10 @@ impl MeshPlan {
         Ok(())
     }
 
-    /// Calls `write(i, chunk)` in parallel for consecutive chunks of `out` (`per` elements per
-    /// point), `i` the grid index of each used point of the chunk in order.
-    fn for_points<T: Send>(
-        &self,
-        out: &mut [T],
-        per: usize,
-        write: impl Fn(&mut dyn Iterator<Item = usize>, &mut [T]) + Sync,
-    ) {
-        let words: Vec<usize> = self
-            .points
-            .used
-            .chunks(WORDS_PER_TASK)
-            .map(|ws| ws.iter().map(|w| w.count_ones() as usize).sum())
-            .collect();
-        pieces(out, &words, per)
-            .into_par_iter()
-            .enumerate()
-            .for_each(|(task, chunk)| {
-                let first = task * WORDS_PER_TASK;
-                let end = (first + WORDS_PER_TASK).min(self.points.used.len());
-                let mut ids = (first..end).flat_map(|w| {
-                    let mut bits = self.points.used[w];
-                    std::iter::from_fn(move || {
-                        (bits != 0).then(|| {
-                            let b = bits.trailing_zeros() as usize;
-                            bits &= bits - 1;
-                            w * 64 + b
-                        })
-                    })
-                });
-                write(&mut ids, chunk);
-            });
-    }
-
     /// Writes the grid index (x fastest) of each point, ascending.
     pub fn write_point_ids<I: Index>(&self, ids: &mut [I]) -> Result<()> {
         Self::check_len(ids.len(), self.points.len(), 1, "point ids")?;
-        self.for_points(ids, 1, |grid_ids, chunk| {
+        self.points.for_points(ids, 1, |grid_ids, chunk| {
             for (slot, i) in chunk.iter_mut().zip(grid_ids) {
                 *slot = I::from_usize(i);
             }
@@ -696,7 +693,7 @@ impl MeshPlan {
         xyz: &mut [f64],
     ) -> Result<()> {
         Self::check_len(xyz.len(), self.points.len(), 3, "point coordinates")?;
-        self.for_points(xyz, 3, |grid_ids, chunk| {
+        self.points.for_points(xyz, 3, |grid_ids, chunk| {
             for (slot, i) in chunk.chunks_exact_mut(3).zip(grid_ids) {
                 slot.copy_from_slice(&position(i));
             }
@@ -723,11 +720,12 @@ impl MeshPlan {
         if tuple_bytes == 0 {
             return Ok(());
         }
-        self.for_points(target, tuple_bytes, |grid_ids, chunk| {
-            for (slot, i) in chunk.chunks_exact_mut(tuple_bytes).zip(grid_ids) {
-                slot.copy_from_slice(&source[i * tuple_bytes..(i + 1) * tuple_bytes]);
-            }
-        });
+        self.points
+            .for_points(target, tuple_bytes, |grid_ids, chunk| {
+                for (slot, i) in chunk.chunks_exact_mut(tuple_bytes).zip(grid_ids) {
+                    slot.copy_from_slice(&source[i * tuple_bytes..(i + 1) * tuple_bytes]);
+                }
+            });
         Ok(())
     }
 
