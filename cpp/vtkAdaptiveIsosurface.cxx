@@ -603,7 +603,14 @@ int vtkAdaptiveIsosurface::RequestDistributed(vtkMultiProcessController* control
     return pieces.Failed();
   }
   const vtkIdType numTriangles = output->GetNumberOfCells();
-  pieces.MaxInPlace(errorBound);
+  std::string error;
+  if (!pieces.MaxInPlace(errorBound, error))
+  {
+    vtkErrorMacro(<< "Adaptive Isosurface could not combine the ranks' error bounds: " << error);
+    output->Initialize();
+    carrier->Initialize();
+    return 0;
+  }
   const vtkIdType total = pieces.Sum(numTriangles);
   const bridge::GridSpec& grid = pieces.Whole();
   double diagonal2 = 0.0;

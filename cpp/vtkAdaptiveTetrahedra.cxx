@@ -336,8 +336,12 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
       this->Internals->Piece.reset();
       return pieces.Failed();
     }
-    pieces.MaxInPlace(coarse);
-    ok = run(cannotBuild, [&] {
+    ok = pieces.MaxInPlace(coarse, error);
+    if (!ok)
+    {
+      vtkErrorMacro(<< "Adaptive Tetrahedra " << cannotBuild << ": " << error);
+    }
+    ok = ok && run(cannotBuild, [&] {
       built.combine_coarse_errors({ coarse.data(), coarse.size() });
       return true;
     });
@@ -385,8 +389,14 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
     {
       break;
     }
-    const std::vector<std::int32_t> all = pieces.Concatenate(outgoing);
-    ok = run(refinementFailed, [&] {
+    std::vector<std::int32_t> all;
+    std::string error;
+    ok = pieces.Concatenate(outgoing, all, error);
+    if (!ok)
+    {
+      vtkErrorMacro(<< "Adaptive Tetrahedra " << refinementFailed << ": " << error);
+    }
+    ok = ok && run(refinementFailed, [&] {
       piece.receive(**refinement, { all.data(), all.size() });
       return true;
     });
@@ -490,7 +500,12 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
   const vtkIdType numTets = output->GetNumberOfCells();
 
   std::vector<double> maxError{ (*mesh)->max_error() };
-  pieces.MaxInPlace(maxError);
+  if (!pieces.MaxInPlace(maxError, error))
+  {
+    vtkErrorMacro(<< "Adaptive Tetrahedra could not combine the ranks' errors: " << error);
+    output->Initialize();
+    return 0;
+  }
   const vtkIdType total = pieces.Sum(numTets);
   vtkFieldData* fieldData = output->GetFieldData();
   if (!empty)

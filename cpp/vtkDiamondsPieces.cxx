@@ -24,6 +24,8 @@
 #include <functional>
 #include <limits>
 #include <numeric>
+#include <string>
+#include <type_traits>
 
 #include <sys/resource.h>
 
@@ -322,7 +324,11 @@ bool Pieces::GatherWhole(vtkDataSet* input, const std::vector<vtkDataArray*>& po
         a ? a->GetNumberOfComponents() : 0 });
   }
   const std::vector<double> lengths = this->PerRank(static_cast<double>(schema.size()));
-  const std::vector<std::int32_t> schemas = this->Concatenate(schema);
+  std::vector<std::int32_t> schemas;
+  if (!this->Concatenate(schema, schemas, error))
+  {
+    return false;
+  }
   bool ok = true;
   try
   {
@@ -408,13 +414,10 @@ bool Pieces::GatherWhole(vtkDataSet* input, const std::vector<vtkDataArray*>& po
         " bytes, more than an MPI all-gather takes (2 GiB)";
       return false; // decided alike on every rank
     }
-    // Every buffer of this array is allocated before its all-gather, and the ranks agree that
-    // they all were: a rank out of memory fails here with the others, never inside the exchange.
+    // Every buffer of this array is allocated before its all-gather, and agreed on.
     vtkSmartPointer<vtkDataArray> send;
     std::vector<unsigned char> received;
-    bool allocated = true;
-    try
-    {
+    const auto allocate = [&] {
       send = empty ? nullptr : Contiguous(mine[k].first);
       received.resize(static_cast<std::size_t>(total));
       if (!empty)
@@ -423,19 +426,10 @@ bool Pieces::GatherWhole(vtkDataSet* input, const std::vector<vtkDataArray*>& po
         out->SetNumberOfComponents(kind[2]);
         Allocate(out, TupleCount(layout, wholeRel) * kind[2]);
       }
-    }
-    catch (const std::bad_alloc& e)
+    };
+    if (!this->Allocated(allocate,
+          "an array of the whole image (" + std::to_string(total) + " bytes to receive)", error))
     {
-      error = "out of memory for an array of the whole image (" + std::to_string(total) +
-        " bytes to receive): " + OutOfMemoryMessage(e);
-      allocated = false;
-    }
-    if (!this->AllOk(allocated))
-    {
-      if (allocated)
-      {
-        error = "another rank ran out of memory for an array of the whole image (see its error)";
-      }
       return false;
     }
     {
@@ -625,14 +619,44 @@ bool Pieces::Agree(vtkAlgorithm* filter, const char* name, bool ok, const char* 
   return false;
 }
 
-void Pieces::MaxInPlace(std::vector<double>& values)
+bool Pieces::Allocated(
+  const std::function<void()>& allocate, const std::string& what, std::string& error)
 {
+  bool allocated = true;
+  try
+  {
+    allocate();
+  }
+  catch (const std::bad_alloc& e)
+  {
+    error = "out of memory for " + what + ": " + OutOfMemoryMessage(e);
+    allocated = false;
+  }
+  if (this->AllOk(allocated))
+  {
+    return true;
+  }
+  if (allocated)
+  {
+    error = "another rank ran out of memory for " + what + " (see its error)";
+  }
+  return false;
+}
+
+bool Pieces::MaxInPlace(std::vector<double>& values, std::string& error)
+{
+  std::vector<double> out;
+  if (!this->Allocated([&] { out.resize(values.size()); },
+        "the maxima over the ranks (" + std::to_string(values.size()) + " values)", error))
+  {
+    return false;
+  }
   Clock clock{ this->Seconds };
-  std::vector<double> out(values.size());
   this->Controller->AllReduce(values.data(), out.data(),
     static_cast<vtkIdType>(values.size()), vtkCommunicator::MAX_OP);
   this->Sent += values.size() * sizeof(double);
   values.swap(out);
+  return true;
 }
 
 vtkIdType Pieces::Sum(vtkIdType value)
@@ -644,22 +668,31 @@ vtkIdType Pieces::Sum(vtkIdType value)
   return out;
 }
 
-std::vector<std::int32_t> Pieces::Concatenate(const std::vector<std::int32_t>& values)
+bool Pieces::Concatenate(
+  const std::vector<std::int32_t>& values, std::vector<std::int32_t>& all, std::string& error)
 {
-  Clock clock{ this->Seconds };
+  static_assert(std::is_same_v<std::int32_t, int>, "vtkCommunicator exchanges int");
   const vtkIdType mine = static_cast<vtkIdType>(values.size());
   std::vector<vtkIdType> lengths(this->Ranks);
-  this->Controller->AllGather(&mine, lengths.data(), 1);
+  {
+    Clock clock{ this->Seconds };
+    this->Controller->AllGather(&mine, lengths.data(), 1);
+  }
   std::vector<vtkIdType> offsets(this->Ranks, 0);
   for (int r = 1; r < this->Ranks; ++r)
   {
     offsets[r] = offsets[r - 1] + lengths[r - 1];
   }
-  std::vector<int> out(static_cast<std::size_t>(offsets.back() + lengths.back()));
-  std::vector<int> send(values.begin(), values.end());
-  this->Controller->AllGatherV(send.data(), out.data(), mine, lengths.data(), offsets.data());
+  const vtkIdType total = offsets.back() + lengths.back();
+  if (!this->Allocated([&] { all.resize(static_cast<std::size_t>(total)); },
+        "the values of every rank (" + std::to_string(total) + ")", error))
+  {
+    return false;
+  }
+  Clock clock{ this->Seconds };
+  this->Controller->AllGatherV(values.data(), all.data(), mine, lengths.data(), offsets.data());
   this->Sent += sizeof(vtkIdType) + values.size() * sizeof(int);
-  return std::vector<std::int32_t>(out.begin(), out.end());
+  return true;
 }
 
 std::vector<double> Pieces::PerRank(double value)

@@ -90,12 +90,16 @@ public:
     }
   }
 
-  // Collective: element-wise maximum over the ranks, in place.
-  void MaxInPlace(std::vector<double>& values);
+  // Collective: element-wise maximum over the ranks, in place. The result buffer is allocated
+  // and agreed on before the all-reduce (Allocated): false on every rank, `values` unchanged and
+  // `error` set, when a rank could not allocate it.
+  bool MaxInPlace(std::vector<double>& values, std::string& error);
   // Collective: sum over the ranks.
   vtkIdType Sum(vtkIdType value);
-  // Collective: every rank's `values`, concatenated in rank order.
-  std::vector<std::int32_t> Concatenate(const std::vector<std::int32_t>& values);
+  // Collective: every rank's `values`, concatenated in rank order into `all`; allocated and agreed
+  // on as MaxInPlace.
+  bool Concatenate(
+    const std::vector<std::int32_t>& values, std::vector<std::int32_t>& all, std::string& error);
   // Collective: one value per rank.
   std::vector<double> PerRank(double value);
 
@@ -135,6 +139,12 @@ public:
 private:
   // Reports the exception being handled (see Run).
   static void ReportCaught(vtkAlgorithm* filter, const char* name, const char* failure);
+
+  // Collective: runs `allocate` (which may throw std::bad_alloc) and agrees that every rank
+  // could, before a collective that uses its buffers: a rank out of memory fails here with the
+  // others, never inside the exchange. Otherwise false on every rank, with `error` saying that
+  // this rank, or another one, ran out of memory for `what`.
+  bool Allocated(const std::function<void()>& allocate, const std::string& what, std::string& error);
 
   // Point-to-point with rank `q` in the global pair order (the lower rank sends first): sends
   // `bytes` bytes at `out` and receives what `q` sends into the buffer `receive(size)` gives (of
