@@ -235,7 +235,7 @@ pub struct Stencils {
     stencils: Vec<Stencil>,
     /// Per scale 2 and 4 (`σ` = 1, 2) and residue of the central vertex `(c >> σ) mod 8`, which fixes
     /// the shapes of a diamond's tetrahedra: each tetrahedron as its vertices' linear offsets from the
-    /// central vertex and its stencil (see [`Stencils::scan_diamond`]).
+    /// central vertex and its stencil (see [`Stencils::diamond_error`]).
     diamonds: Vec<Vec<([isize; 4], usize)>>,
     finest: FinestMidpoints,
 }
@@ -289,54 +289,59 @@ impl Stencils {
             shapes,
             stencils,
             diamonds,
-            finest: FinestMidpoints::new(),
+            finest: FinestMidpoints::new(linear),
         }
     }
 
-    /// Error and range of a finest diamond (scale 1) whose bounds lie inside the domain, from the
-    /// sample of its central vertex at `center` ([`scan_finest_diamond`]; like
-    /// [`Stencils::scan_diamond`], `volume` may start anywhere in the lattice).
+    /// Error of a finest diamond (scale 1) whose bounds lie inside the domain, from the sample of its
+    /// central vertex at `center` ([`finest_diamond_error`]; like [`Stencils::diamond_error`], `volume`
+    /// may start anywhere in the lattice).
     #[inline]
-    pub fn scan_finest_diamond<T: Sample>(
+    pub fn finest_diamond_error<T: Sample>(
         &self,
         volume: &Volume<'_, T>,
         d: Diamond,
         center: usize,
-    ) -> TetStats {
-        scan_finest_diamond(volume, &self.finest, d, center)
+    ) -> f64 {
+        finest_diamond_error(volume, &self.finest, d, center)
     }
 
-    /// [`scan_tet`] through the precomputed shape, when `t` has one.
+    /// [`scan_tet`]'s error through the precomputed shape, when `t` has one.
     #[inline]
-    pub fn scan<T: Sample>(&self, volume: &Volume<'_, T>, t: &Tet) -> Option<TetStats> {
+    pub fn error<T: Sample>(&self, volume: &Volume<'_, T>, t: &Tet) -> Option<f64> {
         let stencil = &self.stencils[*self.shapes.get(&[t[1] - t[0], t[2] - t[0], t[3] - t[0]])?];
         let index = |p: IVec3| volume.grid.index(p.x as usize, p.y as usize, p.z as usize) as isize;
-        Some(stencil.scan(volume, index(t[0]), t.map(index)))
+        Some(stencil.error(volume, index(t[0]), t.map(index)))
     }
 
-    /// The merged scans of the tetrahedra of diamond `d` of scale 2 or 4 (`None` for other scales)
+    /// The largest error of the tetrahedra of diamond `d` of scale 2 or 4 (`None` for other scales)
     /// whose bounds lie inside the domain, from the sample of its central vertex at `center`: what
-    /// [`Stencils::scan`] gives for each of [`Diamond::tets`], without computing them.
+    /// [`Stencils::error`] gives for each of [`Diamond::tets`], without computing them.
     #[inline]
-    pub fn scan_diamond<T: Sample>(
+    pub fn diamond_error<T: Sample>(
         &self,
         volume: &Volume<'_, T>,
         d: Diamond,
         center: usize,
-    ) -> Option<TetStats> {
+    ) -> Option<f64> {
         let sigma = d.sigma();
         if !(1..=2).contains(&sigma) {
             return None;
         }
         let center = center as isize;
         let tets = &self.diamonds[512 * (sigma as usize - 1) + residue(d.center, sigma)];
-        Some(tets.iter().fold(TetStats::EMPTY, |acc, (vertices, id)| {
-            acc.merge(self.stencils[*id].scan(
+        let mut worst = 0.0f64;
+        for (vertices, id) in tets {
+            let e = self.stencils[*id].error(
                 volume,
                 center + vertices[0],
                 vertices.map(|v| center + v),
-            ))
-        }))
+            );
+            if e > worst {
+                worst = e;
+            }
+        }
+        Some(worst)
     }
 }
 
@@ -360,22 +365,14 @@ impl Stencil {
         }
     }
 
-    /// The scan of a tetrahedron of this shape whose first vertex is the sample `base` and whose
-    /// vertices are the samples `vertices` (linear indices).
+    /// The error of a tetrahedron of this shape whose first vertex is the sample `base` and whose
+    /// vertices are the samples `vertices` (linear indices): [`scan_tet`]'s error (no range: the
+    /// hierarchy's records hold the error alone).
     #[inline]
-    fn scan<T: Sample>(
-        &self,
-        volume: &Volume<'_, T>,
-        base: isize,
-        vertices: [isize; 4],
-    ) -> TetStats {
+    fn error<T: Sample>(&self, volume: &Volume<'_, T>, base: isize, vertices: [isize; 4]) -> f64 {
         let stencil = self;
         let f = vertices.map(|i| volume.samples[i as usize].to_f64());
-        let (mut worst, mut min, mut max) = (
-            0.0f64,
-            f[0].min(f[1]).min(f[2].min(f[3])),
-            f[0].max(f[1]).max(f[2].max(f[3])),
-        );
+        let mut worst = 0.0f64;
         for (offset, w) in &stencil.points {
             let v = volume.samples[(base + offset) as usize].to_f64();
             let e =
@@ -383,81 +380,53 @@ impl Stencil {
             if e > worst {
                 worst = e;
             }
-            if v < min {
-                min = v;
-            }
-            if v > max {
-                max = v;
-            }
         }
-        TetStats {
-            error: worst / stencil.det,
-            min,
-            max,
-        }
+        worst / stencil.det
     }
 }
 
-/// Error and range of a finest diamond (scale 1) whose bounds lie inside the domain, without visiting its
+/// Error of a finest diamond (scale 1) whose bounds lie inside the domain, without visiting its
 /// tetrahedra one by one. Its samples are the lattice points of its `3×3×3` bounding cube that belong
 /// to its tetrahedra; each is a vertex or the midpoint of the spine of the diamond itself or of one of
 /// its descendants inside it (a 1-diamond's 4 edge children; a 0-diamond's 6 face children and their
-/// 12 edge children), where the interpolant is the mean of the spine's endpoints. The range is taken
-/// over the whole bounding cube: a conservative superset.
+/// 12 edge children), where the interpolant is the mean of the spine's endpoints. Only those
+/// midpoints and endpoints are read (no range: the record holds the error alone), with plain
+/// comparisons: the samples are finite.
 ///
 /// Which midpoints and spines these are depends only on the central vertex modulo 8 (class,
 /// orientation and, for a 0-diamond's face children, the parity that picks their diagonal), so they
 /// are looked up in [`FinestMidpoints`] instead of being derived per diamond.
 #[inline]
-fn scan_finest_diamond<T: Sample>(
+fn finest_diamond_error<T: Sample>(
     volume: &Volume<'_, T>,
     midpoints: &FinestMidpoints,
     d: Diamond,
     center: usize,
-) -> TetStats {
-    // The 3×3×3 block around the central vertex (sample `center`), x fastest.
-    let (nx, nxy) = (
-        volume.grid.dims[0],
-        volume.grid.dims[0] * volume.grid.dims[1],
-    );
-    let corner = center - 1 - nx - nxy;
-    let mut block = [0.0f64; 27];
-    let (mut min, mut max) = (f64::INFINITY, f64::NEG_INFINITY);
-    for (k, rows) in block.chunks_exact_mut(9).enumerate() {
-        for (j, row) in rows.chunks_exact_mut(3).enumerate() {
-            let start = corner + j * nx + k * nxy;
-            for (v, s) in row.iter_mut().zip(&volume.samples[start..start + 3]) {
-                *v = s.to_f64();
-                min = min.min(*v);
-                max = max.max(*v);
-            }
-        }
-    }
+) -> f64 {
+    let at = |o: isize| volume.samples[center.wrapping_add_signed(o)].to_f64();
     // Twice the error at each midpoint `m` of a spine `(a, b)`.
     let mut worst = 0.0f64;
     for &[m, a, b] in midpoints.of(d.center) {
-        let (m, a, b) = (m as usize, a as usize, b as usize);
-        worst = worst.max((2.0 * block[m] - block[a] - block[b]).abs());
+        let e = (2.0 * at(m) - at(a) - at(b)).abs();
+        if e > worst {
+            worst = e;
+        }
     }
-    TetStats {
-        error: 0.5 * worst,
-        min,
-        max,
-    }
+    0.5 * worst
 }
 
 /// The spine midpoints of the finest diamonds, per central vertex modulo 8 (see
-/// [`scan_finest_diamond`]): for each, `[midpoint, end, end]` as indices into the diamond's
-/// `3×3×3` block (x fastest).
+/// [`finest_diamond_error`]): for each, `[midpoint, end, end]` as linear offsets from the central
+/// vertex in the grid's layout.
 pub(crate) struct FinestMidpoints {
-    triples: Vec<[u8; 3]>,
+    triples: Vec<[isize; 3]>,
     /// `triples[starts[r]..starts[r + 1]]` for the residue `r = x + 8 y + 64 z` of the centre.
     starts: Vec<u16>,
 }
 
 impl FinestMidpoints {
-    fn new() -> Self {
-        let index = |o: IVec3| (9 * (o.z + 1) + 3 * (o.y + 1) + o.x + 1) as u8;
+    /// The table for a grid whose linear offset of `o` is `linear(o)`.
+    fn new(linear: impl Fn(IVec3) -> isize) -> Self {
         let mut triples = Vec::new();
         let mut starts = vec![0u16];
         for r in 0..512 {
@@ -466,7 +435,7 @@ impl FinestMidpoints {
             let d = Diamond::new(residue + IVec3::splat(8));
             if (residue & IVec3::ONE) != IVec3::ZERO {
                 let c = d.center;
-                let mut push = |o: IVec3, h: IVec3| triples.push([o, o - h, o + h].map(index));
+                let mut push = |o: IVec3, h: IVec3| triples.push([o, o - h, o + h].map(&linear));
                 push(IVec3::ZERO, d.spine()[0] - c);
                 let axes = [IVec3::X, IVec3::Y, IVec3::Z];
                 match d.class() {
@@ -502,7 +471,7 @@ impl FinestMidpoints {
 
     /// The midpoints of the finest diamond centred at `c`.
     #[inline]
-    fn of(&self, c: IVec3) -> &[[u8; 3]] {
+    fn of(&self, c: IVec3) -> &[[isize; 3]] {
         let r = (c.x & 7 | (c.y & 7) << 3 | (c.z & 7) << 6) as usize;
         &self.triples[self.starts[r] as usize..self.starts[r + 1] as usize]
     }
@@ -620,9 +589,9 @@ pub(crate) mod tests {
                 if l.place(&t) != crate::lattice::Placement::Inside {
                     continue;
                 }
-                match stencils.scan(vol, &t) {
+                match stencils.error(vol, &t) {
                     Some(fast) => {
-                        assert_eq!(fast, scan_tet(vol, &t), "{t:?}");
+                        assert_eq!(fast, scan_tet(vol, &t).error, "{t:?}");
                         checked += 1;
                     }
                     None => assert!(!matches!(d.scale(), 2 | 4), "{d:?} has no stencil"),
@@ -641,13 +610,13 @@ pub(crate) mod tests {
             if !l.in_domain(lo) || !l.in_domain(hi) {
                 return;
             }
-            match stencils.scan_diamond(vol, d, i) {
+            match stencils.diamond_error(vol, d, i) {
                 Some(fast) => {
                     let by_tets = d
                         .tets(l)
                         .iter()
                         .fold(TetStats::EMPTY, |acc, t| acc.merge(scan_tet(vol, t)));
-                    assert_eq!(fast, by_tets, "{d:?}");
+                    assert_eq!(fast, by_tets.error, "{d:?}");
                     checked += 1;
                 }
                 None => assert!(!matches!(d.scale(), 2 | 4), "{d:?} has no stencils"),
@@ -679,9 +648,8 @@ pub(crate) mod tests {
                 .tets(&l)
                 .iter()
                 .fold(TetStats::EMPTY, |acc, t| acc.merge(scan_tet(&vol, t)));
-            let fast = stencils.scan_finest_diamond(&vol, d, i);
-            assert_eq!(fast.error, by_tets.error, "{d:?}");
-            assert!(fast.min <= by_tets.min && fast.max >= by_tets.max, "{d:?}");
+            let fast = stencils.finest_diamond_error(&vol, d, i);
+            assert_eq!(fast, by_tets.error, "{d:?}");
             checked += 1;
         }
         assert!(checked > 3000);

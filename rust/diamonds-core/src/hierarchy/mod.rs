@@ -19,7 +19,7 @@ use crate::lattice::{Lattice, Placement};
 use crate::memory;
 use crate::mesh::{self, Index, MeshPlan, TetMesh};
 use crate::refine::{BaseMesh, Query, Refiner, SplitSet};
-use crate::scan::{scan_tet, Stencils, TetStats};
+use crate::scan::{scan_tet, Stencils};
 use crate::volume::{Grid, Sample, ScalarSlice, Volume};
 use crate::{with_volume, Error, Result};
 use rayon::prelude::*;
@@ -303,27 +303,31 @@ fn diamond_record<T: Sample>(
         let c = d.center - shift;
         let center = volume.grid.index(c.x as usize, c.y as usize, c.z as usize);
         if d.scale() == 1 {
-            return Record::of(stencils.scan_finest_diamond(volume, d, center));
+            return Record::of(stencils.finest_diamond_error(volume, d, center));
         }
         // Scales 2 and 4: the tetrahedra's stencils found by the central vertex's residue.
-        if let Some(stats) = stencils.scan_diamond(volume, d, center) {
-            return Record::of(stats);
+        if let Some(error) = stencils.diamond_error(volume, d, center) {
+            return Record::of(error);
         }
     }
-    let mut stats = TetStats::EMPTY;
+    let mut error = 0.0f64;
     for t in d.tets(lattice) {
         match lattice.place(&t) {
             Placement::Inside => {
                 let t = t.map(|p| p - shift);
-                let scan = stencils.scan(volume, &t);
-                stats = stats.merge(scan.unwrap_or_else(|| scan_tet(volume, &t)));
+                let e = stencils
+                    .error(volume, &t)
+                    .unwrap_or_else(|| scan_tet(volume, &t).error);
+                if e > error {
+                    error = e;
+                }
             }
             Placement::Outside => {}
             // Split unconditionally in the base mesh: no error needed.
             Placement::Straddling => return Record::default(),
         }
     }
-    Record::of(stats)
+    Record::of(error)
 }
 
 #[cfg(test)]

@@ -9,8 +9,6 @@
 //! The same bfloat16 code, rounded down ([`encode_down`]), stores the gradient magnitudes the
 //! isosurface error divides by (Gregorski §6.2).
 
-use crate::scan::TetStats;
-
 /// Per-diamond data, 2 bytes, indexed by the central vertex's point index.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Record {
@@ -19,13 +17,11 @@ pub struct Record {
 }
 
 impl Record {
-    /// The record of a diamond whose inside tetrahedra scan to `stats` (error 0 when it has none).
-    pub(super) fn of(stats: TetStats) -> Self {
-        if stats.min > stats.max {
-            return Self::default();
-        }
+    /// The record of a diamond whose inside tetrahedra have the largest error `error` (0 when it
+    /// has none).
+    pub(super) fn of(error: f64) -> Self {
         Self {
-            error: encode_error(stats.error),
+            error: encode_error(error),
         }
     }
 }
