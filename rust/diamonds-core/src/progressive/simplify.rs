@@ -286,6 +286,10 @@ impl Around {
     #[inline]
     fn proper_at(&self, pj: DVec3) -> bool {
         let v = (pj - self.o).dot(self.n);
+        // Flipped or flat: most refused targets, known before the edge lengths.
+        if v <= 0.0 {
+            return false;
+        }
         let mut l2 = self.fixed2;
         for d in 1..4 {
             l2 = l2.max(pj.distance_squared(self.x[(self.slot + d) % 4]));
@@ -347,6 +351,10 @@ struct Simplifier {
     offered_at: Vec<usize>,
     live: usize,
     removed_count: usize,
+    /// The measures of the collapses requeued at their exact cost since the last collapse (vertex,
+    /// target, measure): a collapse popped again before any other is made needs no new measure
+    /// (about a third of the requeued ones on the blunt fin).
+    measured: Vec<(u32, u32, Exact)>,
 }
 
 /// Simplifies `input` by half-edge collapses (§3.2) until `params.target_tets` is reached or no valid
@@ -443,13 +451,20 @@ impl Reduction {
             let Some(c) = s.offer[i as usize].take() else {
                 continue;
             };
-            // An offer made since the last collapse is still valid: nothing changed.
-            if s.offered_at[i as usize] != s.made && !s.still_valid(i, c.target) {
-                s.offer(i);
-                continue;
-            }
-            let Some(exact) = s.measure(i, c.target) else {
-                continue;
+            // A collapse requeued at its exact cost with no collapse made since: measured as is.
+            let exact = match s.remeasured(i, c.target) {
+                Some(exact) => exact,
+                None => {
+                    // An offer made since the last collapse is still valid: nothing changed.
+                    if s.offered_at[i as usize] != s.made && !s.still_valid(i, c.target) {
+                        s.offer(i);
+                        continue;
+                    }
+                    let Some(exact) = s.measure(i, c.target) else {
+                        continue;
+                    };
+                    exact
+                }
             };
             if max_field_error > 0.0 && exact.max_field > max_field_error {
                 continue;
@@ -462,6 +477,7 @@ impl Reduction {
                     ..c
                 });
                 s.queue.push(i, Cost(cost));
+                s.measured.push((i, c.target, exact));
                 continue;
             }
             self.pm.collapses.push(s.collapse(i, c.target, exact));
@@ -593,6 +609,7 @@ impl Simplifier {
             offered_at: vec![usize::MAX; n],
             live: m,
             removed_count: 0,
+            measured: Vec::new(),
             pos,
             tets,
             star,
@@ -641,6 +658,13 @@ impl Simplifier {
 
     fn points(&self, c: [u32; 4]) -> [DVec3; 4] {
         c.map(|v| self.pos[v as usize])
+    }
+
+    /// The measure of `hec(i → j)` kept when it was requeued at its exact cost, if no collapse was
+    /// made since ([`Self::measured`]).
+    fn remeasured(&mut self, i: u32, j: u32) -> Option<Exact> {
+        let k = self.measured.iter().position(|m| m.0 == i && m.1 == j)?;
+        Some(self.measured.swap_remove(k).2)
     }
 
     /// Recomputes the offer of `v` ([`Self::best`]) and updates the queue.
@@ -887,11 +911,14 @@ impl Simplifier {
     /// The link condition of `hec(i → j)` (`link` the link of `i`), without `j`'s link for `j` not
     /// on the boundary ([`link_condition_to_interior`]).
     fn link_ok(&self, i: u32, link: &Link, j: u32) -> bool {
-        let edge: Vec<u32> = self.star[i as usize]
-            .iter()
-            .copied()
-            .filter(|&t| self.tets[t as usize].contains(&j))
-            .collect();
+        let star_i = &self.star[i as usize];
+        let mut edge = Vec::with_capacity(star_i.len());
+        edge.extend(
+            star_i
+                .iter()
+                .copied()
+                .filter(|&t| self.tets[t as usize].contains(&j)),
+        );
         let star_j = &self.star[j as usize];
         if self.kind[j as usize] == Kind::Interior {
             link_condition_to_interior(&self.tets, &edge, (i, link), j, star_j)
@@ -1204,6 +1231,7 @@ impl Simplifier {
         }
         self.star[i as usize].clear();
         self.made += 1;
+        self.measured.clear();
         self.removed[i as usize] = true;
         self.removed_count += 1;
         let qi = self.quadric[i as usize];

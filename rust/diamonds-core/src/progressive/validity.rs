@@ -47,7 +47,12 @@ fn sorted_pair(a: u32, b: u32) -> [u32; 2] {
 impl Link {
     /// The link of `v` whose star is the tetrahedra `star` of `tets`.
     pub(super) fn of(tets: &[[u32; 4]], star: &[u32], v: u32) -> Self {
-        let mut link = Link::default();
+        let mut link = Link {
+            verts: Vec::with_capacity(3 * star.len()),
+            edges: Vec::with_capacity(3 * star.len()),
+            tris: Vec::with_capacity(star.len()),
+            ..Link::default()
+        };
         // Every face `vab` with the fourth corner; a face seen once is on the boundary.
         let mut faces: Vec<([u32; 2], u32)> = Vec::with_capacity(3 * star.len());
         for &t in star {
