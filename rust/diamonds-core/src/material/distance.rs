@@ -13,10 +13,9 @@
 //! work too.
 
 use super::InterfaceMesh;
-use crate::geometry::{closest_point_on_triangle, triangle_tree, Feature, Triangle};
+use crate::geometry::{closest_point_on_triangle, triangle_tree, Feature, Triangle, TriangleTree};
 use glam::DVec3;
 use rayon::prelude::*;
-use rstar::RTree;
 use rustc_hash::FxHashMap;
 
 /// The closest point of one interface mesh to a query point.
@@ -39,7 +38,7 @@ pub struct InterfaceIndex {
 
 /// The R-tree of one mesh and the normals of its features.
 struct MeshIndex {
-    tree: RTree<Triangle>,
+    tree: TriangleTree,
     /// Per triangle: unit face normal (zero for a degenerate triangle).
     face_normal: Vec<DVec3>,
     /// Per triangle: the pseudo-normals of its edges 0→1, 1→2, 2→0.

@@ -11,12 +11,12 @@
 //!
 //! The isosurface bound ([`crate::isosurface`]) is that both are at most the tolerance.
 
-use crate::geometry::{triangle_samples, triangle_tree, Triangle};
+use crate::geometry::{triangle_samples, triangle_tree, TriangleTree};
 use crate::isosurface::{full_resolution_triangles, full_resolution_vertices};
 use crate::volume::{Sample, Volume};
 use glam::DVec3;
 use rayon::prelude::*;
-use rstar::{PointDistance, RTree};
+use rstar::PointDistance;
 
 /// The largest distance found in one direction and the point it was found at.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -72,7 +72,7 @@ impl SurfaceDistances {
 
 /// The largest distance from `points` to the triangles of `tree` (infinite if it is empty while
 /// `points` is not).
-fn farthest(points: &[DVec3], tree: &RTree<Triangle>) -> Farthest {
+fn farthest(points: &[DVec3], tree: &TriangleTree) -> Farthest {
     points
         .par_iter()
         .map(|p| {
