@@ -364,12 +364,17 @@ impl PointSet {
     /// The grid indices of the used points, ascending.
     pub(crate) fn indices(&self) -> Result<Vec<usize>> {
         let mut out = memory::filled(self.len, 0, "the mesh's point ids")?;
-        self.for_points(&mut out, 1, |grid_ids, chunk| {
+        self.write_ids(&mut out);
+        Ok(out)
+    }
+
+    /// Writes the grid index of each used point into `ids` (one slot per point), ascending.
+    fn write_ids<I: Index>(&self, ids: &mut [I]) {
+        self.for_points(ids, 1, |grid_ids, chunk| {
             for (slot, i) in chunk.iter_mut().zip(grid_ids) {
-                *slot = i;
+                *slot = I::from_usize(i);
             }
         });
-        Ok(out)
     }
 
     /// Calls `write(i, chunk)` in parallel for consecutive chunks of `out` (`per` elements per
@@ -678,11 +683,7 @@ impl MeshPlan {
     /// Writes the grid index (x fastest) of each point, ascending.
     pub fn write_point_ids<I: Index>(&self, ids: &mut [I]) -> Result<()> {
         Self::check_len(ids.len(), self.points.len(), 1, "point ids")?;
-        self.points.for_points(ids, 1, |grid_ids, chunk| {
-            for (slot, i) in chunk.iter_mut().zip(grid_ids) {
-                *slot = I::from_usize(i);
-            }
-        });
+        self.points.write_ids(ids);
         Ok(())
     }
 
