@@ -272,15 +272,17 @@ impl<T: Sample> Extraction<'_, '_, T> {
         // others is looked up in an R-tree of the triangles of S, stopping at the first within
         // `reach` — most are, so a vertex costs a few distance tests.
         let with_samples = fine.blocks.alike(&samples)?;
-        let near_samples = |i: &u32| !with_samples.near(fine.vertices[*i as usize]);
+        let far_from_samples = |i: &u32| !with_samples.near(fine.vertices[*i as usize]);
         let open: Vec<u32> = match pending {
             Pending::All => (0..fine.vertices.len() as u32)
                 .into_par_iter()
-                .filter(near_samples)
+                .filter(far_from_samples)
                 .collect(),
-            Pending::Some { vertices, .. } => {
-                vertices.par_iter().copied().filter(near_samples).collect()
-            }
+            Pending::Some { vertices, .. } => vertices
+                .par_iter()
+                .copied()
+                .filter(far_from_samples)
+                .collect(),
         };
         let vertices: Vec<u32> = if open.is_empty() {
             Vec::new()
