@@ -375,29 +375,34 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
   const char* refinementFailed = "refinement failed";
   for (;;)
   {
-    std::vector<std::int32_t> outgoing;
+    // The diamonds split since the last round, addressed to the ranks whose pieces they reach.
+    std::optional<bridge::SplitMessages> outgoing;
+    std::vector<std::size_t> counts;
     ok = ok && run(refinementFailed, [&] {
-      const rust::Vec<std::int32_t> out = piece.outgoing(**refinement, pieces.Extents());
-      outgoing.assign(out.begin(), out.end());
+      outgoing.emplace(piece.outgoing(**refinement, pieces.Extents()));
+      for (const std::size_t diamonds : outgoing->counts)
+      {
+        counts.push_back(3 * diamonds);
+      }
       return true;
     });
     if (!agree(ok, "the refinement"))
     {
       return pieces.Failed();
     }
-    if (pieces.Sum(static_cast<vtkIdType>(outgoing.size())) == 0)
+    if (pieces.Sum(static_cast<vtkIdType>(outgoing->centers.size())) == 0)
     {
       break;
     }
-    std::vector<std::int32_t> all;
+    std::vector<std::int32_t> received;
     std::string error;
-    ok = pieces.Concatenate(outgoing, all, error);
+    ok = pieces.Exchange(outgoing->centers.data(), counts, received, error);
     if (!ok)
     {
       vtkErrorMacro(<< "Adaptive Tetrahedra " << refinementFailed << ": " << error);
     }
     ok = ok && run(refinementFailed, [&] {
-      piece.receive(**refinement, { all.data(), all.size() });
+      piece.receive(**refinement, { received.data(), received.size() });
       return true;
     });
     ++rounds;

@@ -695,6 +695,44 @@ bool Pieces::Concatenate(
   return true;
 }
 
+bool Pieces::Exchange(const std::int32_t* values, const std::vector<std::size_t>& counts,
+  std::vector<std::int32_t>& received, std::string& error)
+{
+  Clock clock{ this->Seconds };
+  received.clear();
+  bool ok = counts.size() == static_cast<std::size_t>(this->Ranks);
+  if (!ok)
+  {
+    // Send nothing, but take part in the exchange: the other ranks wait for it.
+    error = std::to_string(counts.size()) + " lists to send for " + std::to_string(this->Ranks) +
+      " ranks";
+  }
+  std::size_t offset = 0;
+  for (int q = 0; q < this->Ranks; ++q)
+  {
+    const std::size_t n = ok ? counts[q] : 0;
+    if (q != this->Me)
+    {
+      std::string swapError;
+      const bool moved = this->Swap(
+        q, values + offset, static_cast<vtkIdType>(n * sizeof(std::int32_t)),
+        [&](vtkIdType bytes) -> void* {
+          const std::size_t old = received.size();
+          received.resize(old + static_cast<std::size_t>(bytes) / sizeof(std::int32_t));
+          return received.data() + old;
+        },
+        swapError);
+      if (!moved && ok)
+      {
+        error = swapError;
+        ok = false;
+      }
+    }
+    offset += n;
+  }
+  return ok;
+}
+
 std::vector<double> Pieces::PerRank(double value)
 {
   Clock clock{ this->Seconds };

@@ -65,6 +65,14 @@ mod ffi {
         F64,
     }
 
+    /// The split diamonds one piece sends in a round of a distributed refinement: one list per
+    /// piece (`counts[q]` central vertices of three coordinates each for piece `q`, its own list
+    /// empty), the lists concatenated in piece order in `centers`.
+    struct SplitMessages {
+        counts: Vec<usize>,
+        centers: Vec<i32>,
+    }
+
     /// One selective-refinement query (see `diamonds::Query`).
     struct QuerySpec {
         /// Absolute tolerance in data units; 0 reproduces every sample.
@@ -325,15 +333,15 @@ mod ffi {
             self: &PieceHierarchy,
             query: &QuerySpec,
         ) -> Result<Box<PieceRefinement>>;
-        /// The diamonds split here since the last call that other pieces must know (three
-        /// coordinates each); `pieces` is every piece's extent.
+        /// The diamonds split here since the last call, addressed to the pieces whose reach they
+        /// meet; `pieces` is every piece's extent.
         fn outgoing(
             self: &PieceHierarchy,
             refinement: &mut PieceRefinement,
             pieces: &[i64],
-        ) -> Result<Vec<i32>>;
-        /// Inserts the diamonds every piece sent (all `outgoing` lists, concatenated) and refines
-        /// on; returns how many were new here.
+        ) -> Result<SplitMessages>;
+        /// Inserts the diamonds the other pieces sent to this one (their `outgoing` lists for it,
+        /// concatenated) and refines on; returns how many were new here.
         fn receive(
             self: &PieceHierarchy,
             refinement: &mut PieceRefinement,

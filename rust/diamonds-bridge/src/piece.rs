@@ -16,7 +16,7 @@ use diamonds::lattice::Lattice;
 use diamonds::validate::check_mesh_arrays;
 use glam::IVec3;
 
-use crate::ffi::{self, GridSpec, IsoSpec, QuerySpec, ScalarType};
+use crate::ffi::{self, GridSpec, IsoSpec, QuerySpec, ScalarType, SplitMessages};
 use crate::{check_core, core_grid, core_query, guard, typed_slice, Mesh};
 
 /// Opaque handle on a [`piece::PieceHierarchy`] for C++.
@@ -185,15 +185,19 @@ impl PieceHierarchy {
         })
     }
 
-    /// The diamonds split here since the last call that other pieces (`pieces`: every piece's
-    /// extent) must know.
+    /// The diamonds split here since the last call, one list per piece (`pieces`: every piece's
+    /// extent) holding those it must know.
     pub fn outgoing(
         &self,
         refinement: &mut PieceRefinement,
         pieces: &[i64],
-    ) -> Result<Vec<i32>, String> {
+    ) -> Result<SplitMessages, String> {
         guard("listing the split diamonds to send", || {
-            Ok(self.0.outgoing(&mut refinement.0, &boxes(pieces)?))
+            let lists = self.0.outgoing(&mut refinement.0, &boxes(pieces)?);
+            Ok(SplitMessages {
+                counts: lists.iter().map(|l| l.len() / 3).collect(),
+                centers: lists.concat(),
+            })
         })
     }
 

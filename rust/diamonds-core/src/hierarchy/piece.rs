@@ -611,23 +611,28 @@ impl PieceHierarchy {
         Ok(())
     }
 
-    /// The diamonds split here since the last call whose reach meets another of `pieces` (every
-    /// piece's owned box, this one's included), as central vertices (three coordinates each).
-    pub fn outgoing(&self, r: &mut PieceRefinement, pieces: &[PointBox]) -> Vec<i32> {
+    /// The diamonds split here since the last call, addressed to the pieces that must know them:
+    /// one list per piece of `pieces` (every piece's owned box, this one's included), holding the
+    /// central vertices (three coordinates each) of the diamonds whose reach meets that piece. A
+    /// piece with this one's box (a copy of it) gets none: it splits the same diamonds itself. So a
+    /// diamond travels only to the pieces it changes, not to every piece.
+    pub fn outgoing(&self, r: &mut PieceRefinement, pieces: &[PointBox]) -> Vec<Vec<i32>> {
         let own = self.layout.owned;
-        let mut out = Vec::new();
+        let mut out = vec![Vec::new(); pieces.len()];
         for d in r.outbox.drain(..) {
             let (lo, hi) = PieceLayout::reach(d);
-            if pieces.iter().any(|b| *b != own && b.meets(lo, hi)) {
-                out.extend(d.center.to_array());
+            for (b, list) in pieces.iter().zip(&mut out) {
+                if *b != own && b.meets(lo, hi) {
+                    list.extend(d.center.to_array());
+                }
             }
         }
         out
     }
 
-    /// Inserts the diamonds other pieces split (central vertices, three coordinates each, as
-    /// gathered from every piece's [`PieceHierarchy::outgoing`]) whose reach meets this piece, and
-    /// refines on from them. Returns how many were new here.
+    /// Inserts the diamonds other pieces split (central vertices, three coordinates each: the
+    /// lists the other pieces' [`PieceHierarchy::outgoing`] addressed to this piece, concatenated)
+    /// whose reach meets this piece, and refines on from them. Returns how many were new here.
     pub fn receive(&self, r: &mut PieceRefinement, centers: &[i32]) -> Result<usize> {
         if !centers.len().is_multiple_of(3) {
             return Err(Error::Parameter(format!(
@@ -930,17 +935,19 @@ mod tests {
             .collect();
         let mut rounds = 0;
         loop {
-            let sent: Vec<i32> = hierarchies
+            // What each piece sent to each piece: sent[from][to].
+            let sent: Vec<Vec<Vec<i32>>> = hierarchies
                 .iter()
                 .zip(&mut states)
-                .flat_map(|(h, r)| h.outgoing(r, boxes))
+                .map(|(h, r)| h.outgoing(r, boxes))
                 .collect();
-            if sent.is_empty() {
+            if sent.iter().flatten().all(Vec::is_empty) {
                 break;
             }
             rounds += 1;
-            for (h, r) in hierarchies.iter().zip(&mut states) {
-                h.receive(r, &sent).unwrap();
+            for (to, (h, r)) in hierarchies.iter().zip(&mut states).enumerate() {
+                let received: Vec<i32> = sent.iter().flat_map(|s| s[to].iter().copied()).collect();
+                h.receive(r, &received).unwrap();
             }
         }
         let meshes = hierarchies
