@@ -156,20 +156,36 @@ struct Placed {
 const INSIDE: f64 = -1e-9;
 
 /// A face of the current boundary surface in the R-tree of [`Simplifier::faces`]: its corners
-/// (sorted: faces are equal when their corners are) and their positions.
+/// (sorted: faces are equal when their corners are), their positions and its box
+/// ([`BoundaryFace::padded_box`], computed once: the R-tree asks for it at every node an
+/// insertion or removal visits).
 #[derive(Clone, Debug)]
 struct BoundaryFace {
     corners: [u32; 3],
     x: [DVec3; 3],
+    envelope: AABB<[f64; 3]>,
 }
 
 impl BoundaryFace {
     fn new(mut corners: [u32; 3], pos: &[DVec3]) -> Self {
         corners.sort_unstable();
+        let x = corners.map(|v| pos[v as usize]);
         Self {
             corners,
-            x: corners.map(|v| pos[v as usize]),
+            x,
+            envelope: Self::padded_box(x),
         }
+    }
+
+    /// The face's box thickened by a hundredth of its largest side: a face in an axis plane has a
+    /// flat box of no volume, and the R*-tree's insertion, which compares volumes, then builds
+    /// nodes that overlap (on the box boundary of a volume's tetrahedra, removals and queries
+    /// visited a large part of a side's faces: a third of the reduction's time). Queries take the
+    /// faces whose boxes meet and decide exactly, so a larger box changes nothing else.
+    fn padded_box([a, b, c]: [DVec3; 3]) -> AABB<[f64; 3]> {
+        let (lo, hi) = (a.min(b).min(c), a.max(b).max(c));
+        let pad = 0.01 * (hi - lo).max_element();
+        AABB::from_corners((lo - pad).to_array(), (hi + pad).to_array())
     }
 }
 
@@ -182,16 +198,8 @@ impl PartialEq for BoundaryFace {
 impl RTreeObject for BoundaryFace {
     type Envelope = AABB<[f64; 3]>;
 
-    /// The face's box thickened by a hundredth of its largest side: a face in an axis plane has a
-    /// flat box of no volume, and the R*-tree's insertion, which compares volumes, then builds
-    /// nodes that overlap (on the box boundary of a volume's tetrahedra, removals and queries
-    /// visited a large part of a side's faces: a third of the reduction's time). Queries take the
-    /// faces whose boxes meet and decide exactly, so a larger box changes nothing else.
     fn envelope(&self) -> Self::Envelope {
-        let [a, b, c] = self.x;
-        let (lo, hi) = (a.min(b).min(c), a.max(b).max(c));
-        let pad = 0.01 * (hi - lo).max_element();
-        AABB::from_corners((lo - pad).to_array(), (hi + pad).to_array())
+        self.envelope
     }
 }
 
