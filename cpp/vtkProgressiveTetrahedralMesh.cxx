@@ -7,6 +7,7 @@
 #include "vtkDataSetTriangleFilter.h"
 #include "vtkDoubleArray.h"
 #include "vtkFieldData.h"
+#include "vtkIdList.h"
 #include "vtkIdTypeArray.h"
 #include "vtkInformation.h"
 #include "vtkInformationVector.h"
@@ -16,6 +17,7 @@
 #include "vtkPoints.h"
 #include "vtkPolyData.h"
 #include "vtkSmartPointer.h"
+#include "vtkUnsignedCharArray.h"
 #include "vtkUnstructuredGrid.h"
 
 // The module's internal helpers and the cxx bridge. Kept out of the public header: the VTK
@@ -176,11 +178,9 @@ try
 
   // ---- Tetrahedra only: other cells are tetrahedralised first.
   vtkUnstructuredGrid* tets = input;
-  bool onlyTets = true;
-  for (vtkIdType c = 0; c < input->GetNumberOfCells() && onlyTets; ++c)
-  {
-    onlyTets = input->GetCellType(c) == VTK_TETRA;
-  }
+  const unsigned char* types = input->GetCellTypesArray()->GetPointer(0);
+  const bool onlyTets = std::all_of(types, types + input->GetNumberOfCells(),
+    [](unsigned char type) { return type == VTK_TETRA; });
   if (!onlyTets)
   {
     if (!in.Tetrahedra || in.TetrahedralisedFrom != input || in.TetrahedralisedTime != inputTime)
@@ -337,10 +337,15 @@ try
   vtkPointData* inPD = tets->GetPointData();
   vtkPointData* outPD = output->GetPointData();
   vtkDiamonds::AllocateLike(inPD, outPD, np);
-  for (vtkIdType k = 0; k < np; ++k)
+  // Gathered array by array (one dispatch each), not point by point (a virtual call per point and
+  // array: most of a level change's time on a 1 M-tetrahedron input).
+  vtkNew<vtkIdList> ids;
+  ids->SetNumberOfIds(np);
+  std::copy(pointIds.begin(), pointIds.end(), ids->GetPointer(0));
+  if (np > 0)
   {
-    points->SetPoint(k, tets->GetPoint(pointIds[k]));
-    outPD->CopyData(inPD, pointIds[k], k);
+    tets->GetPoints()->GetData()->GetTuples(ids, coordinates);
+    outPD->CopyData(inPD, ids);
   }
   output->SetPoints(points);
   vtkDiamonds::SetTetrahedra(output, vtkDiamonds::FixedSizeCells(4, corners, np));
