@@ -238,13 +238,13 @@ impl<'h> Refiner<'h> {
     pub(crate) fn base_mesh(lattice: Lattice) -> SplitSet {
         let mut r = Self::new(lattice, SplitSet::new(&lattice), 0, &|_| 0.0);
         let mut stack = vec![Diamond::root(&lattice)];
+        let mut closure = Vec::new();
         while let Some(d) = stack.pop() {
             if r.split.contains(d) || d.placement(&lattice) != Placement::Straddling {
                 continue;
             }
-            let mut closure = Vec::new();
             Self::closure(&r.lattice, &r.split, d, &mut closure);
-            for a in closure {
+            for &a in &closure {
                 r.split.insert(a);
                 stack.extend(a.children(&lattice));
             }
@@ -256,7 +256,8 @@ impl<'h> Refiner<'h> {
     /// unsplit children of split diamonds.
     pub(crate) fn candidates(lattice: &Lattice, split: &SplitSet) -> Vec<Diamond> {
         let mut out = Vec::new();
-        let mut seen = FxHashSet::default();
+        // A bit per domain point: a diamond is met once per split parent.
+        let mut seen = SplitSet::new(lattice);
         let mut stack = vec![Diamond::root(lattice)];
         while let Some(d) = stack.pop() {
             if !seen.insert(d) {
