@@ -36,6 +36,9 @@
 #include <optional>
 #include <string>
 
+#if defined(__GLIBC__)
+#include <malloc.h> // malloc_trim
+#endif
 
 vtkStandardNewMacro(vtkAdaptiveTetrahedra);
 
@@ -190,6 +193,15 @@ try
     return 0;
   }
   this->UpdateProgress(0.9);
+
+#if defined(__GLIBC__)
+  // The build's and the refinement's temporary vectors are freed by now, but glibc keeps their
+  // pages in its arenas, most in the worker threads' ones, which the output arrays allocated below
+  // on this thread do not reuse: give them back to the system first. Measured peak RSS growth of
+  // a first execution: bonsai 256³ at tolerance 8 506 -> 490 MiB for an output of 406 MiB, fuel
+  // 64³ at 8 4.2 -> 3.9 MiB for 2.8 MiB.
+  malloc_trim(0);
+#endif
 
   // ---- Output, written by the core into the arrays allocated here.
   double maxError = 0.0;
