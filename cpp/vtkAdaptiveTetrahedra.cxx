@@ -389,13 +389,8 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
   {
     // The diamonds split since the last round, addressed to the ranks whose pieces they reach.
     std::optional<bridge::SplitMessages> outgoing;
-    std::vector<std::size_t> counts;
     ok = ok && run(refinementFailed, [&] {
       outgoing.emplace(piece.outgoing(**refinement, pieces.Extents()));
-      for (const std::size_t diamonds : outgoing->counts)
-      {
-        counts.push_back(3 * diamonds);
-      }
       return true;
     });
     if (!agree(ok, "the refinement"))
@@ -408,7 +403,7 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
     }
     std::vector<std::int32_t> received;
     std::string error;
-    ok = pieces.Exchange(outgoing->centers.data(), counts, received, error);
+    ok = pieces.Exchange(*outgoing, received, error);
     if (!ok)
     {
       vtkErrorMacro(<< "Adaptive Tetrahedra " << refinementFailed << ": " << error);

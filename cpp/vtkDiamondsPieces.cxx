@@ -695,9 +695,11 @@ bool Pieces::Concatenate(
   return true;
 }
 
-bool Pieces::Exchange(const std::int32_t* values, const std::vector<std::size_t>& counts,
-  std::vector<std::int32_t>& received, std::string& error)
+bool Pieces::Exchange(const bridge::SplitMessages& outgoing, std::vector<std::int32_t>& received,
+  std::string& error)
 {
+  const auto& counts = outgoing.counts;
+  const std::int32_t* values = outgoing.centers.data();
   Clock clock{ this->Seconds };
   received.clear();
   bool ok = counts.size() == static_cast<std::size_t>(this->Ranks);

@@ -100,13 +100,13 @@ public:
   // on as MaxInPlace.
   bool Concatenate(
     const std::vector<std::int32_t>& values, std::vector<std::int32_t>& all, std::string& error);
-  // Collective: sends `counts[q]` of `values` to each rank q (the lists in rank order, this
-  // rank's own count skipped) and receives into `received` what every other rank sent this one,
+  // Collective: sends each rank q its list of `outgoing` (`counts[q]` values of `centers`, the
+  // lists in rank order, this rank's own skipped) and receives into `received` what every other rank sent this one,
   // in rank order. Pairwise exchanges in one global pair order (as Fetch), so a rank receives only
   // what is addressed to it. False with `error` set when a rank could not allocate what it
   // receives (every pair still completes its exchange).
-  bool Exchange(const std::int32_t* values, const std::vector<std::size_t>& counts,
-    std::vector<std::int32_t>& received, std::string& error);
+  bool Exchange(const bridge::SplitMessages& outgoing, std::vector<std::int32_t>& received,
+    std::string& error);
   // Collective: one value per rank.
   std::vector<double> PerRank(double value);
 

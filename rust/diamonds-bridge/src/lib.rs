@@ -66,8 +66,8 @@ mod ffi {
     }
 
     /// The split diamonds one piece sends in a round of a distributed refinement: one list per
-    /// piece (`counts[q]` central vertices of three coordinates each for piece `q`, its own list
-    /// empty), the lists concatenated in piece order in `centers`.
+    /// piece (`counts[q]` values for piece `q`: its central vertices, three coordinates each; its
+    /// own list empty), the lists concatenated in piece order in `centers`.
     struct SplitMessages {
         counts: Vec<usize>,
         centers: Vec<i32>,

@@ -195,7 +195,7 @@ impl PieceHierarchy {
         guard("listing the split diamonds to send", || {
             let lists = self.0.outgoing(&mut refinement.0, &boxes(pieces)?);
             Ok(SplitMessages {
-                counts: lists.iter().map(|l| l.len() / 3).collect(),
+                counts: lists.iter().map(Vec::len).collect(),
                 centers: lists.concat(),
             })
         })
