@@ -19,8 +19,8 @@ pub(super) struct Link {
     verts: Vec<u32>,
     /// The edges `ab` of the triangles `vab`, sorted pairs, deduplicated.
     edges: Vec<[u32; 2]>,
-    /// The faces opposite `v`, sorted triples.
-    tris: Vec<[u32; 3]>,
+    /// The faces opposite `v` as sorted triples packed by [`tri_key`], in increasing order.
+    tris: Vec<u128>,
     /// The boundary faces `vab` as the sorted pair `ab` and the fourth corner of their tetrahedron.
     boundary: Vec<([u32; 2], u32)>,
     /// The vertices `a` of the boundary edges `va`, sorted.
@@ -44,6 +44,12 @@ fn sorted_pair(a: u32, b: u32) -> [u32; 2] {
     [a.min(b), a.max(b)]
 }
 
+/// The sorted triple `t` packed into one integer whose order is the triples' lexicographic one
+/// (integers sort and compare faster than arrays).
+fn tri_key(t: [u32; 3]) -> u128 {
+    (u128::from(t[0]) << 64) | (u128::from(t[1]) << 32) | u128::from(t[2])
+}
+
 impl Link {
     /// The link of `v` whose star is the tetrahedra `star` of `tets`.
     pub(super) fn of(tets: &[[u32; 4]], star: &[u32], v: u32) -> Self {
@@ -53,31 +59,37 @@ impl Link {
             tris: Vec::with_capacity(star.len()),
             ..Link::default()
         };
-        // Every face `vab` with the fourth corner; a face seen once is on the boundary.
-        let mut faces: Vec<([u32; 2], u32)> = Vec::with_capacity(3 * star.len());
+        // Every face `vab` as its edge `ab` packed into one integer (integers sort faster than
+        // arrays); a face seen once is on the boundary.
+        let mut faces: Vec<u64> = Vec::with_capacity(3 * star.len());
         for &t in star {
             let o = others(tets[t as usize], v);
             let mut tri = o;
             tri.sort_unstable();
-            link.tris.push(tri);
+            link.tris.push(tri_key(tri));
             link.verts.extend_from_slice(&o);
-            for (a, b, d) in [(o[0], o[1], o[2]), (o[0], o[2], o[1]), (o[1], o[2], o[0])] {
-                faces.push((sorted_pair(a, b), d));
+            let [a, b, c] = tri;
+            for [a, b] in [[a, b], [a, c], [b, c]] {
+                faces.push((u64::from(a) << 32) | u64::from(b));
             }
         }
         link.verts.sort_unstable();
         link.verts.dedup();
-        // Packed keys sort faster than arrays; the fourth corners' order within a pair is never
-        // read (only pairs seen once keep theirs).
-        link.tris.sort_unstable_by_key(|t| {
-            (u128::from(t[0]) << 64) | (u128::from(t[1]) << 32) | u128::from(t[2])
-        });
-        faces.sort_unstable_by_key(|&([a, b], _)| (u64::from(a) << 32) | u64::from(b));
-        for group in faces.chunk_by(|x, y| x.0 == y.0) {
-            link.edges.push(group[0].0);
+        link.tris.sort_unstable();
+        faces.sort_unstable();
+        for group in faces.chunk_by(|x, y| x == y) {
+            let ab = [(group[0] >> 32) as u32, group[0] as u32];
+            link.edges.push(ab);
             if group.len() == 1 {
-                link.boundary.push(group[0]);
-                link.boundary_verts.extend_from_slice(&group[0].0);
+                // The fourth corner of the one tetrahedron with the face `vab`.
+                let d = star
+                    .iter()
+                    .map(|&t| others(tets[t as usize], v))
+                    .find(|o| o.contains(&ab[0]) && o.contains(&ab[1]))
+                    .and_then(|o| o.into_iter().find(|c| !ab.contains(c)))
+                    .expect("a face of the link is one of a tetrahedron of the star");
+                link.boundary.push((ab, d));
+                link.boundary_verts.extend_from_slice(&ab);
             }
         }
         link.boundary_verts.sort_unstable();
@@ -222,7 +234,7 @@ pub(super) fn link_condition_to_interior(
         let mut tri = o;
         tri.sort_unstable();
         let [a, b, c] = tri;
-        li.tris.binary_search(&tri).is_err()
+        li.tris.binary_search(&tri_key(tri)).is_err()
             && o.iter()
                 .all(|&v| v == i || !has(&li.verts, v) || has(&edge.verts, v))
             && [[a, b], [a, c], [b, c]]
