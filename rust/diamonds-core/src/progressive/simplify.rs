@@ -727,15 +727,9 @@ impl Simplifier {
     /// boundary).
     fn estimate_all(&mut self, verts: &[u32]) {
         let bounds: Vec<Option<f64>> = if verts.len() > 64 {
-            verts
-                .par_iter()
-                .map(|&v| Some(self.candidates(v, false)?.1.first()?.cost))
-                .collect()
+            verts.par_iter().map(|&v| self.cheapest(v)).collect()
         } else {
-            verts
-                .iter()
-                .map(|&v| Some(self.candidates(v, false)?.1.first()?.cost))
-                .collect()
+            verts.iter().map(|&v| self.cheapest(v)).collect()
         };
         for (&v, bound) in verts.iter().zip(bounds) {
             self.offer[v as usize] = None;
@@ -751,11 +745,18 @@ impl Simplifier {
         }
     }
 
+    /// The cost of the cheapest of `v`'s [`Self::candidates`], if any.
+    fn cheapest(&self, v: u32) -> Option<f64> {
+        let (_, candidates) = self.candidates(v, false)?;
+        candidates.iter().map(|c| c.cost).min_by(f64::total_cmp)
+    }
+
     /// The cheapest valid collapse of `i` (§3.2 tests, §3.3 cost with the estimated field term):
-    /// the first of its [`Self::candidates`] that passes the link condition and, `i` on the
-    /// boundary, keeps the boundary embedded.
+    /// the first of its [`Self::candidates`] (cheapest first, ties by target) that passes the link
+    /// condition and, `i` on the boundary, keeps the boundary embedded.
     fn best(&self, i: u32) -> Option<Candidate> {
-        let (link, candidates) = self.candidates(i, true)?;
+        let (link, mut candidates) = self.candidates(i, true)?;
+        candidates.sort_by(|a, b| a.cost.total_cmp(&b.cost).then(a.target.cmp(&b.target)));
         let on_boundary = link.on_boundary();
         candidates.into_iter().find(|c| {
             self.link_ok(i, &link, c.target)
@@ -764,8 +765,7 @@ impl Simplifier {
     }
 
     /// The collapses of `i` that keep every tetrahedron proper and follow the boundary rules, with
-    /// their costs (§3.3, the estimated field term), cheapest first (ties by target), and `i`'s
-    /// link: the whole of it if `full_link`, else for an interior `i` only its vertices
+    /// their costs (§3.3, the estimated field term), in no order, and `i`'s link: the whole of it if `full_link`, else for an interior `i` only its vertices
     /// ([`Link::of_interior`]; the estimates need no more).
     fn candidates(&self, i: u32, full_link: bool) -> Option<(Link, Vec<Candidate>)> {
         let preserve = self.params.preserve_boundary;
@@ -855,7 +855,6 @@ impl Simplifier {
                 exact: false,
             });
         }
-        candidates.sort_by(|a, b| a.cost.total_cmp(&b.cost).then(a.target.cmp(&b.target)));
         Some((link, candidates))
     }
 
