@@ -375,12 +375,19 @@ impl Diamond {
 /// [`Diamond::tets`] lists tetrahedra in this order, and bisection preserves it (Gregorski Fig. 1):
 /// 0 → 1: `[a, q, p, m]`, `[b, p, q, m]`; 1 → 2: `[x, w, m, c]`, `[y, w, m, c]`;
 /// 2 → 0 of the next level: `[p, c, m, f]`, `[q, c, m, f]`.
+///
+/// The children are spelled out per spine class ([`child_layout`]'s table, the class told once):
+/// the walks that write a mesh bisect every tetrahedron above its leaves, and the generic
+/// [`child_of`] (layout looked up twice, vertices picked by index) cost twice as many instructions.
+#[inline]
 pub fn bisect(t: &Tet) -> [Tet; 2] {
-    let m = (t[0] + t[1]) / 2;
-    [
-        child_of(t, true, *t, t[0], m),
-        child_of(t, false, *t, t[1], m),
-    ]
+    let [a, b, c, d] = *t;
+    let m = (a + b) / 2;
+    match (b - a).cmpne(IVec3::ZERO).bitmask().count_ones() {
+        3 => [[a, d, c, m], [b, c, d, m]],
+        2 => [[a, c, m, d], [b, c, m, d]],
+        _ => [[a, d, m, c], [b, d, m, c]],
+    }
 }
 
 /// Where the vertices of `t`'s child (`first` or second, [`bisect`]'s order) come from: the child is
@@ -625,6 +632,23 @@ mod tests {
                         .unwrap_or_else(|| panic!("{cd:?} not a child of {d:?}"));
                     assert!(tets.contains(&key(&child)), "{child:?} not in {cd:?}");
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn bisect_orders_the_children_as_the_generic_layout() {
+        // Every walk relies on the vertex order of `bisect`'s children; the isosurface walks build
+        // children through `child_of` (the same layout, looked up): both agree on every tetrahedron.
+        let l = lattice(16);
+        for d in all_diamonds(&l) {
+            for t in d.tets(&l) {
+                let m = (t[0] + t[1]) / 2;
+                let generic = [
+                    child_of(&t, true, t, t[0], m),
+                    child_of(&t, false, t, t[1], m),
+                ];
+                assert_eq!(bisect(&t), generic, "{t:?}");
             }
         }
     }
