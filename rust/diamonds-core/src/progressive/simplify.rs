@@ -1356,15 +1356,7 @@ mod tests {
     #[test]
     fn the_link_condition_to_an_interior_vertex_decides_as_the_one_from_both_links() {
         let g = grid(5, |p| p.x * p.y + p.z);
-        let mut reduction = Reduction::new(
-            TetInput {
-                points: &g.points,
-                tets: &g.tets,
-                scalars: &g.scalars,
-            },
-            &Params::default(),
-        )
-        .expect("a valid cube");
+        let mut reduction = Reduction::new(g.input(), &Params::default()).expect("a valid cube");
         reduction
             .reduce_to(g.tets.len() / 4, &mut |_| true)
             .expect("not aborted");
@@ -1405,15 +1397,7 @@ mod tests {
     #[test]
     fn the_live_faces_of_the_boundary_tree_are_the_current_boundary() {
         let g = grid(6, |p| p.x * p.y + p.z);
-        let mut reduction = Reduction::new(
-            TetInput {
-                points: &g.points,
-                tets: &g.tets,
-                scalars: &g.scalars,
-            },
-            &Params::default(),
-        )
-        .expect("a valid cube");
+        let mut reduction = Reduction::new(g.input(), &Params::default()).expect("a valid cube");
         let (mut compacted, mut dead_before) = (false, 0);
         for step in 1..=20 {
             reduction

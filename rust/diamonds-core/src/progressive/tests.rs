@@ -70,7 +70,7 @@ fn smooth(p: DVec3) -> f64 {
 }
 
 impl Generated {
-    fn input(&self) -> TetInput<'_> {
+    pub(super) fn input(&self) -> TetInput<'_> {
         TetInput {
             points: &self.points,
             tets: &self.tets,
