@@ -765,8 +765,9 @@ impl Simplifier {
     }
 
     /// The collapses of `i` that keep every tetrahedron proper and follow the boundary rules, with
-    /// their costs (§3.3, the estimated field term), in no order, and `i`'s link: the whole of it if `full_link`, else for an interior `i` only its vertices
-    /// ([`Link::of_interior`]; the estimates need no more).
+    /// their costs (§3.3, the estimated field term), in no order, and `i`'s link: the whole of it
+    /// if `full_link`, else for an interior `i` only its vertices ([`Link::of_interior`]; the
+    /// estimates need no more).
     fn candidates(&self, i: u32, full_link: bool) -> Option<(Link, Vec<Candidate>)> {
         let preserve = self.params.preserve_boundary;
         if self.removed[i as usize] || (preserve && self.kind[i as usize] == Kind::Corner) {
@@ -1348,7 +1349,7 @@ impl Simplifier {
 mod tests {
     use super::*;
     use crate::progressive::tests::grid;
-    use crate::validate::check_manifold_tets;
+    use crate::validate::{boundary_faces, check_manifold_tets};
 
     /// The link condition read from an interior `j`'s star decides as the one from both links, and
     /// an interior vertex's link has the vertices of its whole link, on a cube reduced to a quarter
@@ -1404,24 +1405,18 @@ mod tests {
                 .reduce_to(g.tets.len() * (20 - step) / 20, &mut |_| true)
                 .expect("not aborted");
             let s = &reduction.s;
-            let mut want: Vec<[u32; 3]> = (0..s.tets.len())
+            let live_tets: Vec<[u32; 4]> = (0..s.tets.len())
                 .filter(|&t| s.alive[t])
-                .flat_map(|t| {
-                    let c = s.tets[t];
-                    (0..4).map(move |skip| {
-                        let mut f: [u32; 3] =
-                            std::array::from_fn(|k| c[if k < skip { k } else { k + 1 }]);
-                        f.sort_unstable();
-                        f
-                    })
+                .map(|t| s.tets[t])
+                .collect();
+            let mut want: Vec<[u32; 3]> = boundary_faces(&live_tets)
+                .into_iter()
+                .map(|mut f| {
+                    f.sort_unstable();
+                    f
                 })
                 .collect();
             want.sort_unstable();
-            let want: Vec<[u32; 3]> = want
-                .chunk_by(|a, b| a == b)
-                .filter(|g| g.len() == 1)
-                .map(|g| g[0])
-                .collect();
             let mut live: Vec<[u32; 3]> = s
                 .faces
                 .iter()
