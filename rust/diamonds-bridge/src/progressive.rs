@@ -170,7 +170,7 @@ impl Progressive {
     fn extract(&mut self) {
         let mesh = self.replay.mesh(self.reduction.mesh().points().len());
         self.errors = self.replay.field_errors();
-        self.tets = mesh.tets.iter().flatten().copied().collect();
+        self.tets = mesh.tets.into_flattened();
         self.point_ids = mesh.point_ids;
         self.extract_surface();
     }

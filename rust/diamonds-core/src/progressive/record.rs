@@ -4,6 +4,8 @@
 //! moves between levels by applying collapses (down) or vertex splits (up), each touching only the
 //! tetrahedra it names: nothing is recomputed.
 
+use rayon::prelude::*;
+
 /// One half-edge collapse `hec(p_i → p_j)` and its inverse vertex split (§3.1): the tetrahedra around
 /// the edge are removed (`removed`, the split's T_new) and the others around `p_i` have `p_i`
 /// replaced by `p_j` (`moved`, the split's T_moved). Tetrahedra are named by their index among the
@@ -137,7 +139,7 @@ impl ProgressiveMesh {
 
 /// A cursor on a [`ProgressiveMesh`]: the current level's tetrahedra, moved up by vertex splits and
 /// down by half-edge collapses (§4.3: only the tetrahedra of each split change).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub struct Replay {
     tets: Vec<[u32; 4]>,
     alive: Vec<bool>,
@@ -147,6 +149,90 @@ pub struct Replay {
     /// The number of levels of the progressive mesh when the cursor last moved ([`Replay::rebase`]).
     levels: usize,
     live: usize,
+    /// Built by the first [`Replay::set_level`] that jumps, again when the reduction went on.
+    jumps: Option<JumpIndex>,
+}
+
+/// What a jump to a distant level needs to set every tetrahedron directly instead of replaying each
+/// collapse or split on the way (a replay touches its tetrahedra at random, about half a microsecond
+/// a step on a 1 M-tetrahedron mesh; a jump reads every tetrahedron once, in parallel). Collapses are
+/// named by their index `k` in the order they were made (level `L` is the original after collapses
+/// `0 .. n - L`), so the names stay when the reduction goes on.
+#[derive(Clone, Debug)]
+struct JumpIndex {
+    /// The number of collapses indexed.
+    collapses: usize,
+    /// The collapse that removes each original tetrahedron (`u32::MAX`: in the base mesh).
+    tet_removed_by: Vec<u32>,
+    /// The collapse that removes each point (`u32::MAX`: never removed).
+    vertex_removed_by: Vec<u32>,
+    /// Each collapse's vertex and target (`p_i`, `p_j`), compact: jumps follow them at random.
+    pairs: Vec<[u32; 2]>,
+    /// Each tetrahedron's field errors after the collapses that changed them (moved, or another
+    /// error), as `history_start[t] .. history_start[t + 1]` into `history_collapse` (ascending) and
+    /// `history_error`.
+    history_start: Vec<u32>,
+    history_collapse: Vec<u32>,
+    history_error: Vec<f64>,
+}
+
+impl JumpIndex {
+    fn new(pm: &ProgressiveMesh) -> Self {
+        let n = pm.collapses.len();
+        let mut tet_removed_by = vec![u32::MAX; pm.tets.len()];
+        let mut vertex_removed_by = vec![u32::MAX; pm.points.len()];
+        let mut history_start = vec![0u32; pm.tets.len() + 1];
+        let pairs = pm.collapses.iter().map(|c| [c.vertex, c.target]).collect();
+        for (k, c) in pm.collapses.iter().enumerate() {
+            vertex_removed_by[c.vertex as usize] = k as u32;
+            for &t in &c.removed {
+                tet_removed_by[t as usize] = k as u32;
+            }
+            for t in c
+                .moved
+                .iter()
+                .chain(c.other_errors.iter().map(|(t, _, _)| t))
+            {
+                history_start[*t as usize + 1] += 1;
+            }
+        }
+        for t in 0..pm.tets.len() {
+            history_start[t + 1] += history_start[t];
+        }
+        let entries = history_start[pm.tets.len()] as usize;
+        let mut next = history_start.clone();
+        let (mut history_collapse, mut history_error) = (vec![0u32; entries], vec![0.0; entries]);
+        for (k, c) in pm.collapses.iter().enumerate() {
+            let after = c.moved.iter().zip(&c.errors_after).map(|(&t, &e)| (t, e));
+            for (t, e) in after.chain(c.other_errors.iter().map(|&(t, _, e)| (t, e))) {
+                let slot = &mut next[t as usize];
+                history_collapse[*slot as usize] = k as u32;
+                history_error[*slot as usize] = e;
+                *slot += 1;
+            }
+        }
+        Self {
+            collapses: n,
+            tet_removed_by,
+            vertex_removed_by,
+            pairs,
+            history_start,
+            history_collapse,
+            history_error,
+        }
+    }
+
+    /// Tetrahedron `t`'s field error once collapses `0 .. applied` are made: the error after the
+    /// last of them that changed it, else its original one.
+    fn error(&self, pm: &ProgressiveMesh, t: usize, applied: u32) -> f64 {
+        let range = self.history_start[t] as usize..self.history_start[t + 1] as usize;
+        let before = self.history_collapse[range.clone()].partition_point(|&k| k < applied);
+        if before == 0 {
+            pm.original_tet_errors[t]
+        } else {
+            self.history_error[range.start + before - 1]
+        }
+    }
 }
 
 /// Replaces corner `from` of `t` by `to`.
@@ -166,6 +252,7 @@ impl Replay {
             level: pm.levels(),
             levels: pm.levels(),
             live: pm.tets.len(),
+            jumps: None,
         }
     }
 
@@ -187,10 +274,72 @@ impl Replay {
         self.live
     }
 
-    /// Moves to `level` (clamped to `pm.levels()`) by collapses or splits; returns how many were
-    /// replayed.
+    /// Moves to `level` (clamped to `pm.levels()`) by collapses or splits, or by a jump that sets
+    /// every tetrahedron directly when the collapses or splits on the way name more than a quarter
+    /// of the tetrahedra (a replayed step touches its tetrahedra at random, a jump reads them all in
+    /// order: the ratio is the machine's, not the mesh's); returns how many collapses or splits
+    /// lie between the levels. The result is the same either way (tested).
     pub fn set_level(&mut self, pm: &ProgressiveMesh, level: usize) -> usize {
-        self.set_level_with(pm, level, &mut |_, _| {})
+        self.rebase(pm);
+        let level = level.min(pm.levels());
+        let n = pm.levels();
+        let named: usize = pm.collapses[n - self.level.max(level)..n - self.level.min(level)]
+            .iter()
+            .map(|c| c.removed.len() + c.moved.len() + c.other_errors.len())
+            .sum();
+        if 4 * named <= pm.tets.len() {
+            return self.set_level_with(pm, level, &mut |_, _| {});
+        }
+        if self.jumps.as_ref().is_none_or(|j| j.collapses != n) {
+            self.jumps = Some(JumpIndex::new(pm));
+        }
+        self.jump(pm, level)
+    }
+
+    /// Sets every tetrahedron for `level` at once (see [`JumpIndex`]): a tetrahedron is in the level
+    /// if no collapse `0 .. n - level` removed it, its corners are the original ones each followed
+    /// along those collapses to the vertex it became, its error is its [`JumpIndex::error`]. A
+    /// tetrahedron that leaves the mesh keeps the corners it had when its collapse removed it, as a
+    /// replay leaves them (a later split brings it back with them).
+    fn jump(&mut self, pm: &ProgressiveMesh, level: usize) -> usize {
+        let jumps = self.jumps.as_ref().expect("a jump index");
+        let n = pm.levels();
+        let applied = (n - level) as u32;
+        // What each point is at `level`: itself, or what its collapse's target is (targets are
+        // removed, if ever, by later collapses, so descending order sees them first).
+        let mut vertex_at: Vec<u32> = (0..pm.points.len() as u32).collect();
+        for &[vertex, target] in jumps.pairs[..applied as usize].iter().rev() {
+            vertex_at[vertex as usize] = vertex_at[target as usize];
+        }
+        let follow = |mut v: u32, until: u32| {
+            while jumps.vertex_removed_by[v as usize] < until {
+                v = jumps.pairs[jumps.vertex_removed_by[v as usize] as usize][1];
+            }
+            v
+        };
+        self.live = self
+            .tets
+            .par_iter_mut()
+            .zip(self.alive.par_iter_mut())
+            .zip(self.errors.par_iter_mut())
+            .enumerate()
+            .map(|(t, ((corners, alive), error))| {
+                let removed_by = jumps.tet_removed_by[t];
+                let now = removed_by >= applied;
+                if now {
+                    *corners = pm.tets[t].map(|v| vertex_at[v as usize]);
+                    *error = jumps.error(pm, t, applied);
+                } else if *alive {
+                    // Its current corners followed as far as the collapse that removes it.
+                    *corners = corners.map(|v| follow(v, removed_by));
+                }
+                *alive = now;
+                usize::from(now)
+            })
+            .sum();
+        let steps = self.level.abs_diff(level);
+        self.level = level;
+        steps
     }
 
     /// [`Replay::set_level`], calling `on_step` after each collapse or split with the cursor and
@@ -252,7 +401,7 @@ impl Replay {
     /// for the tetrahedron of that boundary face), as the reduction placed them.
     pub fn field_errors(&self) -> Vec<f64> {
         self.errors
-            .iter()
+            .par_iter()
             .zip(&self.alive)
             .filter(|(_, &a)| a)
             .map(|(&e, _)| e)
@@ -279,23 +428,92 @@ impl Replay {
     /// The current level as a compact mesh.
     pub fn mesh(&self, points: usize) -> LevelMesh {
         let mut index = vec![u32::MAX; points];
-        let mut point_ids = Vec::new();
         for (_, t) in self.live_tets() {
             for v in t {
-                if index[v as usize] == u32::MAX {
-                    index[v as usize] = 0;
-                    point_ids.push(v);
-                }
+                index[v as usize] = 0;
             }
         }
-        point_ids.sort_unstable();
-        for (k, &v) in point_ids.iter().enumerate() {
-            index[v as usize] = k as u32;
+        // Ascending by construction: numbered in a scan of the marks.
+        let mut point_ids = Vec::new();
+        for (v, slot) in index.iter_mut().enumerate() {
+            if *slot == 0 {
+                *slot = point_ids.len() as u32;
+                point_ids.push(v as u32);
+            }
         }
         let tets = self
-            .live_tets()
-            .map(|(_, t)| t.map(|v| index[v as usize]))
+            .tets
+            .par_iter()
+            .zip(&self.alive)
+            .filter(|(_, &a)| a)
+            .map(|(t, _)| t.map(|v| index[v as usize]))
             .collect();
         LevelMesh { point_ids, tets }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::progressive::tests::{bent, grid};
+    use crate::progressive::{simplify, Params};
+
+    /// Everything a later move or a reader depends on: the level's mesh and errors, and every
+    /// tetrahedron's corners (those away from the level too: a split brings them back as they are).
+    fn state(r: &Replay, points: usize) -> (LevelMesh, Vec<f64>, Vec<[u32; 4]>, usize) {
+        (r.mesh(points), r.field_errors(), r.tets.clone(), r.tets())
+    }
+
+    /// Jumps leave the cursor exactly where collapses and splits one by one leave it, for any
+    /// sequence of levels mixing long moves (jumps) and short ones (replays after a jump), on a
+    /// mesh whose collapses change errors outside their own tetrahedra too.
+    #[test]
+    fn a_jump_lands_where_the_replay_lands() {
+        let cube = grid(5, |p| (3.0 * p.x).sin() + p.y * p.z);
+        let curved = bent(6, |p| (4.0 * p.x + 3.0 * p.y).cos() + p.z);
+        let mut jumped = 0;
+        for (g, preserve_boundary) in [(cube, true), (curved, false)] {
+            let params = Params {
+                preserve_boundary,
+                boundary_tolerance: 1e-9,
+                ..Params::default()
+            };
+            let pm = simplify(g.input(), &params, &mut |_| true).unwrap();
+            let n = pm.levels();
+            let others: usize = pm.collapses.iter().map(|c| c.other_errors.len()).sum();
+            if !preserve_boundary {
+                assert!(
+                    others > 0,
+                    "no collapse changed another tetrahedron's error"
+                );
+            }
+            let (mut fast, mut slow) = (Replay::new(&pm), Replay::new(&pm));
+            let mut seed = 12345u64;
+            for _ in 0..60 {
+                seed = seed
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                // Mostly long moves, some of a few levels.
+                let level = if seed >> 62 == 0 {
+                    (fast.level() + (seed >> 33) as usize % 5).min(n)
+                } else {
+                    (seed >> 33) as usize % (n + 1)
+                };
+                let had = fast.jumps.is_some();
+                let before = fast.level();
+                assert_eq!(fast.set_level(&pm, level), before.abs_diff(level));
+                slow.set_level_with(&pm, level, &mut |_, _| {});
+                jumped += usize::from(had || fast.jumps.is_some());
+                assert_eq!(
+                    state(&fast, g.points.len()),
+                    state(&slow, g.points.len()),
+                    "level {before} -> {level} of {n}"
+                );
+            }
+        }
+        assert!(
+            jumped > 20,
+            "only {jumped} moves could jump: the test tests little"
+        );
     }
 }

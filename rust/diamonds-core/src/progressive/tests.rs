@@ -550,7 +550,7 @@ fn the_progressive_isosurface_equals_marching_tetrahedra_at_every_level() {
 /// [`grid`] bent into a quarter of a thick cylinder shell: `(x, y, z)` → radius `1 + x`, angle
 /// `πy/2`, height `z`, so its inner and outer walls are curved and a simplified boundary leaves
 /// removed vertices outside the mesh.
-fn bent(n: usize, field: impl Fn(DVec3) -> f64) -> Generated {
+pub(super) fn bent(n: usize, field: impl Fn(DVec3) -> f64) -> Generated {
     let mut g = grid(n, |_| 0.0);
     for p in &mut g.points {
         let (r, a) = (1.0 + p[0], std::f64::consts::FRAC_PI_2 * p[1]);
