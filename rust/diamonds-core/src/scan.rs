@@ -306,6 +306,30 @@ impl Stencils {
         finest_diamond_error(volume, &self.finest, d, center)
     }
 
+    /// Writes `error(x, e)` for every finest diamond centred at `(x, y, z)`, `x` in `xs`, whose
+    /// bounds lie inside the domain (the caller's promise: `xs`, `y` and `z` at least one point from
+    /// every face of `volume`'s grid), `e` its [`Stencils::finest_diamond_error`]. These are 7 of
+    /// every 8 diamonds, and along a row the midpoint table only depends on `x mod 8`: it is looked
+    /// up once per row, and no [`Diamond`] or bounds are built per diamond.
+    #[inline]
+    pub fn finest_row_errors<T: Sample>(
+        &self,
+        volume: &Volume<'_, T>,
+        [y, z]: [usize; 2],
+        xs: std::ops::Range<usize>,
+        mut error: impl FnMut(usize, f64),
+    ) {
+        let tables: [&[[isize; 3]]; 8] =
+            std::array::from_fn(|x| self.finest.of(IVec3::new(x as i32, y as i32, z as i32)));
+        let first = volume.grid.index(0, y, z);
+        // With `y` and `z` even, only odd `x` are finest (an even `x` has σ ≥ 1).
+        let step = if (y | z) & 1 == 1 { 1 } else { 2 };
+        let start = if step == 2 { xs.start | 1 } else { xs.start };
+        for x in (start..xs.end).step_by(step) {
+            error(x, finest_error(volume, tables[x & 7], first + x));
+        }
+    }
+
     /// [`scan_tet`]'s error through the precomputed shape, when `t` has one.
     #[inline]
     pub fn error<T: Sample>(&self, volume: &Volume<'_, T>, t: &Tet) -> Option<f64> {
@@ -403,10 +427,16 @@ fn finest_diamond_error<T: Sample>(
     d: Diamond,
     center: usize,
 ) -> f64 {
+    finest_error(volume, midpoints.of(d.center), center)
+}
+
+/// [`finest_diamond_error`] from the diamond's `midpoints` (its entry of [`FinestMidpoints`]).
+#[inline]
+fn finest_error<T: Sample>(volume: &Volume<'_, T>, midpoints: &[[isize; 3]], center: usize) -> f64 {
     let at = |o: isize| volume.samples[center.wrapping_add_signed(o)].to_f64();
     // Twice the error at each midpoint `m` of a spine `(a, b)`.
     let mut worst = 0.0f64;
-    for &[m, a, b] in midpoints.of(d.center) {
+    for &[m, a, b] in midpoints {
         let e = (2.0 * at(m) - at(a) - at(b)).abs();
         if e > worst {
             worst = e;

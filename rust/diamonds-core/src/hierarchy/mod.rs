@@ -157,10 +157,7 @@ impl Hierarchy {
                         (first_row + r) % grid.dims[1],
                         (first_row + r) / grid.dims[1],
                     );
-                    for (x, rec) in row.iter_mut().enumerate() {
-                        let d = Diamond::new(glam::IVec3::new(x as i32, y as i32, z as i32));
-                        *rec = diamond_record(volume, &lattice, &stencils, (d, glam::IVec3::ZERO));
-                    }
+                    row_records(volume, &lattice, &stencils, [y, z], row);
                 });
             }
             // A panic there goes on here, where the callers' guards see it.
@@ -286,6 +283,36 @@ fn is_root_corner(lattice: &Lattice, p: glam::IVec3) -> bool {
     (p.cmpeq(glam::IVec3::ZERO) | p.cmpeq(glam::IVec3::splat(lattice.size()))).all()
 }
 
+/// The records of the row `(y, z)` of a whole grid's `volume`: those of the finest diamonds inside
+/// the domain, 7 of every 8 points away from the faces, in one loop along the row
+/// ([`Stencils::finest_row_errors`]: no [`Diamond`], bounds or placement per diamond), then every
+/// other point's by [`diamond_record`] (the same records: the finest ones take the same path there).
+fn row_records<T: Sample>(
+    volume: &Volume<'_, T>,
+    lattice: &Lattice,
+    stencils: &Stencils,
+    [y, z]: [usize; 2],
+    row: &mut [Record],
+) {
+    let hi = lattice.hi;
+    let interior = |c: usize, hi: i32| c >= 1 && (c as i32) < hi;
+    let mut finest = 0..0;
+    if interior(y, hi.y) && interior(z, hi.z) && hi.x >= 2 {
+        finest = 1..hi.x as usize;
+        stencils.finest_row_errors(volume, [y, z], finest.clone(), |x, e| {
+            row[x] = Record::of(e)
+        });
+    }
+    let odd_row = (y | z) & 1 == 1;
+    for (x, rec) in row.iter_mut().enumerate() {
+        if finest.contains(&x) && (odd_row || x & 1 == 1) {
+            continue;
+        }
+        let d = Diamond::new(glam::IVec3::new(x as i32, y as i32, z as i32));
+        *rec = diamond_record(volume, lattice, stencils, (d, glam::IVec3::ZERO));
+    }
+}
+
 /// Scans the inside tetrahedra of `d` and packs the result. `volume` starts at the lattice point
 /// `shift` (zero for a whole grid; a piece's padded box for a piece): the samples are read at
 /// shifted positions, while the shapes of the tetrahedra come from `d` itself, so any shift works.
@@ -406,6 +433,38 @@ mod tests {
                 checked += 1;
             }
             assert!(checked > 5_000, "{checked}");
+        }
+    }
+
+    #[test]
+    fn row_records_are_the_diamond_records() {
+        // The finest diamonds' loop along a row gives every point the record diamond_record gives it,
+        // on grids whose far faces fall on odd and even coordinates, thin and cubic.
+        for dims in [
+            [33, 29, 31],
+            [20, 17, 12],
+            [3, 5, 4],
+            [2, 9, 3],
+            [16, 16, 16],
+        ] {
+            let grid = Grid::new(dims);
+            let samples = crate::scan::tests::noise(grid);
+            let volume = Volume::new(grid, &samples).unwrap();
+            let lattice = Lattice::new(dims).unwrap();
+            let stencils = Stencils::new(&grid);
+            for z in 0..dims[2] {
+                for y in 0..dims[1] {
+                    // Every record written: none left at this marker.
+                    let mut row = vec![Record { error: u16::MAX }; dims[0]];
+                    row_records(&volume, &lattice, &stencils, [y, z], &mut row);
+                    for (x, got) in row.iter().enumerate() {
+                        let d = Diamond::new(glam::IVec3::new(x as i32, y as i32, z as i32));
+                        let expected =
+                            diamond_record(&volume, &lattice, &stencils, (d, glam::IVec3::ZERO));
+                        assert_eq!(*got, expected, "{d:?} in {dims:?}");
+                    }
+                }
+            }
         }
     }
 
