@@ -336,20 +336,27 @@ fn diamond_record<T: Sample>(
         if let Some(error) = stencils.diamond_error(volume, d, center) {
             return Record::of(error);
         }
-    } else if d.placement(lattice) == Placement::Straddling {
+    } else if !lattice.in_domain(hi) && d.placement(lattice) == Placement::Straddling {
         // Split unconditionally in the base mesh: no error needed. Told by the boxes of its
         // tetrahedra (the placement of each), without building them: along a far face whose
         // coordinate has low-order one bits (63 for 64 points) most diamonds near it are such.
+        // Only a diamond reaching past a far face can straddle one: along the near faces (`lo`
+        // below 0) its boxes are inside the domain or outside the root cube.
         return Record::default();
     }
+    // The finest diamonds' tetrahedra have no stencil (scales 2 and 4 only): scanned at once.
+    let finest = d.scale() == 1;
     let mut error = 0.0f64;
     for t in d.tets(lattice) {
         match lattice.place(&t) {
             Placement::Inside => {
                 let t = t.map(|p| p - shift);
-                let e = stencils
-                    .error(volume, &t)
-                    .unwrap_or_else(|| scan_tet(volume, &t).error);
+                let stencil = if finest {
+                    None
+                } else {
+                    stencils.error(volume, &t)
+                };
+                let e = stencil.unwrap_or_else(|| scan_tet(volume, &t).error);
                 if e > error {
                     error = e;
                 }
