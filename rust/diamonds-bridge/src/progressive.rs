@@ -151,6 +151,10 @@ impl Progressive {
             .map_err(|e| e.to_string());
         // Kept even after an abort: the collapses made until then are levels below the old ones.
         self.replay.rebase(self.reduction.mesh());
+        if added.is_ok() {
+            // Here, in the execution that simplifies, rather than in the first level change.
+            self.replay.index_jumps(self.reduction.mesh());
+        }
         added
     }
 

@@ -306,7 +306,7 @@ impl Stencils {
         finest_diamond_error(volume, &self.finest, d, center)
     }
 
-    /// Writes `error(x, e)` for every finest diamond centred at `(x, y, z)`, `x` in `xs`, whose
+    /// Writes `error(x, e)` for every finest diamond (scale 1) centred at `(x, y, z)`, `x` in `xs`, whose
     /// bounds lie inside the domain (the caller's promise: `xs`, `y` and `z` at least one point from
     /// every face of `volume`'s grid), `e` its [`Stencils::finest_diamond_error`]. These are 7 of
     /// every 8 diamonds, and along a row the midpoint table only depends on `x mod 8`: it is looked
@@ -322,10 +322,14 @@ impl Stencils {
         let tables: [&[[isize; 3]]; 8] =
             std::array::from_fn(|x| self.finest.of(IVec3::new(x as i32, y as i32, z as i32)));
         let first = volume.grid.index(0, y, z);
-        // With `y` and `z` even, only odd `x` are finest (an even `x` has σ ≥ 1).
+        // The diamonds of scale 1 (σ = 0, [`Diamond::sigma`]): with `y` and `z` even, odd `x` only.
         let step = if (y | z) & 1 == 1 { 1 } else { 2 };
         let start = if step == 2 { xs.start | 1 } else { xs.start };
         for x in (start..xs.end).step_by(step) {
+            debug_assert_eq!(
+                Diamond::new(IVec3::new(x as i32, y as i32, z as i32)).scale(),
+                1
+            );
             error(x, finest_error(volume, tables[x & 7], first + x));
         }
     }

@@ -303,12 +303,12 @@ fn row_records<T: Sample>(
             row[x] = Record::of(e)
         });
     }
-    let odd_row = (y | z) & 1 == 1;
     for (x, rec) in row.iter_mut().enumerate() {
-        if finest.contains(&x) && (odd_row || x & 1 == 1) {
-            continue;
-        }
         let d = Diamond::new(glam::IVec3::new(x as i32, y as i32, z as i32));
+        // (Short-circuits before the root corner, whose scale is undefined.)
+        if finest.contains(&x) && d.scale() == 1 {
+            continue; // written by the row loop
+        }
         *rec = diamond_record(volume, lattice, stencils, (d, glam::IVec3::ZERO));
     }
 }

@@ -149,7 +149,8 @@ pub struct Replay {
     /// The number of levels of the progressive mesh when the cursor last moved ([`Replay::rebase`]).
     levels: usize,
     live: usize,
-    /// Built by the first [`Replay::set_level`] that jumps, again when the reduction went on.
+    /// Built by [`Replay::index_jumps`] or the first [`Replay::set_level`] that jumps, again when
+    /// the reduction went on.
     jumps: Option<JumpIndex>,
 }
 
@@ -288,12 +289,23 @@ impl Replay {
             .map(|c| c.removed.len() + c.moved.len() + c.other_errors.len())
             .sum();
         if 4 * named <= pm.tets.len() {
-            return self.set_level_with(pm, level, &mut |_, _| {});
+            return self.replay(pm, level, &mut |_, _| {});
         }
-        if self.jumps.as_ref().is_none_or(|j| j.collapses != n) {
+        self.index_jumps(pm);
+        self.jump(pm, level)
+    }
+
+    /// Builds the index of the jumps for `pm`'s collapses unless it is built (the first long
+    /// [`Replay::set_level`] builds it otherwise): a caller with time to spare after a reduction,
+    /// as the filter's first execution, keeps its cost off the first level change.
+    pub fn index_jumps(&mut self, pm: &ProgressiveMesh) {
+        if self
+            .jumps
+            .as_ref()
+            .is_none_or(|j| j.collapses != pm.levels())
+        {
             self.jumps = Some(JumpIndex::new(pm));
         }
-        self.jump(pm, level)
     }
 
     /// Sets every tetrahedron for `level` at once (see [`JumpIndex`]): a tetrahedron is in the level
@@ -351,6 +363,16 @@ impl Replay {
         on_step: &mut dyn FnMut(&Replay, &VertexSplit),
     ) -> usize {
         self.rebase(pm);
+        self.replay(pm, level, on_step)
+    }
+
+    /// [`Replay::set_level_with`] on a rebased cursor: every collapse or split on the way.
+    fn replay(
+        &mut self,
+        pm: &ProgressiveMesh,
+        level: usize,
+        on_step: &mut dyn FnMut(&Replay, &VertexSplit),
+    ) -> usize {
         let level = level.min(pm.levels());
         let steps = self.level.abs_diff(level);
         while self.level > level {
