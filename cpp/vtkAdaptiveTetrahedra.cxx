@@ -290,11 +290,11 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
   {
     this->Internals->Piece.reset();
     const char* cannotBuild = "cannot build this rank's hierarchy";
-    // The points of the piece's lattice held by other ranks (none asked for after a failure,
-    // but the fetch is collective: every rank takes part).
-    std::optional<rust::Vec<std::uint64_t>> needed;
+    // The samples of the piece's lattice held by other ranks, asked of them as boxes (none asked
+    // for after a failure, but the fetch is collective: every rank takes part).
+    std::optional<bridge::SampleRequests> requests;
     ok = run(cannotBuild, [&] {
-      needed.emplace(bridge::piece_needed_points(pieces.Whole(), pieces.OwnExtent()));
+      requests.emplace(bridge::piece_requests(pieces.Whole(), pieces.Extents(), pieces.Rank()));
       return true;
     });
     std::vector<vtkDataArray*> arrays;
@@ -304,20 +304,19 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
     }
     std::string error;
     std::vector<vtkSmartPointer<vtkDataArray>> fetched;
-    const bool got = pieces.Fetch(needed ? rust::Slice<const std::uint64_t>(needed->data(), needed->size())
-                                         : rust::Slice<const std::uint64_t>(),
-      arrays, fetched, error);
+    const bool got = requests ? pieces.FetchBoxes(*requests, arrays, fetched, error)
+                              : pieces.FetchBoxes(bridge::SampleRequests{}, arrays, fetched, error);
     if (ok && !got)
     {
       vtkErrorMacro(<< "Adaptive Tetrahedra " << cannotBuild << ": " << error);
     }
-    needed.reset();
+    requests.reset();
     ok = ok && got && run(cannotBuild, [&] {
       vtkDiamonds::ProgressForwarder progress(this, 0.0, 0.6);
       try
       {
         this->Internals->Piece.emplace(bridge::build_piece_hierarchy(pieces.Whole(),
-          pieces.OwnExtent(), type, bytesOf(samples),
+          pieces.Extents(), pieces.Rank(), type, bytesOf(samples),
           bytesOf(fetched.empty() ? nullptr : fetched[0].GetPointer()), progress));
       }
       catch (const rust::Error&)

@@ -752,15 +752,7 @@ bool Pieces::Fetch(rust::Slice<const std::uint64_t> ids, const std::vector<vtkDa
   fetched.clear();
   const vtkIdType n = static_cast<vtkIdType>(ids.size());
   // Which rank holds each point; what to ask each rank for, and where the answers go.
-  // The first failure is the one reported (later ones follow from it).
   bool ok = true;
-  const auto fail = [&](const std::string& what) {
-    if (ok)
-    {
-      error = what;
-    }
-    ok = false;
-  };
   std::vector<std::vector<std::uint64_t>> want(this->Ranks);
   std::vector<std::vector<vtkIdType>> slots(this->Ranks);
   try
@@ -776,7 +768,8 @@ bool Pieces::Fetch(rust::Slice<const std::uint64_t> ids, const std::vector<vtkDa
       const std::uint32_t o = owners[k];
       if (static_cast<int>(o) >= this->Ranks || static_cast<int>(o) == this->Me)
       {
-        fail("point " + std::to_string(ids[k]) + " of the whole image is held by no other rank");
+        error = "point " + std::to_string(ids[k]) + " of the whole image is held by no other rank";
+        ok = false;
         break;
       }
       want[o].push_back(ids[k]);
@@ -785,12 +778,114 @@ bool Pieces::Fetch(rust::Slice<const std::uint64_t> ids, const std::vector<vtkDa
   }
   catch (const rust::Error& e)
   {
-    fail(e.what());
+    error = e.what();
+    ok = false;
   }
   catch (const std::bad_alloc& e)
   {
-    fail("out of memory for the points to fetch: " + OutOfMemoryMessage(e));
+    error = "out of memory for the points to fetch: " + OutOfMemoryMessage(e);
+    ok = false;
   }
+  std::vector<std::size_t> tuples(this->Ranks, 0);
+  for (int q = 0; q < this->Ranks && ok; ++q)
+  {
+    tuples[q] = want[q].size();
+  }
+  return this->Ask(
+    want, tuples,
+    [&](const std::vector<std::uint64_t>& asked) {
+      return bridge::piece_local_ids(
+        this->WholeGrid, this->OwnExtent(), { asked.data(), asked.size() });
+    },
+    [&](int q, std::size_t m, vtkDataArray* incoming) {
+      fetched[m]->InsertTuples(
+        IdList(slots[q]), IdList(0, incoming->GetNumberOfTuples()), incoming);
+    },
+    arrays, ok, error);
+}
+
+//------------------------------------------------------------------------------
+bool Pieces::FetchBoxes(const bridge::SampleRequests& requests,
+  const std::vector<vtkDataArray*>& arrays, std::vector<vtkSmartPointer<vtkDataArray>>& fetched,
+  std::string& error)
+{
+  Clock clock{ this->Seconds };
+  fetched.clear();
+  // The words (seven per box) to send each rank, how many tuples it answers, and where they go:
+  // rank after rank.
+  bool ok = requests.counts.size() == static_cast<std::size_t>(this->Ranks) &&
+    requests.points.size() == requests.counts.size() && requests.counts[this->Me] == 0;
+  if (!ok)
+  {
+    error = "the samples to fetch are not asked of the other ranks";
+  }
+  std::vector<std::vector<std::uint64_t>> want(this->Ranks);
+  std::vector<std::size_t> tuples(this->Ranks, 0);
+  std::vector<vtkIdType> offsets(this->Ranks, 0);
+  try
+  {
+    std::size_t words = 0;
+    vtkIdType total = 0;
+    for (int q = 0; q < this->Ranks && ok; ++q)
+    {
+      const std::size_t n = 7 * requests.counts[q];
+      if (words + n > requests.boxes.size())
+      {
+        error = "fewer boxes to ask for than counted";
+        ok = false;
+        break;
+      }
+      want[q].assign(requests.boxes.begin() + words, requests.boxes.begin() + words + n);
+      words += n;
+      tuples[q] = requests.points[q];
+      offsets[q] = total;
+      total += static_cast<vtkIdType>(tuples[q]);
+    }
+    for (vtkDataArray* a : arrays)
+    {
+      fetched.push_back(SameKind(a, ok ? total : 0));
+    }
+  }
+  catch (const std::bad_alloc& e)
+  {
+    error = "out of memory for the samples to fetch: " + OutOfMemoryMessage(e);
+    ok = false;
+  }
+  if (!ok)
+  {
+    std::fill(tuples.begin(), tuples.end(), 0);
+    for (auto& w : want)
+    {
+      w.clear();
+    }
+  }
+  return this->Ask(
+    want, tuples,
+    [&](const std::vector<std::uint64_t>& asked) {
+      return bridge::piece_box_local_ids(
+        this->WholeGrid, this->OwnExtent(), { asked.data(), asked.size() });
+    },
+    [&](int q, std::size_t m, vtkDataArray* incoming) {
+      fetched[m]->InsertTuples(offsets[q], incoming->GetNumberOfTuples(), 0, incoming);
+    },
+    arrays, ok, error);
+}
+
+//------------------------------------------------------------------------------
+bool Pieces::Ask(std::vector<std::vector<std::uint64_t>>& want,
+  const std::vector<std::size_t>& tuples,
+  const std::function<rust::Vec<std::int64_t>(const std::vector<std::uint64_t>&)>& held,
+  const std::function<void(int, std::size_t, vtkDataArray*)>& place,
+  const std::vector<vtkDataArray*>& arrays, bool ok, std::string& error)
+{
+  // The first failure is the one reported (later ones follow from it).
+  const auto fail = [&](const std::string& what) {
+    if (ok)
+    {
+      error = what;
+    }
+    ok = false;
+  };
   if (!ok)
   {
     // Ask for nothing, but take part in the exchange: the other ranks wait for it.
@@ -801,9 +896,9 @@ bool Pieces::Fetch(rust::Slice<const std::uint64_t> ids, const std::vector<vtkDa
   }
 
   std::string swapError;
-  // Requests: this rank's number of arrays, then the point indices it wants from each rank. How
-  // many points each rank asks for is known even when the indices could not be received: the
-  // messages of the responses depend on it alone, so that both ranks of a pair exchange as many.
+  // Requests: this rank's number of arrays, then the words it sends each rank. How many words
+  // each rank sends is known even when they could not be received: the messages of the
+  // responses depend on it alone, so that both ranks of a pair exchange as many.
   std::vector<std::vector<std::uint64_t>> asked(this->Ranks);
   std::vector<std::size_t> askedCount(this->Ranks, 0);
   std::vector<vtkIdType> theirArrays(this->Ranks, 0);
@@ -843,23 +938,22 @@ bool Pieces::Fetch(rust::Slice<const std::uint64_t> ids, const std::vector<vtkDa
     std::vector<vtkSmartPointer<vtkDataArray>> answers;
     try
     {
-      vtkNew<vtkIdList> held;
+      vtkNew<vtkIdList> local;
       if (!asked[q].empty())
       {
-        const rust::Vec<std::int64_t> local = bridge::piece_local_ids(
-          this->WholeGrid, this->OwnExtent(), { asked[q].data(), asked[q].size() });
-        if (std::find(local.begin(), local.end(), -1) == local.end())
+        const rust::Vec<std::int64_t> ids = held(asked[q]);
+        if (std::find(ids.begin(), ids.end(), -1) == ids.end())
         {
-          held->SetNumberOfIds(static_cast<vtkIdType>(local.size()));
-          std::copy(local.begin(), local.end(), held->GetPointer(0));
+          local->SetNumberOfIds(static_cast<vtkIdType>(ids.size()));
+          std::copy(ids.begin(), ids.end(), local->GetPointer(0));
         }
       }
       for (vtkDataArray* a : arrays)
       {
-        auto answer = SameKind(a, held->GetNumberOfIds());
-        if (held->GetNumberOfIds() > 0)
+        auto answer = SameKind(a, local->GetNumberOfIds());
+        if (local->GetNumberOfIds() > 0)
         {
-          a->GetTuples(held, answer);
+          a->GetTuples(local, answer);
         }
         answers.push_back(answer);
       }
@@ -910,12 +1004,12 @@ bool Pieces::Fetch(rust::Slice<const std::uint64_t> ids, const std::vector<vtkDa
       {
         continue;
       }
-      if (incoming->GetNumberOfTuples() != static_cast<vtkIdType>(slots[q].size()))
+      if (incoming->GetNumberOfTuples() != static_cast<vtkIdType>(tuples[q]))
       {
         fail("rank " + std::to_string(q) + " answered with other arrays or points than asked");
         continue;
       }
-      fetched[m]->InsertTuples(IdList(slots[q]), IdList(0, incoming->GetNumberOfTuples()), incoming);
+      place(q, m, incoming);
     }
   }
   return ok;

@@ -3,7 +3,7 @@
 //
 // The core decides what is needed (diamonds::hierarchy::piece); this class only moves it, over the
 // global vtkMultiProcessController: the extents of all pieces, agreement on success, point tuples
-// fetched from the ranks that hold them, element-wise maxima and concatenations. Point-to-point
+// fetched from the ranks that hold them (asked for by point ids or by boxes), element-wise maxima and concatenations. Point-to-point
 // messages go pair by pair in one global order (every rank handles its pairs (a, b), a < b, sorted),
 // so that blocking sends never deadlock.
 #ifndef vtkDiamondsPieces_h
@@ -116,6 +116,12 @@ public:
   // name) with a tuple per id. Returns false with `error` set when a point is held by no rank.
   bool Fetch(rust::Slice<const std::uint64_t> ids, const std::vector<vtkDataArray*>& arrays,
     std::vector<vtkSmartPointer<vtkDataArray>>& fetched, std::string& error);
+  // Collective: the same for the boxes of points of `requests` (bridge::piece_requests: a few
+  // boxes asked of each rank holding points this one needs, none of this rank), a few integers
+  // per box crossing instead of a point index per tuple. `fetched` receives the tuples of the boxes,
+  // rank after rank, each box's points x fastest, the order the core takes them in.
+  bool FetchBoxes(const bridge::SampleRequests& requests, const std::vector<vtkDataArray*>& arrays,
+    std::vector<vtkSmartPointer<vtkDataArray>>& fetched, std::string& error);
 
   // Collective: the whole dataset on this rank, for filters that need all of it (Adaptive
   // Isosurface, Material Interface Approximation). Every rank's piece of the point arrays
@@ -160,6 +166,17 @@ private:
   // blocked in a send or a receive. Returns false, with `error` set, when either could not allocate.
   bool Swap(int q, const void* out, vtkIdType bytes, const std::function<void*(vtkIdType)>& receive,
     std::string& error);
+
+  // Collective, Fetch's and FetchBoxes' exchange: sends each rank q the words `want[q]` (point
+  // indices, or boxes), for `tuples[q]` tuples of each of `arrays`, and hands each rank's answer
+  // for array m to `place(q, m, answer)`; answers what the others ask with the tuples at the
+  // indices `held(words)` gives (among this rank's points; -1 or an error: not held, answered
+  // with none, refused by the asking rank). `ok` false (this rank failed before, `error` set):
+  // asks for nothing but takes part. False, with `error` set, on the first failure.
+  bool Ask(std::vector<std::vector<std::uint64_t>>& want, const std::vector<std::size_t>& tuples,
+    const std::function<rust::Vec<std::int64_t>(const std::vector<std::uint64_t>&)>& held,
+    const std::function<void(int, std::size_t, vtkDataArray*)>& place,
+    const std::vector<vtkDataArray*>& arrays, bool ok, std::string& error);
 
   struct InputGeometry;
   Pieces(vtkMultiProcessController* controller, const InputGeometry& geometry);

@@ -73,6 +73,18 @@ mod ffi {
         centers: Vec<i32>,
     }
 
+    /// The samples one piece of a distributed image asks of the others
+    /// (`diamonds::hierarchy::piece::PieceLayout::requests`): `counts[q]` boxes for piece `q` (its
+    /// own none), concatenated in piece order in `boxes`, seven values each (lo x, y, z, hi x, y,
+    /// z, stride: the points lo + k·stride up to hi), and `points[q]` points in piece `q`'s boxes.
+    /// The answers, each box's samples x fastest, concatenated in piece order, are the samples
+    /// `build_piece_hierarchy` takes.
+    struct SampleRequests {
+        counts: Vec<usize>,
+        points: Vec<usize>,
+        boxes: Vec<u64>,
+    }
+
     /// One selective-refinement query (see `diamonds::Query`).
     struct QuerySpec {
         /// Absolute tolerance in data units; 0 reproduces every sample.
@@ -304,20 +316,26 @@ mod ffi {
         /// One query's split set on one piece, grown in rounds with the other pieces.
         type PieceRefinement;
 
-        /// Whole-grid point indices (x fastest), ascending, of the samples the piece of extent
-        /// `owned` (six values, VTK order, relative to the whole extent) needs from other pieces.
-        fn piece_needed_points(whole: &GridSpec, owned: &[i64]) -> Result<Vec<u64>>;
+        /// The boxes of samples the piece at `rank` of `pieces` (six extent values each, VTK
+        /// order, relative to the whole extent) asks of each piece, from the first holding each.
+        fn piece_requests(whole: &GridSpec, pieces: &[i64], rank: usize) -> Result<SampleRequests>;
+        /// The indices (x fastest) among the points of the piece of extent `owned` of the points
+        /// of `boxes` (seven values each, as in `SampleRequests`), box after box; an error when
+        /// that piece does not hold them all.
+        fn piece_box_local_ids(whole: &GridSpec, owned: &[i64], boxes: &[u64]) -> Result<Vec<i64>>;
         /// For each whole-grid point index of `ids`, the first piece of `pieces` (six extent
         /// values each) that holds it, or the number of pieces when none does.
         fn piece_point_owners(whole: &GridSpec, pieces: &[i64], ids: &[u64]) -> Result<Vec<u32>>;
         /// For each whole-grid point index of `ids`, its index (x fastest) among the points of the
         /// piece of extent `owned`, or -1 when that piece does not hold it.
         fn piece_local_ids(whole: &GridSpec, owned: &[i64], ids: &[u64]) -> Result<Vec<i64>>;
-        /// Builds the piece's part of the hierarchy from its own samples (`local`, its extent, x
-        /// fastest) and `fetched`, the samples at `piece_needed_points` in that order (same type).
+        /// Builds the part of the hierarchy of the piece at `rank` of `pieces` from its own samples
+        /// (`local`, its extent, x fastest) and `fetched`, the answers to its `piece_requests`
+        /// in that order (same type).
         fn build_piece_hierarchy(
             whole: &GridSpec,
-            owned: &[i64],
+            pieces: &[i64],
+            rank: usize,
             scalar_type: ScalarType,
             local: &[u8],
             fetched: &[u8],
@@ -823,8 +841,8 @@ pub use material::{
 };
 pub mod view;
 pub use piece::{
-    build_piece_hierarchy, piece_check_cover, piece_local_ids, piece_needed_points,
-    piece_point_owners, PieceHierarchy, PieceRefinement,
+    build_piece_hierarchy, piece_box_local_ids, piece_check_cover, piece_local_ids,
+    piece_point_owners, piece_requests, PieceHierarchy, PieceRefinement,
 };
 pub use view::{new_path_order, new_view_mesh, PathOrder, ViewMesh};
 

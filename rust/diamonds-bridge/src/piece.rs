@@ -3,7 +3,8 @@
 //!
 //! What crosses, and nothing else: the whole grid ([`GridSpec`]), extents as six integers per piece
 //! in VTK's order `[x0, x1, y0, y1, z0, z1]`, relative to the whole extent's first point; the
-//! piece's samples and the samples received from other pieces as raw bytes with a type tag; the
+//! boxes of samples a piece asks of the others (seven integers each); the piece's samples and the
+//! samples received from other pieces as raw bytes with a type tag; the
 //! coarse errors (one `f64` per coarse point) and the split diamonds (three `i32` each) the
 //! filter exchanges; out an opaque [`PieceHierarchy`], an opaque [`PieceRefinement`] and the
 //! piece's [`Mesh`] with whole-grid point ids. The filter does all communication; every function
@@ -11,12 +12,12 @@
 
 use std::pin::Pin;
 
-use diamonds::hierarchy::piece::{self, PieceLayout, PointBox};
+use diamonds::hierarchy::piece::{self, PieceLayout, PointBox, StridedBox};
 use diamonds::lattice::Lattice;
 use diamonds::validate::check_mesh_arrays;
 use glam::IVec3;
 
-use crate::ffi::{self, GridSpec, IsoSpec, QuerySpec, ScalarType, SplitMessages};
+use crate::ffi::{self, GridSpec, IsoSpec, QuerySpec, SampleRequests, ScalarType, SplitMessages};
 use crate::{check_core, core_grid, core_query, guard, typed_slice, Mesh};
 
 /// Opaque handle on a [`piece::PieceHierarchy`] for C++.
@@ -48,6 +49,20 @@ pub(crate) fn boxes(extents: &[i64]) -> Result<Vec<PointBox>, String> {
         .collect()
 }
 
+/// The layout of the piece at `rank` of `pieces` (every piece's extent), and the pieces' boxes.
+fn piece_layout(
+    whole: &GridSpec,
+    pieces: &[i64],
+    rank: usize,
+) -> Result<(PieceLayout, Vec<PointBox>), String> {
+    let pieces = boxes(pieces)?;
+    let owned = *pieces
+        .get(rank)
+        .ok_or_else(|| format!("piece {rank} of {} pieces", pieces.len()))?;
+    let layout = PieceLayout::new(core_grid(whole), owned).map_err(|e| e.to_string())?;
+    Ok((layout, pieces))
+}
+
 fn layout(whole: &GridSpec, owned: &[i64]) -> Result<PieceLayout, String> {
     let owned = match boxes(owned)?.as_slice() {
         [b] => *b,
@@ -56,10 +71,65 @@ fn layout(whole: &GridSpec, owned: &[i64]) -> Result<PieceLayout, String> {
     PieceLayout::new(core_grid(whole), owned).map_err(|e| e.to_string())
 }
 
-/// Whole-grid indices of the samples the piece `owned` needs from the other pieces, ascending.
-pub fn piece_needed_points(whole: &GridSpec, owned: &[i64]) -> Result<Vec<u64>, String> {
+/// The boxes of samples the piece at `rank` of `pieces` (every piece's extent) asks of each piece
+/// ([`PieceLayout::requests`]).
+pub fn piece_requests(
+    whole: &GridSpec,
+    pieces: &[i64],
+    rank: usize,
+) -> Result<SampleRequests, String> {
     guard("listing the samples a piece needs", || {
-        Ok(layout(whole, owned)?.needed_points())
+        let (layout, pieces) = piece_layout(whole, pieces, rank)?;
+        let requests = layout.requests(&pieces).map_err(|e| e.to_string())?;
+        let mut out = SampleRequests {
+            counts: vec![0; pieces.len()],
+            points: vec![0; pieces.len()],
+            boxes: Vec::with_capacity(7 * requests.len()),
+        };
+        for r in &requests {
+            out.counts[r.rank] += 1;
+            out.points[r.rank] += r.points.len();
+            let (lo, hi) = (r.points.lo.to_array(), r.points.hi.to_array());
+            out.boxes.extend(
+                lo.iter()
+                    .chain(&hi)
+                    .chain(&[r.points.stride])
+                    .map(|&v| v as u64),
+            );
+        }
+        Ok(out)
+    })
+}
+
+/// The indices among the points of the piece `owned` (x fastest) of the points of `boxes` (seven
+/// values each, as [`piece_requests`] lists them), box after box: what that piece answers.
+pub fn piece_box_local_ids(
+    whole: &GridSpec,
+    owned: &[i64],
+    boxes: &[u64],
+) -> Result<Vec<i64>, String> {
+    guard("finding the points asked of a piece", || {
+        if !boxes.len().is_multiple_of(7) {
+            return Err(format!("{} box values: not seven per box", boxes.len()));
+        }
+        let boxes = boxes
+            .chunks_exact(7)
+            .map(|b| {
+                let v: Vec<i32> = b
+                    .iter()
+                    .map(|&x| i32::try_from(x).map_err(|_| format!("box value {x} out of range")))
+                    .collect::<Result<_, _>>()?;
+                StridedBox::checked(
+                    IVec3::new(v[0], v[1], v[2]),
+                    IVec3::new(v[3], v[4], v[5]),
+                    v[6],
+                )
+                .map_err(|e| e.to_string())
+            })
+            .collect::<Result<Vec<_>, String>>()?;
+        layout(whole, owned)?
+            .box_indices(&boxes)
+            .map_err(|e| e.to_string())
     })
 }
 
@@ -140,21 +210,23 @@ pub fn piece_local_ids(whole: &GridSpec, owned: &[i64], ids: &[u64]) -> Result<V
     })
 }
 
-/// Builds the piece's part of the hierarchy ([`piece::PieceHierarchy::build`]).
+/// Builds the part of the hierarchy of the piece at `rank` of `pieces` (every piece's extent)
+/// ([`piece::PieceHierarchy::build`]).
 pub fn build_piece_hierarchy(
     whole: &GridSpec,
-    owned: &[i64],
+    pieces: &[i64],
+    rank: usize,
     scalar_type: ScalarType,
     local: &[u8],
     fetched: &[u8],
     mut progress: Pin<&mut ffi::ProgressObserver>,
 ) -> Result<Box<PieceHierarchy>, String> {
     guard("building a piece of the diamond hierarchy", || {
-        let layout = layout(whole, owned)?;
+        let (layout, pieces) = piece_layout(whole, pieces, rank)?;
         let local = typed_slice(scalar_type, local)?;
         let fetched = typed_slice(scalar_type, fetched)?;
         let mut report = crate::reporter(progress.as_mut());
-        piece::PieceHierarchy::build(layout, local, fetched, &mut report)
+        piece::PieceHierarchy::build(layout, &pieces, local, fetched, &mut report)
             .map(|h| Box::new(PieceHierarchy(h)))
             .map_err(|e| e.to_string())
     })

@@ -4,12 +4,13 @@
 //! The core stays free of communication: the caller (the VTK filter, over ParaView's
 //! `vtkMultiProcessController`) moves what this module asks for, in four steps.
 //!
-//! 1. **Samples** ([`PieceLayout::needed_points`]). The lattice is that of the *whole* grid. A diamond
+//! 1. **Samples** ([`PieceLayout::requests`]). The lattice is that of the *whole* grid. A diamond
 //!    of scale `s` has its vertices on the stride-`s` sublattice and lies within `s` of its central
 //!    vertex (Gregorski §3.1), so two kinds of samples suffice for the diamonds meeting a piece: a
 //!    halo of `C` layers around it ([`PieceLayout::stride`], the *coarse stride*, 8 or more) for the
 //!    *fine* diamonds (`s < C`), and the stride-`C` sublattice of the whole grid (1/512 of the
-//!    samples or fewer) for the vertices of the *coarse* ones (`s ≥ C`).
+//!    samples or fewer) for the vertices of the *coarse* ones (`s ≥ C`). Both are a few boxes
+//!    (halo slabs; strided slabs of the sublattice), asked as boxes of the pieces that hold them.
 //! 2. **Errors** ([`PieceHierarchy::build`], [`PieceHierarchy::combine_coarse_errors`]). A fine
 //!    diamond meeting the piece lies inside the halo: its exact error (Marchesin §4.1) is computed
 //!    here, bit for bit as [`crate::Hierarchy::build`] computes it. A coarse diamond may span many
@@ -96,6 +97,134 @@ impl PointBox {
         let o = (p - self.lo).as_uvec3();
         o.x as usize + nx * (o.y as usize + ny * o.z as usize)
     }
+}
+
+/// The points `lo + k·stride` (k ≥ 0 on each axis) up to `hi`: a box of the sublattice of stride
+/// `stride` through `lo` (`hi − lo` a multiple of `stride` on every axis), empty when `hi < lo` on
+/// some axis. What a piece asks another for ([`PieceLayout::requests`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct StridedBox {
+    pub lo: IVec3,
+    pub hi: IVec3,
+    pub stride: i32,
+}
+
+impl From<PointBox> for StridedBox {
+    fn from(b: PointBox) -> Self {
+        Self {
+            lo: b.lo,
+            hi: b.hi,
+            stride: 1,
+        }
+    }
+}
+
+impl StridedBox {
+    /// A box from untrusted values (a request received): a positive stride, `hi − lo` a
+    /// non-negative multiple of it.
+    pub fn checked(lo: IVec3, hi: IVec3, stride: i32) -> Result<Self> {
+        let d = hi - lo;
+        if stride < 1 || d.min_element() < 0 || d % stride != IVec3::ZERO {
+            return Err(Error::Parameter(format!(
+                "no box of points from {lo} to {hi} with stride {stride}"
+            )));
+        }
+        Ok(Self { lo, hi, stride })
+    }
+
+    /// True when the box holds no point.
+    pub fn is_empty(&self) -> bool {
+        self.hi.cmplt(self.lo).any()
+    }
+
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        if self.is_empty() {
+            return 0;
+        }
+        let d = ((self.hi - self.lo) / self.stride + IVec3::ONE).as_uvec3();
+        d.x as usize * d.y as usize * d.z as usize
+    }
+
+    /// The points, x fastest.
+    pub fn points(&self) -> impl Iterator<Item = IVec3> + '_ {
+        let (lo, s) = (self.lo, self.stride as usize);
+        let hi = if self.is_empty() {
+            lo - IVec3::ONE
+        } else {
+            self.hi
+        };
+        (lo.z..=hi.z).step_by(s).flat_map(move |z| {
+            (lo.y..=hi.y)
+                .step_by(s)
+                .flat_map(move |y| (lo.x..=hi.x).step_by(s).map(move |x| IVec3::new(x, y, z)))
+        })
+    }
+
+    /// The points of this box inside `b`.
+    fn within(&self, b: PointBox) -> Self {
+        if b.is_empty() {
+            return Self {
+                hi: self.lo - IVec3::ONE,
+                ..*self
+            };
+        }
+        let s = self.stride;
+        let first = (b.lo - self.lo).max(IVec3::ZERO) + IVec3::splat(s - 1);
+        let last = b.hi.min(self.hi) - self.lo;
+        Self {
+            lo: self.lo + first / s * s,
+            hi: self.lo
+                + IVec3::new(
+                    last.x.div_euclid(s),
+                    last.y.div_euclid(s),
+                    last.z.div_euclid(s),
+                ) * s,
+            stride: s,
+        }
+    }
+
+    /// This box without `inner`, a box of its points ([`StridedBox::within`]): at most six
+    /// non-empty boxes, slabs below and above it along z, then along y within its z range, then
+    /// along x within its y and z ranges.
+    fn minus(self, inner: Self) -> Vec<Self> {
+        let (o, i, s) = (self, inner, self.stride);
+        let part = |lo: IVec3, hi: IVec3| Self { lo, hi, stride: s };
+        if i.is_empty() {
+            return vec![o];
+        }
+        [
+            part(o.lo, IVec3::new(o.hi.x, o.hi.y, i.lo.z - s)),
+            part(IVec3::new(o.lo.x, o.lo.y, i.hi.z + s), o.hi),
+            part(
+                IVec3::new(o.lo.x, o.lo.y, i.lo.z),
+                IVec3::new(o.hi.x, i.lo.y - s, i.hi.z),
+            ),
+            part(
+                IVec3::new(o.lo.x, i.hi.y + s, i.lo.z),
+                IVec3::new(o.hi.x, o.hi.y, i.hi.z),
+            ),
+            part(
+                IVec3::new(o.lo.x, i.lo.y, i.lo.z),
+                IVec3::new(i.lo.x - s, i.hi.y, i.hi.z),
+            ),
+            part(
+                IVec3::new(i.hi.x + s, i.lo.y, i.lo.z),
+                IVec3::new(o.hi.x, i.hi.y, i.hi.z),
+            ),
+        ]
+        .into_iter()
+        .filter(|b| !b.is_empty())
+        .collect()
+    }
+}
+
+/// One box of samples a piece asks for ([`PieceLayout::requests`]), and the piece it asks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Request {
+    /// The index of the piece that holds the points.
+    pub rank: usize,
+    pub points: StridedBox,
 }
 
 /// Where one piece lies in the whole grid, and which samples of other pieces it needs.
@@ -193,32 +322,74 @@ impl PieceLayout {
         q.x as usize + d.x as usize * (q.y as usize + d.y as usize * q.z as usize)
     }
 
-    /// Whole-grid indices (x fastest), ascending, of the samples this piece needs from the others:
-    /// its halo, and the points of the coarse sublattice outside it. None for an empty piece.
-    pub fn needed_points(&self) -> Vec<u64> {
-        let mut out = Vec::new();
+    /// The samples this piece needs from the others, as boxes: the padded box outside the owned
+    /// box (its halo, up to six slabs) and the coarse sublattice outside the padded box (up to six
+    /// strided slabs). None for an empty piece.
+    fn needed_boxes(&self) -> Vec<StridedBox> {
         if self.owned.is_empty() {
-            return out;
+            return Vec::new();
         }
-        let (p, o) = (self.padded, self.owned);
-        for z in p.lo.z..=p.hi.z {
-            for y in p.lo.y..=p.hi.y {
-                let row = |x| self.lattice.index(IVec3::new(x, y, z)) as u64;
-                if (o.lo.y..=o.hi.y).contains(&y) && (o.lo.z..=o.hi.z).contains(&z) {
-                    out.extend((p.lo.x..o.lo.x).map(row));
-                    out.extend((o.hi.x + 1..=p.hi.x).map(row));
+        let padded = StridedBox::from(self.padded);
+        let coarse = StridedBox {
+            lo: IVec3::ZERO,
+            hi: (self.lattice.hi / self.stride) * self.stride,
+            stride: self.stride,
+        };
+        padded
+            .minus(StridedBox::from(self.owned))
+            .into_iter()
+            .chain(coarse.minus(coarse.within(self.padded)))
+            .collect()
+    }
+
+    /// What this piece asks of the pieces `pieces` (every piece's points, this one's among them)
+    /// for the samples it needs ([`PieceLayout`]'s halo and coarse sublattice): every needed point
+    /// exactly once, from the first piece holding it (image pieces share their boundary layers of
+    /// points), as boxes, by piece in ascending order. The holders' answers, each box's samples x
+    /// fastest, concatenated in this order, are the `fetched` samples of
+    /// [`PieceHierarchy::build`]: a few integers per box cross instead of a point index per
+    /// sample. An error when some needed point lies in no piece.
+    pub fn requests(&self, pieces: &[PointBox]) -> Result<Vec<Request>> {
+        let mut out = Vec::new();
+        let mut left = self.needed_boxes();
+        for (rank, &piece) in pieces.iter().enumerate() {
+            let mut rest = Vec::new();
+            for b in left {
+                let held = b.within(piece);
+                if held.is_empty() {
+                    rest.push(b);
                 } else {
-                    out.extend((p.lo.x..=p.hi.x).map(row));
+                    out.push(Request { rank, points: held });
+                    rest.extend(b.minus(held));
                 }
             }
+            left = rest;
         }
-        out.extend(
-            self.coarse_points()
-                .filter(|&q| !p.contains(q))
-                .map(|q| self.lattice.index(q) as u64),
-        );
-        out.sort_unstable();
-        out
+        match left.first() {
+            Some(b) => Err(Error::Parameter(format!(
+                "point {} of the whole grid, needed by the piece {:?}..{:?}, lies in no piece",
+                b.lo, self.owned.lo, self.owned.hi
+            ))),
+            None => Ok(out),
+        }
+    }
+
+    /// The indices (x fastest) among this piece's points of the points of `boxes`, box after box,
+    /// each box's points x fastest: where the samples a piece asked for by
+    /// [`PieceLayout::requests`] are. An error when a box has points this piece does not hold.
+    pub fn box_indices(&self, boxes: &[StridedBox]) -> Result<Vec<i64>> {
+        let total = boxes.iter().map(StridedBox::len).sum();
+        let mut out = memory::with_capacity(total, "the indices of the points asked for")?;
+        for b in boxes {
+            if !b.is_empty() && !(self.owned.contains(b.lo) && self.owned.contains(b.hi)) {
+                return Err(Error::Parameter(format!(
+                    "points {:?}..{:?} asked for, but this piece holds {:?}..{:?}",
+                    b.lo, b.hi, self.owned.lo, self.owned.hi
+                )));
+            }
+            out.extend(b.points().map(|p| self.owned.index(p) as i64));
+        }
+        Ok(out)
     }
 
     /// For each whole-grid index of `ids`, the index (x fastest) of that point among the points this
@@ -331,35 +502,38 @@ macro_rules! with_same_type {
 
 impl PieceHierarchy {
     /// Computes the errors of the diamonds that meet the piece of `layout` from its own samples
-    /// `local` (its owned box, x fastest) and `fetched`, the samples at
-    /// [`PieceLayout::needed_points`] in that order (same type). Coarse errors are this piece's
-    /// part until [`PieceHierarchy::combine_coarse_errors`].
+    /// `local` (its owned box, x fastest) and `fetched` (same type), the samples it asks of the
+    /// pieces `pieces` (every piece's points) by [`PieceLayout::requests`], in that order. Coarse
+    /// errors are this piece's part until [`PieceHierarchy::combine_coarse_errors`].
     pub fn build(
         layout: PieceLayout,
+        pieces: &[PointBox],
         local: ScalarSlice<'_>,
         fetched: ScalarSlice<'_>,
         progress: super::Progress<'_>,
     ) -> Result<Self> {
+        let requests = layout.requests(pieces)?;
         with_same_type!(local, fetched, |a, b| Self::build_typed(
-            layout, a, b, progress
+            layout, &requests, a, b, progress
         ))
     }
 
     fn build_typed<T: Sample>(
         layout: PieceLayout,
+        requests: &[Request],
         local: &[T],
         fetched: &[T],
         progress: super::Progress<'_>,
     ) -> Result<Self> {
-        let needed = layout.needed_points();
-        if local.len() != layout.owned.len() || fetched.len() != needed.len() {
+        let asked: usize = requests.iter().map(|r| r.points.len()).sum();
+        if local.len() != layout.owned.len() || fetched.len() != asked {
             return Err(Error::Parameter(format!(
                 "a piece of {} points with {} samples from other pieces needs {} and {} values \
                  (got {} and {})",
                 layout.owned.len(),
-                needed.len(),
+                asked,
                 layout.owned.len(),
-                needed.len(),
+                asked,
                 local.len(),
                 fetched.len()
             )));
@@ -376,36 +550,27 @@ impl PieceHierarchy {
             });
         }
         let (owned, padded) = (layout.owned, layout.padded);
-        let missing = |i: usize| Error::Parameter(format!("sample {i} was not received"));
-        let fetched_at = |i: usize| -> Result<T> {
-            needed
-                .binary_search(&(i as u64))
-                .map(|k| fetched[k])
-                .map_err(|_| missing(i))
-        };
-        // The padded box's samples: own ones, then the halo received. The loop visits the halo in
-        // ascending whole-grid index, as `needed` lists it (with coarse points between): one walk.
-        let mut next = 0;
-        let mut halo_at = |i: usize| -> Result<T> {
-            while next < needed.len() && needed[next] < i as u64 {
-                next += 1;
-            }
-            match needed.get(next) {
-                Some(&n) if n == i as u64 => Ok(fetched[next]),
-                _ => Err(missing(i)),
-            }
-        };
-        let mut samples = memory::with_capacity(padded.len(), "the piece's samples")?;
-        for z in padded.lo.z..=padded.hi.z {
-            for y in padded.lo.y..=padded.hi.y {
-                for x in padded.lo.x..=padded.hi.x {
-                    let p = IVec3::new(x, y, z);
-                    samples.push(if owned.contains(p) {
-                        local[owned.index(p)]
-                    } else {
-                        halo_at(layout.lattice.index(p))?
-                    });
-                }
+        // The padded box's samples: own ones row by row, then the halo received; the coarse
+        // sublattice's samples outside it in their own array (by coarse index). The requests
+        // cover each of these points once.
+        let mut samples = memory::filled(padded.len(), local[0], "the piece's samples")?;
+        let mut coarse_samples = memory::filled(
+            layout.coarse_len(),
+            local[0],
+            "the coarse sublattice's samples",
+        )?;
+        let row = owned.dims()[0];
+        for (r, own) in local.chunks_exact(row).enumerate() {
+            let [_, ny, _] = owned.dims();
+            let start = owned.lo + IVec3::new(0, (r % ny) as i32, (r / ny) as i32);
+            let at = padded.index(start);
+            samples[at..at + row].copy_from_slice(own);
+        }
+        for (p, &v) in requests.iter().flat_map(|r| r.points.points()).zip(fetched) {
+            if padded.contains(p) {
+                samples[padded.index(p)] = v;
+            } else {
+                coarse_samples[layout.coarse_index(p)] = v;
             }
         }
         let grid = Grid {
@@ -440,11 +605,12 @@ impl PieceHierarchy {
             return Err(Error::Aborted);
         }
         // Coarse diamonds meeting the piece: this piece's part of their errors.
-        let vertex = |p: IVec3| -> Result<f64> {
+        let vertex = |p: IVec3| -> f64 {
             if padded.contains(p) {
-                Ok(samples[padded.index(p)].to_f64())
+                samples[padded.index(p)].to_f64()
             } else {
-                Ok(fetched_at(lattice.index(p))?.to_f64())
+                debug_assert_eq!(p % layout.stride, IVec3::ZERO, "a coarse vertex");
+                coarse_samples[layout.coarse_index(p)].to_f64()
             }
         };
         let parts: Vec<(usize, f64)> = layout
@@ -453,33 +619,32 @@ impl PieceHierarchy {
             .into_par_iter()
             .filter(|&p| !is_root_corner(&lattice, p))
             .filter(|&p| layout.meets(Diamond::new(p)))
-            .map(|p| -> Result<(usize, f64)> {
+            .map(|p| -> (usize, f64) {
                 let d = Diamond::new(p);
                 let mut stats = TetStats::EMPTY;
                 for t in d.tets(&lattice) {
                     match lattice.place(&t) {
                         Placement::Inside => {
-                            let values =
-                                [vertex(t[0])?, vertex(t[1])?, vertex(t[2])?, vertex(t[3])?];
+                            let values = [vertex(t[0]), vertex(t[1]), vertex(t[2]), vertex(t[3])];
                             let part =
                                 scan_tet_part(&volume, padded.lo, &t, values, (owned.lo, owned.hi));
                             stats = stats.merge(part);
                         }
                         Placement::Outside => {}
                         // Split in the base mesh, as in the serial hierarchy.
-                        Placement::Straddling => return Ok((layout.coarse_index(p), 0.0)),
+                        Placement::Straddling => return (layout.coarse_index(p), 0.0),
                     }
                 }
-                Ok((
+                (
                     layout.coarse_index(p),
                     if stats.min > stats.max {
                         0.0
                     } else {
                         stats.error
                     },
-                ))
+                )
             })
-            .collect::<Result<_>>()?;
+            .collect();
         for (i, e) in parts {
             coarse[i] = e;
         }
@@ -895,12 +1060,15 @@ mod tests {
                     }
                 }
                 let fetched: Vec<f32> = layout
-                    .needed_points()
+                    .requests(boxes)
+                    .unwrap()
                     .iter()
-                    .map(|&i| samples[i as usize])
+                    .flat_map(|r| r.points.points())
+                    .map(|p| samples[layout.lattice.index(p)])
                     .collect();
                 PieceHierarchy::build(
                     layout,
+                    boxes,
                     ScalarSlice::F32(&local),
                     ScalarSlice::F32(&fetched),
                     &mut |_| true,
@@ -1384,18 +1552,29 @@ mod tests {
             hi: IVec3::splat(9),
         };
         assert!(PieceLayout::new(grid, outside).is_err());
-        let layout = PieceLayout::new(
-            grid,
-            PointBox {
-                lo: IVec3::ZERO,
-                hi: IVec3::splat(4),
-            },
-        )
-        .unwrap();
+        let own = PointBox {
+            lo: IVec3::ZERO,
+            hi: IVec3::splat(4),
+        };
+        let layout = PieceLayout::new(grid, own).unwrap();
+        let rest = PointBox {
+            lo: IVec3::ZERO,
+            hi: IVec3::splat(8),
+        };
+        let pieces = [own, rest];
+        let asked: usize = layout
+            .requests(&pieces)
+            .unwrap()
+            .iter()
+            .map(|r| r.points.len())
+            .sum();
+        // Points that no piece holds.
+        assert!(layout.requests(&[own]).is_err());
         let local = vec![0u8; 125];
-        let wrong = vec![0u16; layout.needed_points().len()];
+        let wrong = vec![0u16; asked];
         let err = PieceHierarchy::build(
             layout.clone(),
+            &pieces,
             ScalarSlice::U8(&local),
             ScalarSlice::U16(&wrong),
             &mut |_| true,
@@ -1405,14 +1584,16 @@ mod tests {
         let short = vec![0u8; 3];
         assert!(PieceHierarchy::build(
             layout.clone(),
+            &pieces,
             ScalarSlice::U8(&local),
             ScalarSlice::U8(&short),
             &mut |_| true
         )
         .is_err());
-        let fetched = vec![0u8; layout.needed_points().len()];
+        let fetched = vec![0u8; asked];
         let mut h = PieceHierarchy::build(
             layout,
+            &pieces,
             ScalarSlice::U8(&local),
             ScalarSlice::U8(&fetched),
             &mut |_| true,
@@ -1433,5 +1614,117 @@ mod tests {
         let mut r = h.start(&Query::tolerance(1.0)).unwrap();
         assert!(h.receive(&mut r, &[1, 2]).is_err());
         assert!(h.receive(&mut r, &[100, 0, 0]).is_err());
+    }
+
+    /// The whole-grid points a piece needs from the others, listed point by point: its padded box
+    /// outside its own, and the coarse sublattice outside the padded box.
+    fn needed_points(layout: &PieceLayout) -> Vec<IVec3> {
+        if layout.owned.is_empty() {
+            return Vec::new();
+        }
+        let (p, o) = (layout.padded, layout.owned);
+        let mut out = Vec::new();
+        for z in p.lo.z..=p.hi.z {
+            for y in p.lo.y..=p.hi.y {
+                for x in p.lo.x..=p.hi.x {
+                    let q = IVec3::new(x, y, z);
+                    if !o.contains(q) {
+                        out.push(q);
+                    }
+                }
+            }
+        }
+        out.extend(layout.coarse_points().filter(|&q| !p.contains(q)));
+        out
+    }
+
+    #[test]
+    fn requests_ask_each_needed_point_once_of_the_first_piece_holding_it() {
+        let mut layouts = vec![
+            (Grid::new([33, 33, 33]), pieces([33, 33, 33], [2, 1, 1])),
+            (Grid::new([41, 29, 37]), pieces([41, 29, 37], [1, 2, 2])),
+            (Grid::new([65, 20, 19]), pieces([65, 20, 19], [3, 1, 1])),
+            (Grid::new([30, 31, 47]), pieces([30, 31, 47], [2, 2, 2])),
+            (Grid::new([37, 45, 29]), pieces([37, 45, 29], [4, 1, 1])),
+            (Grid::new([50, 51, 52]), pieces([50, 51, 52], [1, 3, 1])),
+            (Grid::new([47, 35, 61]), pieces([47, 35, 61], [2, 1, 2])),
+            (Grid::new([300, 9, 11]), pieces([300, 9, 11], [3, 1, 1])),
+        ];
+        // An empty piece among others, and pieces overlapping by more than one layer.
+        let mut with_empty = pieces([39, 33, 35], [1, 1, 3]);
+        with_empty.insert(1, PointBox::EMPTY);
+        layouts.push((Grid::new([39, 33, 35]), with_empty));
+        let whole = PointBox {
+            lo: IVec3::ZERO,
+            hi: IVec3::new(40, 34, 36),
+        };
+        let mut overlapping = pieces([41, 35, 37], [2, 2, 1]);
+        overlapping[1].lo.x -= 5;
+        overlapping.push(whole);
+        layouts.push((Grid::new([41, 35, 37]), overlapping));
+        for (grid, boxes) in &layouts {
+            let lattice = Lattice::new(grid.dims).unwrap();
+            for (me, &own) in boxes.iter().enumerate() {
+                let layout = PieceLayout::new(*grid, own).unwrap();
+                let requests = layout.requests(boxes).unwrap();
+                let what = format!("piece {me} of {boxes:?}");
+                assert!(
+                    requests.windows(2).all(|w| w[0].rank <= w[1].rank),
+                    "{what}"
+                );
+                let asked: Vec<(IVec3, usize)> = requests
+                    .iter()
+                    .flat_map(|r| r.points.points().map(move |p| (p, r.rank)))
+                    .collect();
+                // Every point from the first piece holding it, never from this one.
+                for &(p, rank) in &asked {
+                    let first = point_owners(&lattice, boxes, &[lattice.index(p) as u64]);
+                    assert_eq!(first, vec![rank as u32], "{p} {what}");
+                    assert_ne!(rank, me, "{what}");
+                }
+                // Every needed point exactly once.
+                let key = |p: &IVec3| (p.z, p.y, p.x);
+                let mut got: Vec<IVec3> = asked.iter().map(|&(p, _)| p).collect();
+                got.sort_unstable_by_key(key);
+                let mut want = needed_points(&layout);
+                want.sort_unstable_by_key(key);
+                assert_eq!(got, want, "{what}");
+                // A few boxes per piece asked, not a point each.
+                assert!(
+                    requests.len() <= 12 * boxes.len(),
+                    "{what}: {}",
+                    requests.len()
+                );
+                // The holder finds the points of each box, in the box's order.
+                for r in &requests {
+                    let holder = PieceLayout::new(*grid, boxes[r.rank]).unwrap();
+                    let ids: Vec<u64> =
+                        r.points.points().map(|p| lattice.index(p) as u64).collect();
+                    assert_eq!(
+                        holder.box_indices(&[r.points]).unwrap(),
+                        holder.local_ids(&ids),
+                        "{what}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn boxes_asked_of_a_piece_that_does_not_hold_them_are_refused() {
+        let grid = Grid::new([20, 20, 20]);
+        let own = PointBox {
+            lo: IVec3::new(0, 0, 0),
+            hi: IVec3::new(10, 19, 19),
+        };
+        let layout = PieceLayout::new(grid, own).unwrap();
+        let inside = StridedBox::checked(IVec3::new(2, 0, 0), IVec3::new(10, 16, 8), 8).unwrap();
+        assert_eq!(inside.len(), 2 * 3 * 2);
+        assert_eq!(layout.box_indices(&[inside]).unwrap().len(), 12);
+        let across = StridedBox::checked(IVec3::new(8, 0, 0), IVec3::new(12, 0, 0), 1).unwrap();
+        assert!(layout.box_indices(&[inside, across]).is_err());
+        assert!(StridedBox::checked(IVec3::ZERO, IVec3::new(7, 8, 8), 8).is_err());
+        assert!(StridedBox::checked(IVec3::ZERO, IVec3::ONE, 0).is_err());
+        assert!(StridedBox::checked(IVec3::ONE, IVec3::ZERO, 1).is_err());
     }
 }
