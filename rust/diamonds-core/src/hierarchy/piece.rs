@@ -381,7 +381,8 @@ impl PieceLayout {
         let total = boxes.iter().map(StridedBox::len).sum();
         let mut out = memory::with_capacity(total, "the indices of the points asked for")?;
         for b in boxes {
-            if !b.is_empty() && !(self.owned.contains(b.lo) && self.owned.contains(b.hi)) {
+            let held = b.is_empty() || (self.owned.contains(b.lo) && self.owned.contains(b.hi));
+            if !held {
                 return Err(Error::Parameter(format!(
                     "points {:?}..{:?} asked for, but this piece holds {:?}..{:?}",
                     b.lo, b.hi, self.owned.lo, self.owned.hi
