@@ -29,9 +29,7 @@
 
 use super::cost::{interpolate, shape_measure, Frame, Quadric};
 use super::record::{LevelError, ProgressiveMesh, VertexSplit};
-use super::validity::{
-    feature_edges_at, is_feature_edge, link_condition, link_condition_to_interior, Link,
-};
+use super::validity::{feature_edges_at, is_feature_edge, link_condition_from_star, Link};
 use super::{Params, TetInput};
 use crate::geometry::{
     closest_point_on_triangle, orient2d_along, orient3d, point_triangle_distance, triangles_meet,
@@ -952,8 +950,8 @@ impl Simplifier {
             })
     }
 
-    /// The link condition of `hec(i → j)` (`link` the link of `i`), without `j`'s link for `j` not
-    /// on the boundary ([`link_condition_to_interior`]).
+    /// The link condition of `hec(i → j)` (`link` the link of `i`), without `j`'s link
+    /// ([`link_condition_from_star`]).
     fn link_ok(&self, i: u32, link: &Link, j: u32) -> bool {
         let star_i = &self.star[i as usize];
         let mut edge = Vec::with_capacity(star_i.len());
@@ -963,13 +961,14 @@ impl Simplifier {
                 .copied()
                 .filter(|&t| self.tets[t as usize].contains(&j)),
         );
-        let star_j = &self.star[j as usize];
-        if self.kind[j as usize] == Kind::Interior {
-            link_condition_to_interior(&self.tets, &edge, (i, link), j, star_j)
-        } else {
-            let lj = Link::of(&self.tets, star_j, j);
-            link_condition(&self.tets, &edge, (i, link), (j, &lj))
-        }
+        let j_on_boundary = self.kind[j as usize] != Kind::Interior;
+        link_condition_from_star(
+            &self.tets,
+            &edge,
+            (i, link),
+            (j, &self.star[j as usize]),
+            j_on_boundary,
+        )
     }
 
     /// Is `hec(i → j)` still valid? (Its offer was made before neighbouring collapses changed `j`'s
@@ -1349,46 +1348,72 @@ impl Simplifier {
 mod tests {
     use super::*;
     use crate::progressive::tests::grid;
+    use crate::progressive::validity::link_condition;
     use crate::validate::{boundary_faces, check_manifold_tets};
 
-    /// The link condition read from an interior `j`'s star decides as the one from both links, and
-    /// an interior vertex's link has the vertices of its whole link, on a cube reduced to a quarter
-    /// of its tetrahedra (some of its collapses break the link condition; none of the grid's do).
+    /// The link condition read from `j`'s star decides as the one from both links for every edge
+    /// `ij`, `j` inside or on the boundary, an interior vertex's link has the vertices of its whole
+    /// link, and the vertices kept as on the boundary are those whose link is, at several stages
+    /// of the reduction of a cube (boundary kept) and of a bent shell (free boundary, moved
+    /// within a tenth of its thickness); some of their edges break the link condition.
     #[test]
-    fn the_link_condition_to_an_interior_vertex_decides_as_the_one_from_both_links() {
-        let g = grid(5, |p| p.x * p.y + p.z);
-        let mut reduction = Reduction::new(g.input(), &Params::default()).expect("a valid cube");
-        reduction
-            .reduce_to(g.tets.len() / 4, &mut |_| true)
-            .expect("not aborted");
-        let s = &reduction.s;
-        let (mut kept, mut broken) = (0, 0);
-        for i in 0..g.points.len() as u32 {
-            let li = Link::of(&s.tets, &s.star[i as usize], i);
-            if s.kind[i as usize] == Kind::Interior {
-                let lean = Link::of_interior(&s.tets, &s.star[i as usize], i);
-                assert_eq!(lean.verts(), li.verts());
-                assert!(!li.on_boundary());
-            }
-            for &j in li.verts() {
-                if s.kind[j as usize] != Kind::Interior {
-                    continue;
+    fn the_link_condition_from_j_s_star_decides_as_the_one_from_both_links() {
+        use crate::progressive::tests::bent;
+        let field = |p: DVec3| p.x * p.y + p.z;
+        let cases = [
+            (grid(5, field), Params::default()),
+            (
+                bent(5, field),
+                Params {
+                    preserve_boundary: false,
+                    boundary_tolerance: 0.1,
+                    ..Params::default()
+                },
+            ),
+        ];
+        // Kept and broken edges to interior and boundary vertices.
+        let mut counts = [[0usize; 2]; 2];
+        for (g, params) in &cases {
+            let mut reduction = Reduction::new(g.input(), params).expect("a valid mesh");
+            for stage in 1..=4 {
+                reduction
+                    .reduce_to(g.tets.len() * (5 - stage) / 5, &mut |_| true)
+                    .expect("not aborted");
+                let s = &reduction.s;
+                for i in (0..g.points.len() as u32).filter(|&i| !s.removed[i as usize]) {
+                    let li = Link::of(&s.tets, &s.star[i as usize], i);
+                    let on_boundary = s.kind[i as usize] != Kind::Interior;
+                    assert_eq!(li.on_boundary(), on_boundary, "vertex {i}");
+                    if !on_boundary {
+                        let lean = Link::of_interior(&s.tets, &s.star[i as usize], i);
+                        assert_eq!(lean.verts(), li.verts());
+                    }
+                    for &j in li.verts() {
+                        let edge: Vec<u32> = s.star[i as usize]
+                            .iter()
+                            .copied()
+                            .filter(|&t| s.tets[t as usize].contains(&j))
+                            .collect();
+                        let lj = Link::of(&s.tets, &s.star[j as usize], j);
+                        let both = link_condition(&s.tets, &edge, (i, &li), (j, &lj));
+                        let j_on_boundary = s.kind[j as usize] != Kind::Interior;
+                        let from_star = link_condition_from_star(
+                            &s.tets,
+                            &edge,
+                            (i, &li),
+                            (j, &s.star[j as usize]),
+                            j_on_boundary,
+                        );
+                        assert_eq!(from_star, both, "hec({i} -> {j}) at stage {stage}");
+                        counts[usize::from(j_on_boundary)][usize::from(both)] += 1;
+                    }
                 }
-                let edge: Vec<u32> = s.star[i as usize]
-                    .iter()
-                    .copied()
-                    .filter(|&t| s.tets[t as usize].contains(&j))
-                    .collect();
-                let lj = Link::of(&s.tets, &s.star[j as usize], j);
-                let both = link_condition(&s.tets, &edge, (i, &li), (j, &lj));
-                let from_star =
-                    link_condition_to_interior(&s.tets, &edge, (i, &li), j, &s.star[j as usize]);
-                assert_eq!(from_star, both, "hec({i} -> {j})");
-                kept += usize::from(both);
-                broken += usize::from(!both);
             }
         }
-        assert!(kept > 0 && broken > 0, "{kept} kept, {broken} broken");
+        assert!(
+            counts.iter().flatten().all(|&c| c > 0),
+            "[[inside broken, kept], [boundary broken, kept]] = {counts:?}"
+        );
     }
 
     /// The live faces of the boundary R-tree are exactly the boundary faces of the current mesh

@@ -142,6 +142,7 @@ impl Link {
 }
 
 /// Does every element of both sorted `a` and `b` lie in sorted `within`?
+#[cfg(test)]
 fn common_within<T: Ord>(a: &[T], b: &[T], within: &[T]) -> bool {
     a.iter()
         .filter(|x| b.binary_search(x).is_ok())
@@ -149,6 +150,7 @@ fn common_within<T: Ord>(a: &[T], b: &[T], within: &[T]) -> bool {
 }
 
 /// Do the sorted `a` and `b` share no element?
+#[cfg(test)]
 fn disjoint<T: Ord>(a: &[T], b: &[T]) -> bool {
     !a.iter().any(|x| b.binary_search(x).is_ok())
 }
@@ -194,7 +196,9 @@ impl EdgeLink {
 /// (joined to every boundary simplex): common vertices, edges and faces of `Lk(i)` and `Lk(j)` lie in
 /// `Lk(ij)` (which has no faces), and likewise for the simplices joined to ω — if both ends are on
 /// the boundary the edge is, a vertex `a` with boundary edges `ia` and `ja` spans a boundary face
-/// `ija`, and no boundary edge `ab` has both `iab` and `jab` as boundary faces.
+/// `ija`, and no boundary edge `ab` has both `iab` and `jab` as boundary faces. The reduction uses
+/// the equivalent [`link_condition_from_star`]; this one, from both links, is its reference.
+#[cfg(test)]
 pub(super) fn link_condition(
     tets: &[[u32; 4]],
     edge_tets: &[u32],
@@ -216,20 +220,24 @@ pub(super) fn link_condition(
         && disjoint(&boundary_edges(li), &boundary_edges(lj))
 }
 
-/// [`link_condition`] for `j` not on the boundary, read from `j`'s star (`star_j`) without building
-/// `Lk(j)`: the simplices joined to ω are then not common, and each vertex, edge and face of `Lk(j)`
-/// (a face of a tetrahedron around `j`) is looked up in the sorted `Lk(i)` — no sort, no
-/// allocation beyond the edge's link (the test runs for every target a vertex's offer tries).
-pub(super) fn link_condition_to_interior(
+/// [`link_condition`] read from `j`'s star (`star_j`) without building `Lk(j)` (the test runs for
+/// every target a vertex's offer tries): each vertex, edge and face of `Lk(j)` (a face of a
+/// tetrahedron around `j`) is looked up in the sorted `Lk(i)`. For `j` on the boundary
+/// (`j_on_boundary`) the simplices joined to ω are decided from `Lk(i)`'s few boundary simplices,
+/// each looked up around `j`: a boundary edge `ab` of `Lk(i)` must not span a boundary face `jab`
+/// (the face `jab` of exactly one tetrahedron around `j`), and a vertex `a` of a boundary edge `ia`
+/// that also has the boundary edge `ja` ([`edge_on_boundary`]) must lie in the edge's boundary.
+/// No sort, no allocation beyond the edge's link.
+pub(super) fn link_condition_from_star(
     tets: &[[u32; 4]],
     edge_tets: &[u32],
     (i, li): (u32, &Link),
-    j: u32,
-    star_j: &[u32],
+    (j, star_j): (u32, &[u32]),
+    j_on_boundary: bool,
 ) -> bool {
     let edge = EdgeLink::of(tets, edge_tets, i, j);
     let has = |x: &[u32], a: u32| x.binary_search(&a).is_ok();
-    star_j.iter().all(|&t| {
+    let common_within_edge = star_j.iter().all(|&t| {
         let o = others(tets[t as usize], j);
         let mut tri = o;
         tri.sort_unstable();
@@ -240,6 +248,43 @@ pub(super) fn link_condition_to_interior(
             && [[a, b], [a, c], [b, c]]
                 .iter()
                 .all(|e| li.edges.binary_search(e).is_err() || edge.edges.binary_search(e).is_ok())
+    });
+    if !common_within_edge || !j_on_boundary {
+        return common_within_edge;
+    }
+    let around_j = |a: u32, b: u32| {
+        star_j
+            .iter()
+            .filter(|&&t| {
+                let c = &tets[t as usize];
+                c.contains(&a) && c.contains(&b)
+            })
+            .count()
+    };
+    (!li.on_boundary() || !edge.boundary.is_empty())
+        && li
+            .boundary
+            .iter()
+            .all(|&([a, b], _)| a == j || b == j || around_j(a, b) != 1)
+        && li
+            .boundary_verts
+            .iter()
+            .all(|&a| a == j || has(&edge.boundary, a) || !edge_on_boundary(tets, star_j, j, a))
+}
+
+/// Is the edge `ja` on the boundary (`star_j` the tetrahedra around `j`): is a face `jab` one of
+/// only one tetrahedron around the edge (a vertex `b` seen once in the edge's link)?
+fn edge_on_boundary(tets: &[[u32; 4]], star_j: &[u32], j: u32, a: u32) -> bool {
+    let around = || {
+        star_j
+            .iter()
+            .map(|&t| tets[t as usize])
+            .filter(|c| c.contains(&a))
+    };
+    around().any(|c| {
+        c.iter()
+            .filter(|&&b| b != j && b != a)
+            .any(|&b| around().filter(|o| o.contains(&b)).count() == 1)
     })
 }
 
