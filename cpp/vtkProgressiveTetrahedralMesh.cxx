@@ -17,6 +17,7 @@
 #include "vtkPoints.h"
 #include "vtkPolyData.h"
 #include "vtkSmartPointer.h"
+#include "vtkTypeInt32Array.h"
 #include "vtkUnsignedCharArray.h"
 #include "vtkUnstructuredGrid.h"
 
@@ -28,6 +29,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <vector>
 
@@ -323,17 +325,46 @@ try
     return 1;
   }
 
-  // ---- Output: the level's points with all point data, its tetrahedra, FieldError.
+  // ---- Output: the level's points with all point data, its tetrahedra, FieldError. The core
+  // writes coordinates, connectivity and errors straight into the output's arrays, in parallel.
   rust::Slice<const std::uint32_t> pointIds = pm.level_point_ids();
-  rust::Slice<const std::uint32_t> corners = pm.level_tets();
-  rust::Slice<const double> errors = pm.level_field_errors();
   const vtkIdType np = static_cast<vtkIdType>(pointIds.size());
-  const vtkIdType nt = static_cast<vtkIdType>(errors.size());
+  const vtkIdType nt = static_cast<vtkIdType>(pm.level_tet_count());
   vtkNew<vtkDoubleArray> coordinates;
   coordinates->SetNumberOfComponents(3);
   vtkDiamonds::Allocate(coordinates, 3 * np);
+  vtkNew<vtkTypeInt32Array> connectivity32;
+  std::vector<std::uint32_t> connectivity64; // more points than 32-bit ids hold (never in practice)
+  const bool narrow = np <= std::numeric_limits<vtkTypeInt32>::max();
+  std::uint32_t* corners = nullptr;
+  if (narrow)
+  {
+    vtkDiamonds::Allocate(connectivity32, 4 * nt);
+    // Same size and layout; ids below 2^31 read the same either way.
+    corners = reinterpret_cast<std::uint32_t*>(connectivity32->GetPointer(0));
+  }
+  else
+  {
+    connectivity64.resize(static_cast<std::size_t>(4 * nt));
+    corners = connectivity64.data();
+  }
+  vtkNew<vtkDoubleArray> fieldError;
+  fieldError->SetName("FieldError");
+  vtkDiamonds::Allocate(fieldError, nt);
+  try
+  {
+    pm.fill_level(rust::Slice<double>(coordinates->GetPointer(0), static_cast<std::size_t>(3 * np)),
+      rust::Slice<std::uint32_t>(corners, static_cast<std::size_t>(4 * nt)),
+      rust::Slice<double>(fieldError->GetPointer(0), static_cast<std::size_t>(nt)));
+  }
+  catch (const rust::Error& e)
+  {
+    vtkErrorMacro(<< "Progressive Tetrahedral Mesh: " << e.what());
+    return 0;
+  }
   vtkNew<vtkPoints> points;
   points->SetData(coordinates);
+  output->SetPoints(points);
   vtkPointData* inPD = tets->GetPointData();
   vtkPointData* outPD = output->GetPointData();
   vtkDiamonds::AllocateLike(inPD, outPD, np);
@@ -344,12 +375,20 @@ try
   std::copy(pointIds.begin(), pointIds.end(), ids->GetPointer(0));
   if (np > 0)
   {
-    tets->GetPoints()->GetData()->GetTuples(ids, coordinates);
     outPD->CopyData(inPD, ids);
   }
-  output->SetPoints(points);
-  vtkDiamonds::SetTetrahedra(output, vtkDiamonds::FixedSizeCells(4, corners, np));
-  auto fieldError = vtkDiamonds::NamedArray<vtkDoubleArray>("FieldError", nt, errors.data());
+  if (narrow)
+  {
+    vtkNew<vtkCellArray> cells;
+    cells->SetData(4, connectivity32);
+    vtkDiamonds::SetTetrahedra(output, cells);
+  }
+  else
+  {
+    vtkDiamonds::SetTetrahedra(output,
+      vtkDiamonds::FixedSizeCells(4,
+        rust::Slice<const std::uint32_t>(connectivity64.data(), connectivity64.size()), np));
+  }
   output->GetCellData()->AddArray(fieldError);
 
   vtkFieldData* fieldData = output->GetFieldData();

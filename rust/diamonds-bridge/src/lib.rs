@@ -755,10 +755,17 @@ mod ffi {
         fn current_level(self: &Progressive) -> usize;
         /// The original point index of each point of the current level.
         fn level_point_ids(self: &Progressive) -> &[u32];
-        /// Four indices into `level_point_ids` per tetrahedron of the current level.
-        fn level_tets(self: &Progressive) -> &[u32];
-        /// The field error of each tetrahedron of the current level.
-        fn level_field_errors(self: &Progressive) -> &[f64];
+        /// The number of tetrahedra of the current level.
+        fn level_tet_count(self: &Progressive) -> usize;
+        /// Writes the current level into the caller's arrays, in parallel: the coordinates of its
+        /// points (3 per point of `level_point_ids`), four indices into `level_point_ids` per
+        /// tetrahedron, the field error of each tetrahedron. Fails on arrays of other lengths.
+        fn fill_level(
+            self: &Progressive,
+            coordinates: &mut [f64],
+            connectivity: &mut [u32],
+            field_errors: &mut [f64],
+        ) -> Result<()>;
         /// The current level's maximum and RMS field error over the removed original vertices.
         fn level_max_field_error(self: &Progressive) -> f64;
         fn level_rms_field_error(self: &Progressive) -> f64;

@@ -3,8 +3,8 @@
 //! [`ProgressiveSpec`]; out: an opaque [`Progressive`] the filter keeps between executions, whose
 //! reduction goes as far as the coarsest level asked so far ([`Progressive::reduce_for`], continued
 //! when a coarser one is asked), moved from level to level by replaying vertex splits or
-//! collapses, whose current level C++ reads as slices (point ids, tetrahedra, per-tetrahedron field
-//! errors). Every fallible function runs inside
+//! collapses, whose current level C++ reads (point ids as a slice; coordinates, tetrahedra and
+//! per-tetrahedron field errors written into its own arrays). Every fallible function runs inside
 //! [`guard`]; the getters return what `set_level` checked.
 
 use std::pin::Pin;
@@ -22,8 +22,8 @@ pub struct Progressive {
     replay: Replay,
     iso: Option<ProgressiveIsosurface>,
     point_ids: Vec<u32>,
-    tets: Vec<u32>,
-    errors: Vec<f64>,
+    /// Per original point, its index in `point_ids` (`u32::MAX`: not in the level).
+    index: Vec<u32>,
     iso_points: Vec<f64>,
     iso_values: Vec<f64>,
     iso_triangles: Vec<u32>,
@@ -109,8 +109,7 @@ pub fn build_with(
         replay,
         iso: None,
         point_ids: Vec::new(),
-        tets: Vec::new(),
-        errors: Vec::new(),
+        index: Vec::new(),
         iso_points: Vec::new(),
         iso_values: Vec::new(),
         iso_triangles: Vec::new(),
@@ -172,10 +171,9 @@ impl Progressive {
     /// Reads the current level (every level is valid by construction: nothing is checked or
     /// located again) and its isosurface into the arrays C++ takes.
     fn extract(&mut self) {
-        let mesh = self.replay.mesh(self.reduction.mesh().points().len());
-        self.errors = self.replay.field_errors();
-        self.tets = mesh.tets.into_flattened();
-        self.point_ids = mesh.point_ids;
+        (self.point_ids, self.index) = self
+            .replay
+            .level_points(self.reduction.mesh().points().len());
         self.extract_surface();
     }
 
@@ -231,12 +229,36 @@ impl Progressive {
         &self.point_ids
     }
 
-    pub fn level_tets(&self) -> &[u32] {
-        &self.tets
+    pub fn level_tet_count(&self) -> usize {
+        self.replay.tets()
     }
 
-    pub fn level_field_errors(&self) -> &[f64] {
-        &self.errors
+    pub fn fill_level(
+        &self,
+        coordinates: &mut [f64],
+        connectivity: &mut [u32],
+        field_errors: &mut [f64],
+    ) -> Result<(), String> {
+        guard("writing the level", || {
+            let (np, nt) = (self.point_ids.len(), self.replay.tets());
+            if coordinates.len() != 3 * np
+                || connectivity.len() != 4 * nt
+                || field_errors.len() != nt
+            {
+                return Err(format!(
+                    "arrays for {} coordinates, {} corners and {} field errors given for a level of {np} points and {nt} tetrahedra",
+                    coordinates.len(),
+                    connectivity.len(),
+                    field_errors.len()
+                ));
+            }
+            self.reduction
+                .mesh()
+                .fill_points(&self.point_ids, coordinates);
+            self.replay.fill_tets(&self.index, connectivity);
+            self.replay.fill_field_errors(field_errors);
+            Ok(())
+        })
     }
 
     pub fn level_max_field_error(&self) -> f64 {
@@ -359,6 +381,18 @@ mod tests {
         }
     }
 
+    /// The current level as `fill_level` writes it: coordinates, corners, field errors.
+    fn level(p: &Progressive) -> (Vec<f64>, Vec<u32>, Vec<f64>) {
+        let (np, nt) = (p.level_point_ids().len(), p.level_tet_count());
+        let mut level = (vec![0.0; 3 * np], vec![0; 4 * nt], vec![0.0; nt]);
+        p.fill_level(&mut level.0, &mut level.1, &mut level.2)
+            .unwrap();
+        assert!(p
+            .fill_level(&mut level.0, &mut level.1[1..], &mut level.2)
+            .is_err());
+        level
+    }
+
     #[test]
     fn levels_are_replayed_and_read_as_slices() {
         let (points, tets, scalars) = cubes();
@@ -370,30 +404,36 @@ mod tests {
         assert!(half > 0);
         assert_eq!(p.reduce_with(0.25, &mut |_| true).unwrap(), 0);
         p.set_level(p.level_for(0.25, 0.0).unwrap()).unwrap();
-        let (ids, level) = (p.level_point_ids().to_vec(), p.level_tets().to_vec());
-        assert!(level.len() <= 3 * tets.len() / 4);
+        let (ids, half_level) = (p.level_point_ids().to_vec(), level(&p));
+        assert!(half_level.1.len() <= 3 * tets.len() / 4);
         assert!(p.reduce_with(1.0, &mut |_| true).unwrap() > 0);
         let n = p.number_of_levels();
         assert_eq!(p.current_level(), n - half);
         assert_eq!(p.set_level(p.current_level()).unwrap(), 0);
-        assert_eq!(
-            (p.level_point_ids(), p.level_tets()),
-            (&ids[..], &level[..])
-        );
+        assert_eq!((p.level_point_ids(), level(&p)), (&ids[..], half_level));
         p.set_level(n).unwrap();
         assert_eq!(p.current_level(), n);
-        assert_eq!(p.level_tets().len(), tets.len());
+        // The original level: every point, every tetrahedron (in order), no error.
+        let (xyz, corners, errors) = level(&p);
+        assert_eq!(
+            (xyz, corners),
+            (points.clone(), tets.iter().map(|&v| v as u32).collect())
+        );
+        assert!(errors.iter().all(|&e| e == 0.0));
         assert!(n > 0);
         let base = p.level_for(1.0, 0.0).unwrap();
         assert_eq!(base, 0);
         assert_eq!(p.set_level(base).unwrap(), n);
-        assert_eq!(p.level_tets().len() / 4, p.level_field_errors().len());
-        assert!(p.level_tets().len() < tets.len());
-        assert!(p
-            .level_tets()
+        let (xyz, corners, errors) = level(&p);
+        assert_eq!(corners.len() / 4, errors.len());
+        assert!(corners.len() < tets.len());
+        assert!(corners
             .iter()
             .all(|&v| (v as usize) < p.level_point_ids().len()));
-        let largest = p.level_field_errors().iter().copied().fold(0.0, f64::max);
+        for (x, &v) in xyz.chunks_exact(3).zip(p.level_point_ids()) {
+            assert_eq!(x, &points[3 * v as usize..3 * v as usize + 3]);
+        }
+        let largest = errors.iter().copied().fold(0.0, f64::max);
         assert!((largest - p.level_max_field_error()).abs() < 1e-9);
         assert_eq!(p.level_for(0.0, 0.0).unwrap(), n);
         // The isosurface follows the level: at the original level, marching tetrahedra on the

@@ -11,6 +11,7 @@
 
 use super::record::{ProgressiveMesh, Replay};
 use crate::{Error, Result};
+use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 use std::collections::BTreeSet;
 
@@ -168,11 +169,16 @@ impl IntervalTree {
         }
     }
 
-    /// Inserts the tetrahedron `tet` with corners `corners` (replacing its previous interval).
-    pub fn insert(&mut self, tet: u32, corners: [u32; 4]) {
+    /// The node and interval (as ranks) of a tetrahedron with corners `corners`.
+    fn interval(&self, corners: [u32; 4]) -> (u32, u32, u32) {
         let r = corners.map(|c| self.rank[c as usize]);
         let (lo, hi) = (*r.iter().min().expect("4"), *r.iter().max().expect("4"));
-        let m = self.node(lo, hi);
+        (self.node(lo, hi), lo, hi)
+    }
+
+    /// Inserts the tetrahedron `tet` with corners `corners` (replacing its previous interval).
+    pub fn insert(&mut self, tet: u32, corners: [u32; 4]) {
+        let (m, lo, hi) = self.interval(corners);
         if self.at.get(tet as usize) == Some(&Some((m, lo, hi))) {
             return; // the same interval (a moved tetrahedron often keeps its)
         }
@@ -184,6 +190,47 @@ impl IntervalTree {
         self.by_hi[m as usize].insert(((!hi as u64) << 32) | tet as u64);
         self.at[tet as usize] = Some((m, lo, hi));
         self.len += 1;
+    }
+
+    /// Replaces every interval by those of `tets` (original index, corners; indices below `size`)
+    /// at once: the tree that removing all and inserting each would give, built node by node from
+    /// the tetrahedra bucketed on their node (a jump across many levels changes most intervals).
+    pub fn rebuild(&mut self, tets: impl ParallelIterator<Item = (u32, [u32; 4])>, size: usize) {
+        let entries: Vec<(u32, (u32, u32, u32))> =
+            tets.map(|(t, c)| (t, self.interval(c))).collect();
+        self.at.clear();
+        self.at.resize(size, None);
+        // Bucketed on the node: `start[m] .. start[m + 1]` of `order` (a counting sort).
+        let mut start = vec![0usize; self.values.len() + 1];
+        for (t, at) in &entries {
+            self.at[*t as usize] = Some(*at);
+            start[at.0 as usize + 1] += 1;
+        }
+        for m in 1..start.len() {
+            start[m] += start[m - 1];
+        }
+        let mut next = start.clone();
+        let mut order = vec![(0u32, 0u32, 0u32); entries.len()];
+        for &(t, (m, lo, hi)) in &entries {
+            order[next[m as usize]] = (t, lo, hi);
+            next[m as usize] += 1;
+        }
+        self.by_lo
+            .par_iter_mut()
+            .zip(&mut self.by_hi)
+            .enumerate()
+            .for_each(|(m, (by_lo, by_hi))| {
+                let bucket = &order[start[m]..start[m + 1]];
+                *by_lo = bucket
+                    .iter()
+                    .map(|&(t, lo, _)| ((lo as u64) << 32) | t as u64)
+                    .collect();
+                *by_hi = bucket
+                    .iter()
+                    .map(|&(t, _, hi)| ((!hi as u64) << 32) | t as u64)
+                    .collect();
+            });
+        self.len = entries.len();
     }
 
     /// Removes the tetrahedron `tet` (nothing if absent).
@@ -341,7 +388,23 @@ impl ProgressiveIsosurface {
     /// Moves `replay` to `level` by splits or collapses, updating the interval tree and the surface
     /// for the tetrahedra of those splits only (T_new and T_moved, §4.3); returns the steps
     /// replayed. A tetrahedron several splits touch is updated once, at the level reached.
+    ///
+    /// When the replay jumps instead ([`Replay::jumps_to`]: the splits name most tetrahedra), the
+    /// tree is rebuilt and every crossed tetrahedron of the level marched, in parallel.
     pub fn set_level(&mut self, pm: &ProgressiveMesh, replay: &mut Replay, level: usize) -> usize {
+        if replay.jumps_to(pm, level) {
+            let steps = replay.set_level(pm, level);
+            self.tree.rebuild(replay.par_live_tets(), pm.tets.len());
+            let isovalues = &self.isovalues;
+            self.triangles = replay
+                .par_live_tets()
+                .filter_map(|(t, c)| {
+                    let tris = march_all(pm, c, isovalues);
+                    (!tris.is_empty()).then_some((t, tris))
+                })
+                .collect();
+            return steps;
+        }
         let mut changed = Vec::new();
         let touched = &mut self.touched;
         let steps = replay.set_level_with(pm, level, &mut |_, s| {

@@ -97,6 +97,15 @@ impl ProgressiveMesh {
         &self.points
     }
 
+    /// Writes the coordinates of the original points `ids` into `out` (3 per point), in parallel.
+    pub fn fill_points(&self, ids: &[u32], out: &mut [f64]) {
+        let (xyz, rest) = out.as_chunks_mut::<3>();
+        assert!(rest.is_empty() && xyz.len() == ids.len());
+        xyz.par_iter_mut()
+            .zip(ids)
+            .for_each(|(x, &v)| *x = self.points[v as usize]);
+    }
+
     /// The original tetrahedra (after cleaning: the input's without those merging flattened).
     pub fn original_tets(&self) -> &[[u32; 4]] {
         &self.tets
@@ -281,6 +290,15 @@ impl Replay {
     /// order: the ratio is the machine's, not the mesh's); returns how many collapses or splits
     /// lie between the levels. The result is the same either way (tested).
     pub fn set_level(&mut self, pm: &ProgressiveMesh, level: usize) -> usize {
+        if !self.jumps_to(pm, level) {
+            return self.replay(pm, level, &mut |_, _| {});
+        }
+        self.index_jumps(pm);
+        self.jump(pm, level)
+    }
+
+    /// Whether [`Replay::set_level`] to `level` jumps rather than replays (rebases the cursor).
+    pub fn jumps_to(&mut self, pm: &ProgressiveMesh, level: usize) -> bool {
         self.rebase(pm);
         let level = level.min(pm.levels());
         let n = pm.levels();
@@ -288,11 +306,7 @@ impl Replay {
             .iter()
             .map(|c| c.removed.len() + c.moved.len() + c.other_errors.len())
             .sum();
-        if 4 * named <= pm.tets.len() {
-            return self.replay(pm, level, &mut |_, _| {});
-        }
-        self.index_jumps(pm);
-        self.jump(pm, level)
+        4 * named > pm.tets.len()
     }
 
     /// Builds the index of the jumps for `pm`'s collapses unless it is built (the first long
@@ -422,12 +436,9 @@ impl Replay {
     /// the mesh, where the boundary moved, is measured at its nearest point `x` of the mesh and counts
     /// for the tetrahedron of that boundary face), as the reduction placed them.
     pub fn field_errors(&self) -> Vec<f64> {
-        self.errors
-            .par_iter()
-            .zip(&self.alive)
-            .filter(|(_, &a)| a)
-            .map(|(&e, _)| e)
-            .collect()
+        let mut errors = vec![0.0; self.live];
+        self.fill_field_errors(&mut errors);
+        errors
     }
 
     /// The corners of the original tetrahedron `t` at the current level (as it was last when it is
@@ -447,8 +458,27 @@ impl Replay {
             .map(|(k, (&t, _))| (k as u32, t))
     }
 
+    /// [`Replay::live_tets`] in parallel, in no set order.
+    pub fn par_live_tets(&self) -> impl ParallelIterator<Item = (u32, [u32; 4])> + '_ {
+        self.tets
+            .par_iter()
+            .zip(&self.alive)
+            .enumerate()
+            .filter(|(_, (_, &a))| a)
+            .map(|(k, (&t, _))| (k as u32, t))
+    }
+
     /// The current level as a compact mesh.
     pub fn mesh(&self, points: usize) -> LevelMesh {
+        let (point_ids, index) = self.level_points(points);
+        let mut tets = vec![[0; 4]; self.live];
+        self.fill_tets(&index, tets.as_flattened_mut());
+        LevelMesh { point_ids, tets }
+    }
+
+    /// The points of the current level: their original indices, ascending, and the index among
+    /// them of each of the `points` original points (`u32::MAX` where not in the level).
+    pub fn level_points(&self, points: usize) -> (Vec<u32>, Vec<u32>) {
         let mut index = vec![u32::MAX; points];
         for (_, t) in self.live_tets() {
             for v in t {
@@ -463,14 +493,61 @@ impl Replay {
                 point_ids.push(v as u32);
             }
         }
-        let tets = self
-            .tets
-            .par_iter()
-            .zip(&self.alive)
-            .filter(|(_, &a)| a)
-            .map(|(t, _)| t.map(|v| index[v as usize]))
+        (point_ids, index)
+    }
+
+    /// Writes the corners of the current level's tetrahedra, as indices into its points (`index`
+    /// from [`Replay::level_points`]), into `out` (4 × [`Replay::tets`] long): [`Replay::mesh`]
+    /// into a caller's array.
+    pub fn fill_tets(&self, index: &[u32], out: &mut [u32]) {
+        self.fill_live(out, |t, c: &mut [u32; 4]| {
+            *c = self.tets[t].map(|v| index[v as usize])
+        });
+    }
+
+    /// Writes the current level's [`Replay::field_errors`] into `out` ([`Replay::tets`] long).
+    pub fn fill_field_errors(&self, out: &mut [f64]) {
+        self.fill_live(out, |t, e: &mut [f64; 1]| e[0] = self.errors[t]);
+    }
+
+    /// Writes `K` values per tetrahedron of the current level into `out` (`K` × [`Replay::tets`]
+    /// long, in [`Replay::live_tets`] order), `write(t, slots)` for the original tetrahedron `t`:
+    /// in parallel over blocks of tetrahedra, each block at the number of live ones before it.
+    fn fill_live<T: Send, const K: usize>(
+        &self,
+        out: &mut [T],
+        write: impl Fn(usize, &mut [T; K]) + Sync,
+    ) {
+        const BLOCK: usize = 1 << 14;
+        let (slots, rest) = out.as_chunks_mut::<K>();
+        assert!(
+            rest.is_empty() && slots.len() == self.live,
+            "{} values for {} tetrahedra of {K}",
+            out.len(),
+            self.live
+        );
+        let counts: Vec<usize> = self
+            .alive
+            .par_chunks(BLOCK)
+            .map(|b| b.iter().filter(|&&a| a).count())
             .collect();
-        LevelMesh { point_ids, tets }
+        let mut blocks = Vec::with_capacity(counts.len());
+        let mut tail = slots;
+        for c in counts {
+            let (block, after) = tail.split_at_mut(c);
+            blocks.push(block);
+            tail = after;
+        }
+        blocks
+            .into_par_iter()
+            .zip(self.alive.par_chunks(BLOCK))
+            .enumerate()
+            .for_each(|(b, (block, alive))| {
+                let mut slots = block.iter_mut();
+                for (k, _) in alive.iter().enumerate().filter(|(_, &a)| a) {
+                    write(b * BLOCK + k, slots.next().expect("counted"));
+                }
+            });
     }
 }
 

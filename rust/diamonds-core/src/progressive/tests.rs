@@ -489,7 +489,10 @@ fn the_progressive_isosurface_equals_marching_tetrahedra_at_every_level() {
     replay.set_level(&pm, 0);
     let mut iso = ProgressiveIsosurface::new(&pm, &replay, &isovalues).unwrap();
     let mut triangles_seen = 0;
-    for level in [1, 2, 5, n / 3, n / 2, n / 4, n, 3 * n / 4, 0, n - 1] {
+    let mut jumped = [0; 2];
+    for level in [1, 2, 5, n / 3, n / 2, n / 4, n, 3 * n / 4, 0, n - 1, n - 2] {
+        // Both ways of moving: split by split, or a jump with the tree and surface rebuilt.
+        jumped[usize::from(replay.jumps_to(&pm, level))] += 1;
         iso.set_level(&pm, &mut replay, level);
         assert_eq!(replay.level(), level);
         let reference = march_level(&pm, &replay, &isovalues);
@@ -538,6 +541,10 @@ fn the_progressive_isosurface_equals_marching_tetrahedra_at_every_level() {
         assert_eq!(iso.tree().len(), replay.tets());
     }
     assert!(triangles_seen > 100, "{triangles_seen} triangles");
+    assert!(
+        jumped[0] >= 3 && jumped[1] >= 3,
+        "replays, jumps: {jumped:?}"
+    );
     // A new isovalue: through the tree or a scan, the same surface.
     let mut scanned = iso.clone();
     iso.set_isovalues(&pm, &replay, &[0.9], true).unwrap();
