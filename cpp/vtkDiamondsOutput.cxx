@@ -287,6 +287,52 @@ bool SameKind(vtkAbstractArray* a, vtkAbstractArray* b)
 }
 } // namespace
 
+bool PassPointData(vtkPointData* inPD, vtkPointData* outPD, vtkIdType numPoints,
+  const std::function<void(
+    rust::Slice<const std::uint8_t>, std::size_t, rust::Slice<std::uint8_t>)>& gather,
+  const std::function<void(rust::Slice<std::int64_t>)>& writeIds, std::string& error)
+{
+  AllocateLike(inPD, outPD, numPoints);
+  vtkNew<vtkIdList> pointIds; // only for arrays that are not one contiguous block
+  for (int i = 0, k = 0; k < outPD->GetNumberOfArrays(); ++i)
+  {
+    vtkAbstractArray* in = inPD->GetAbstractArray(i);
+    vtkAbstractArray* out = outPD->GetAbstractArray(k);
+    if (!in)
+    {
+      error = "cannot match the output point arrays with the input's";
+      return false;
+    }
+    if (!SameKind(in, out))
+    {
+      continue; // not passed through (e.g. global ids, as CopyData)
+    }
+    ++k;
+    vtkDataArray* data = vtkDataArray::SafeDownCast(in);
+    if (data && data->HasStandardMemoryLayout() && numPoints > 0)
+    {
+      const std::size_t tupleBytes =
+        static_cast<std::size_t>(data->GetDataTypeSize()) * data->GetNumberOfComponents();
+      const auto* source = static_cast<const std::uint8_t*>(data->GetVoidPointer(0));
+      gather(rust::Slice<const std::uint8_t>(source, tupleBytes * data->GetNumberOfTuples()),
+        tupleBytes,
+        rust::Slice<std::uint8_t>(
+          static_cast<std::uint8_t*>(out->GetVoidPointer(0)), tupleBytes * numPoints));
+    }
+    else if (numPoints > 0)
+    {
+      if (pointIds->GetNumberOfIds() != numPoints)
+      {
+        pointIds->SetNumberOfIds(numPoints);
+        writeIds(rust::Slice<std::int64_t>(
+          reinterpret_cast<std::int64_t*>(pointIds->GetPointer(0)), numPoints));
+      }
+      in->GetTuples(pointIds, out);
+    }
+  }
+  return true;
+}
+
 bool PlanToUnstructuredGrid(const bridge::Hierarchy& hierarchy, const bridge::MeshPlan& plan,
   vtkImageData* input, vtkUnstructuredGrid* output, double& maxError, std::string& error)
 {
@@ -309,48 +355,14 @@ bool PlanToUnstructuredGrid(const bridge::Hierarchy& hierarchy, const bridge::Me
     points->SetData(xyz);
     output->SetPoints(points);
 
-    // Every input point array, as CopyData would pass it (same arrays, attributes and
-    // information), filled by the core from the matching input points.
-    vtkPointData* inPD = input->GetPointData();
-    vtkPointData* outPD = output->GetPointData();
-    AllocateLike(inPD, outPD, numPoints);
-    vtkNew<vtkIdList> pointIds; // only for arrays that are not one contiguous block
-    for (int i = 0, k = 0; k < outPD->GetNumberOfArrays(); ++i)
+    if (!PassPointData(
+          input->GetPointData(), output->GetPointData(), numPoints,
+          [&](rust::Slice<const std::uint8_t> source, std::size_t tupleBytes,
+            rust::Slice<std::uint8_t> target)
+          { plan.gather_point_values(source, tupleBytes, target); },
+          [&](rust::Slice<std::int64_t> ids) { plan.write_point_ids(ids); }, error))
     {
-      vtkAbstractArray* in = inPD->GetAbstractArray(i);
-      vtkAbstractArray* out = outPD->GetAbstractArray(k);
-      if (!in)
-      {
-        error = "cannot match the output point arrays with the input's";
-        return false;
-      }
-      if (!SameKind(in, out))
-      {
-        continue; // not passed through (e.g. global ids, as CopyData)
-      }
-      ++k;
-      vtkDataArray* data = vtkDataArray::SafeDownCast(in);
-      if (data && data->HasStandardMemoryLayout() && numPoints > 0)
-      {
-        const std::size_t tupleBytes =
-          static_cast<std::size_t>(data->GetDataTypeSize()) * data->GetNumberOfComponents();
-        const auto* source = static_cast<const std::uint8_t*>(data->GetVoidPointer(0));
-        plan.gather_point_values(
-          rust::Slice<const std::uint8_t>(source, tupleBytes * data->GetNumberOfTuples()),
-          tupleBytes,
-          rust::Slice<std::uint8_t>(
-            static_cast<std::uint8_t*>(out->GetVoidPointer(0)), tupleBytes * numPoints));
-      }
-      else if (numPoints > 0)
-      {
-        if (pointIds->GetNumberOfIds() != numPoints)
-        {
-          pointIds->SetNumberOfIds(numPoints);
-          plan.write_point_ids(rust::Slice<std::int64_t>(
-            reinterpret_cast<std::int64_t*>(pointIds->GetPointer(0)), numPoints));
-        }
-        in->GetTuples(pointIds, out);
-      }
+      return false;
     }
 
     // Tetrahedra with 32-bit ids when the points and the offsets allow (half the memory).

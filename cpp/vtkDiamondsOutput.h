@@ -10,6 +10,7 @@
 
 #include <cstdint>
 #include <cstring>
+#include <functional>
 #include <new>
 #include <string>
 #include <vector>
@@ -22,6 +23,7 @@ class vtkDataSetAttributes;
 class vtkIdTypeArray;
 class vtkImageData;
 class vtkInformationVector;
+class vtkPointData;
 class vtkPoints;
 class vtkStringArray;
 class vtkUnstructuredGrid;
@@ -73,6 +75,17 @@ void ReportOutOfMemory(vtkAlgorithm* filter, const char* name, const std::bad_al
 // tetrahedra are released as soon as they are copied (lower peak memory). Throws OutOfMemory.
 void MeshToUnstructuredGrid(
   bridge::Mesh& mesh, vtkImageData* input, const char* errorName, vtkUnstructuredGrid* output);
+
+// Passes every point array of `in` into `out` (`numPoints` tuples) as CopyData would (the same
+// arrays, attributes and information; arrays CopyAllocate leaves out, such as global ids, stay out):
+// an array of standard memory layout by `gather(source, tupleBytes, target)` (the core copies each
+// output point's tuple from its input point, in parallel), any other tuple by tuple from the input
+// point ids `writeIds` writes. Throws OutOfMemory and what the callbacks throw (rust::Error); returns
+// false with `error` set when the output arrays cannot be matched with the input's.
+bool PassPointData(vtkPointData* in, vtkPointData* out, vtkIdType numPoints,
+  const std::function<void(
+    rust::Slice<const std::uint8_t>, std::size_t, rust::Slice<std::uint8_t>)>& gather,
+  const std::function<void(rust::Slice<std::int64_t>)>& writeIds, std::string& error);
 
 // Fills `output` with the tetrahedra of `plan` (planned by `hierarchy`) over `input`, written by the
 // core straight into the VTK arrays, each allocated here once with its exact size: connectivity and

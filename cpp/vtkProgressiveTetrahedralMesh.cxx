@@ -7,7 +7,6 @@
 #include "vtkDataSetTriangleFilter.h"
 #include "vtkDoubleArray.h"
 #include "vtkFieldData.h"
-#include "vtkIdList.h"
 #include "vtkIdTypeArray.h"
 #include "vtkInformation.h"
 #include "vtkInformationVector.h"
@@ -351,31 +350,35 @@ try
   vtkNew<vtkDoubleArray> fieldError;
   fieldError->SetName("FieldError");
   vtkDiamonds::Allocate(fieldError, nt);
+  vtkNew<vtkPoints> points;
+  points->SetData(coordinates);
+  output->SetPoints(points);
+  // Every point array passed through, as CopyData would, gathered by the core in parallel.
+  std::string passError;
   try
   {
     pm.fill_level(rust::Slice<double>(coordinates->GetPointer(0), static_cast<std::size_t>(3 * np)),
       rust::Slice<std::uint32_t>(corners, static_cast<std::size_t>(4 * nt)),
       rust::Slice<double>(fieldError->GetPointer(0), static_cast<std::size_t>(nt)));
+    if (!vtkDiamonds::PassPointData(
+          tets->GetPointData(), output->GetPointData(), np,
+          [&](rust::Slice<const std::uint8_t> source, std::size_t tupleBytes,
+            rust::Slice<std::uint8_t> target)
+          { pm.gather_level_point_values(source, tupleBytes, target); },
+          [&](rust::Slice<std::int64_t> ids)
+          { std::copy(pointIds.begin(), pointIds.end(), ids.begin()); },
+          passError))
+    {
+      output->Initialize(); // no partial output
+      vtkErrorMacro(<< "Progressive Tetrahedral Mesh: " << passError);
+      return 0;
+    }
   }
   catch (const rust::Error& e)
   {
+    output->Initialize();
     vtkErrorMacro(<< "Progressive Tetrahedral Mesh: " << e.what());
     return 0;
-  }
-  vtkNew<vtkPoints> points;
-  points->SetData(coordinates);
-  output->SetPoints(points);
-  vtkPointData* inPD = tets->GetPointData();
-  vtkPointData* outPD = output->GetPointData();
-  vtkDiamonds::AllocateLike(inPD, outPD, np);
-  // Gathered array by array (one dispatch each), not point by point (a virtual call per point and
-  // array: most of a level change's time on a 1 M-tetrahedron input).
-  vtkNew<vtkIdList> ids;
-  ids->SetNumberOfIds(np);
-  std::copy(pointIds.begin(), pointIds.end(), ids->GetPointer(0));
-  if (np > 0)
-  {
-    outPD->CopyData(inPD, ids);
   }
   if (narrow)
   {

@@ -755,6 +755,15 @@ mod ffi {
         fn current_level(self: &Progressive) -> usize;
         /// The original point index of each point of the current level.
         fn level_point_ids(self: &Progressive) -> &[u32];
+        /// Copies the tuple of each point of the current level from `source` (`tuple_bytes` bytes
+        /// per input point) into `target` (one tuple per point of `level_point_ids`), in parallel:
+        /// a point array of standard memory layout passed through.
+        fn gather_level_point_values(
+            self: &Progressive,
+            source: &[u8],
+            tuple_bytes: usize,
+            target: &mut [u8],
+        ) -> Result<()>;
         /// The number of tetrahedra of the current level.
         fn level_tet_count(self: &Progressive) -> usize;
         /// Writes the current level into the caller's arrays, in parallel: the coordinates of its

@@ -229,6 +229,20 @@ impl Progressive {
         &self.point_ids
     }
 
+    pub fn gather_level_point_values(
+        &self,
+        source: &[u8],
+        tuple_bytes: usize,
+        target: &mut [u8],
+    ) -> Result<(), String> {
+        guard("passing a point array through", || {
+            self.reduction
+                .mesh()
+                .gather_point_values(&self.point_ids, source, tuple_bytes, target)
+                .map_err(|e| e.to_string())
+        })
+    }
+
     pub fn level_tet_count(&self) -> usize {
         self.replay.tets()
     }
@@ -435,6 +449,20 @@ mod tests {
         }
         let largest = errors.iter().copied().fold(0.0, f64::max);
         assert!((largest - p.level_max_field_error()).abs() < 1e-9);
+        // A point array passed through: each level point's tuple, bytes as they are.
+        let source: Vec<u8> = scalars.iter().flat_map(|v| v.to_ne_bytes()).collect();
+        let mut target = vec![0u8; 8 * p.level_point_ids().len()];
+        p.gather_level_point_values(&source, 8, &mut target)
+            .unwrap();
+        for (tuple, &v) in target.chunks_exact(8).zip(p.level_point_ids()) {
+            assert_eq!(tuple, &source[8 * v as usize..8 * v as usize + 8]);
+        }
+        assert!(p
+            .gather_level_point_values(&source[1..], 8, &mut target)
+            .is_err());
+        assert!(p
+            .gather_level_point_values(&source, 8, &mut target[8..])
+            .is_err());
         assert_eq!(p.level_for(0.0, 0.0).unwrap(), n);
         // The isosurface follows the level: at the original level, marching tetrahedra on the
         // input gives one point per crossed edge.

@@ -299,6 +299,17 @@ macro_rules! index_types {
 }
 index_types!(u32, i32, i64, usize);
 
+/// Checks that `len` elements are `per` per `count` items of `what` (a caller's output array).
+pub(crate) fn check_len(len: usize, count: usize, per: usize, what: &str) -> Result<()> {
+    if len != count * per {
+        return Err(Error::Parameter(format!(
+            "{what}: room for {len} values, the mesh needs {}",
+            count * per
+        )));
+    }
+    Ok(())
+}
+
 /// `slice` cut into consecutive pieces of `lens[i] × per` elements.
 pub(crate) fn pieces<'a, T>(
     mut slice: &'a mut [T],
@@ -581,17 +592,6 @@ impl MeshPlan {
         [d.x as usize, d.y as usize, d.z as usize]
     }
 
-    /// Checks that `len` elements are `per` per `count` items of `what`.
-    fn check_len(len: usize, count: usize, per: usize, what: &str) -> Result<()> {
-        if len != count * per {
-            return Err(Error::Parameter(format!(
-                "{what}: room for {len} values, the mesh needs {}",
-                count * per
-            )));
-        }
-        Ok(())
-    }
-
     /// Writes the tetrahedra, in parallel: `connectivity` (4 point ids each, positively oriented,
     /// VTK_TETRA order), `offsets` (`4 i` for tetrahedron `i`, then `4 × tets`; may be empty),
     /// `depths` (bisection depth) and `errors` (`error` of each tetrahedron's diamond, 0 for
@@ -606,11 +606,11 @@ impl MeshPlan {
         errors: &mut [f32],
     ) -> Result<f64> {
         let n = self.tets;
-        Self::check_len(connectivity.len(), n, 4, "connectivity")?;
-        Self::check_len(depths.len(), n, 1, "depths")?;
-        Self::check_len(errors.len(), n, 1, "errors")?;
+        check_len(connectivity.len(), n, 4, "connectivity")?;
+        check_len(depths.len(), n, 1, "depths")?;
+        check_len(errors.len(), n, 1, "errors")?;
         if !offsets.is_empty() {
-            Self::check_len(offsets.len(), n + 1, 1, "offsets")?;
+            check_len(offsets.len(), n + 1, 1, "offsets")?;
             offsets
                 .par_iter_mut()
                 .enumerate()
@@ -658,7 +658,7 @@ impl MeshPlan {
     /// [`crate::view::BspTree::from_paths`] orders the cells wherever they went) in the order of
     /// [`MeshPlan::write_tets`], in parallel; `paths` has exactly one slot per tetrahedron.
     pub fn write_paths(&self, paths: &mut [u64]) -> Result<()> {
-        Self::check_len(paths.len(), self.tets, 1, "bisection paths")?;
+        check_len(paths.len(), self.tets, 1, "bisection paths")?;
         // Unit-cube tetrahedra, the deepest, are 3 bisections per level below the root.
         if 3 * self.lattice.levels >= max_path_depth() {
             return Err(Error::Parameter(format!(
@@ -690,7 +690,7 @@ impl MeshPlan {
 
     /// Writes the grid index (x fastest) of each point, ascending.
     pub fn write_point_ids<I: Index>(&self, ids: &mut [I]) -> Result<()> {
-        Self::check_len(ids.len(), self.points.len(), 1, "point ids")?;
+        check_len(ids.len(), self.points.len(), 1, "point ids")?;
         self.points.write_ids(ids);
         Ok(())
     }
@@ -701,7 +701,7 @@ impl MeshPlan {
         position: impl Fn(usize) -> [f64; 3] + Sync,
         xyz: &mut [f64],
     ) -> Result<()> {
-        Self::check_len(xyz.len(), self.points.len(), 3, "point coordinates")?;
+        check_len(xyz.len(), self.points.len(), 3, "point coordinates")?;
         self.points.for_points(xyz, 3, |grid_ids, chunk| {
             for (slot, i) in chunk.chunks_exact_mut(3).zip(grid_ids) {
                 slot.copy_from_slice(&position(i));
@@ -714,13 +714,13 @@ impl MeshPlan {
     /// point, x fastest) into `target` (one tuple per mesh point): a point array passed through.
     pub fn gather(&self, source: &[u8], tuple_bytes: usize, target: &mut [u8]) -> Result<()> {
         let grid_len = self.grid_dims().iter().product();
-        Self::check_len(
+        check_len(
             source.len(),
             grid_len,
             tuple_bytes,
             "a point array's source",
         )?;
-        Self::check_len(
+        check_len(
             target.len(),
             self.points.len(),
             tuple_bytes,

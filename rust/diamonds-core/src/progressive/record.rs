@@ -4,6 +4,8 @@
 //! moves between levels by applying collapses (down) or vertex splits (up), each touching only the
 //! tetrahedra it names: nothing is recomputed.
 
+use crate::mesh::check_len;
+use crate::Result;
 use rayon::prelude::*;
 
 /// One half-edge collapse `hec(p_i → p_j)` and its inverse vertex split (§3.1): the tetrahedra around
@@ -104,6 +106,39 @@ impl ProgressiveMesh {
         xyz.par_iter_mut()
             .zip(ids)
             .for_each(|(x, &v)| *x = self.points[v as usize]);
+    }
+
+    /// Copies the tuple of each original point `ids[k]` from `source` (`tuple_bytes` bytes per
+    /// original point) into slot `k` of `target`, in parallel: a point array passed through.
+    pub fn gather_point_values(
+        &self,
+        ids: &[u32],
+        source: &[u8],
+        tuple_bytes: usize,
+        target: &mut [u8],
+    ) -> Result<()> {
+        check_len(
+            source.len(),
+            self.points.len(),
+            tuple_bytes,
+            "a point array's source",
+        )?;
+        check_len(
+            target.len(),
+            ids.len(),
+            tuple_bytes,
+            "a point array's target",
+        )?;
+        if tuple_bytes > 0 {
+            target
+                .par_chunks_mut(tuple_bytes)
+                .zip(ids)
+                .for_each(|(slot, &v)| {
+                    let at = v as usize * tuple_bytes;
+                    slot.copy_from_slice(&source[at..at + tuple_bytes]);
+                });
+        }
+        Ok(())
     }
 
     /// The original tetrahedra (after cleaning: the input's without those merging flattened).
