@@ -4,7 +4,7 @@
 //! moves between levels by applying collapses (down) or vertex splits (up), each touching only the
 //! tetrahedra it names: nothing is recomputed.
 
-use crate::mesh::check_len;
+use crate::mesh::{check_len, pieces};
 use crate::Result;
 use rayon::prelude::*;
 
@@ -557,7 +557,7 @@ impl Replay {
         let (slots, rest) = out.as_chunks_mut::<K>();
         assert!(
             rest.is_empty() && slots.len() == self.live,
-            "{} values for {} tetrahedra of {K}",
+            "{} values for {} tetrahedra of {K} values each",
             out.len(),
             self.live
         );
@@ -566,14 +566,7 @@ impl Replay {
             .par_chunks(BLOCK)
             .map(|b| b.iter().filter(|&&a| a).count())
             .collect();
-        let mut blocks = Vec::with_capacity(counts.len());
-        let mut tail = slots;
-        for c in counts {
-            let (block, after) = tail.split_at_mut(c);
-            blocks.push(block);
-            tail = after;
-        }
-        blocks
+        pieces(slots, &counts, 1)
             .into_par_iter()
             .zip(self.alive.par_chunks(BLOCK))
             .enumerate()
