@@ -415,31 +415,13 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
     this->UpdateProgress(std::min(0.8, 0.6 + 0.02 * rounds));
   }
 
-  // ---- This rank's tetrahedra, and the point data of their points held by other ranks.
-  std::optional<rust::Box<bridge::Mesh>> mesh;
-  // Which of their points this rank holds (with their ids in its input), and which others hold.
-  std::vector<vtkIdType> localSlots, localIds, remoteSlots;
-  std::vector<std::uint64_t> remote;
-  ok = run("could not extract this rank's mesh", [&] {
-    mesh.emplace(piece.piece_mesh(
-      **refinement, pieces.Extents(), static_cast<std::size_t>(pieces.Rank())));
-    refinement.reset();
-    const rust::Slice<const std::size_t> ids = (*mesh)->point_ids();
-    const rust::Vec<std::int64_t> local =
-      bridge::piece_local_ids(pieces.Whole(), pieces.OwnExtent(), ids);
-    for (std::size_t k = 0; k < local.size(); ++k)
-    {
-      if (local[k] >= 0)
-      {
-        localSlots.push_back(static_cast<vtkIdType>(k));
-        localIds.push_back(static_cast<vtkIdType>(local[k]));
-      }
-      else
-      {
-        remoteSlots.push_back(static_cast<vtkIdType>(k));
-        remote.push_back(ids[k]);
-      }
-    }
+  // ---- This rank's tetrahedra (counted), and the point data of their points held by other ranks.
+  std::optional<rust::Box<bridge::MeshPlan>> plan;
+  rust::Vec<std::uint64_t> remote; // ascending whole-grid indices
+  ok = ok && run("could not extract this rank's mesh", [&] {
+    plan.emplace(piece.piece_plan(
+      std::move(*refinement), pieces.Extents(), static_cast<std::size_t>(pieces.Rank())));
+    remote = (*plan)->piece_remote_point_ids();
     return true;
   });
   refinement.reset();
@@ -470,47 +452,46 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
     return pieces.Failed();
   }
 
-  // ---- Output.
-  const vtkIdType numPoints = static_cast<vtkIdType>((*mesh)->point_ids().size());
+  // ---- Output, written by the core into the arrays: each point array's tuples from this rank's
+  // piece or from those fetched.
+  double rankMaxError = 0.0;
   ok = run("could not write its output", [&] {
-    const rust::Slice<const std::size_t> ids = (*mesh)->point_ids();
-    output->SetPoints(vtkDiamonds::PointsFrom((*mesh)->points()));
-    vtkDiamonds::SetTetrahedra(output, vtkDiamonds::FixedSizeCells(4, (*mesh)->tets(), numPoints));
-    vtkPointData* outPD = output->GetPointData();
-    for (std::size_t a = 0; a < pointArrays.size(); ++a)
-    {
-      vtkSmartPointer<vtkDataArray> out =
-        vtkSmartPointer<vtkDataArray>::Take(pointArrays[a]->NewInstance());
-      out->SetName(pointArrays[a]->GetName());
-      out->SetNumberOfComponents(pointArrays[a]->GetNumberOfComponents());
-      vtkDiamonds::Allocate(out, numPoints * out->GetNumberOfComponents());
-      out->InsertTuples(
-        vtkDiamonds::IdList(localSlots), vtkDiamonds::IdList(localIds), pointArrays[a]);
-      out->InsertTuples(vtkDiamonds::IdList(remoteSlots),
-        vtkDiamonds::IdList(0, static_cast<vtkIdType>(remote.size())), fetched[a]);
-      const int attribute = inPD->IsArrayAnAttribute(static_cast<int>(a));
-      outPD->AddArray(out);
-      if (attribute >= 0 && attribute != vtkDataSetAttributes::GLOBALIDS)
+    const bridge::MeshPlan& p = **plan;
+    std::string writeError;
+    const bool written = vtkDiamonds::WritePlan(
+      p, pieces.Frame(), inPD,
+      [&](vtkDataArray* in, rust::Slice<const std::uint8_t> local, std::size_t tupleBytes,
+        rust::Slice<std::uint8_t> target)
       {
-        outPD->SetActiveAttribute(out->GetName(), attribute);
-      }
+        const auto a = std::find(pointArrays.begin(), pointArrays.end(), in) - pointArrays.begin();
+        const vtkSmartPointer<vtkDataArray> values = vtkDiamonds::Contiguous(fetched.at(a));
+        const auto* bytes = static_cast<const std::uint8_t*>(values->GetVoidPointer(0));
+        p.gather_piece_point_values(local,
+          rust::Slice<const std::uint8_t>(bytes, tupleBytes * values->GetNumberOfTuples()),
+          tupleBytes, target);
+      },
+      nullptr,
+      [&](rust::Slice<std::int32_t> c, rust::Slice<std::int32_t> o, rust::Slice<std::uint8_t> d,
+        rust::Slice<float> e) { return piece.write_piece_tets_i32(p, c, o, d, e); },
+      [&](rust::Slice<std::int64_t> c, rust::Slice<std::int64_t> o, rust::Slice<std::uint8_t> d,
+        rust::Slice<float> e) { return piece.write_piece_tets_i64(p, c, o, d, e); },
+      true, output, rankMaxError, writeError);
+    if (!written)
+    {
+      output->Initialize();
+      vtkErrorMacro(<< "Adaptive Tetrahedra could not write its output: " << writeError);
     }
-    outPD->SetGlobalIds(vtkDiamonds::GlobalPointIds(ids));
-    const vtkIdType numTets = output->GetNumberOfCells();
-    output->GetCellData()->AddArray(vtkDiamonds::NamedArray<vtkUnsignedCharArray>(
-      "BisectionDepth", numTets, (*mesh)->depths().data()));
-    output->GetCellData()->AddArray(vtkDiamonds::NamedArray<vtkFloatArray>(
-      "ApproximationError", numTets, (*mesh)->errors().data()));
-    return true;
+    return written;
   });
   fetched.clear();
+  plan.reset();
   if (!agree(ok, "writing the output"))
   {
     return pieces.Failed();
   }
   const vtkIdType numTets = output->GetNumberOfCells();
 
-  std::vector<double> maxError{ (*mesh)->max_error() };
+  std::vector<double> maxError{ rankMaxError };
   if (!pieces.MaxInPlace(maxError, error))
   {
     vtkErrorMacro(<< "Adaptive Tetrahedra could not combine the ranks' errors: " << error);

@@ -287,10 +287,22 @@ bool SameKind(vtkAbstractArray* a, vtkAbstractArray* b)
 }
 } // namespace
 
+vtkSmartPointer<vtkDataArray> Contiguous(vtkDataArray* array)
+{
+  if (array->HasStandardMemoryLayout())
+  {
+    return array;
+  }
+  auto copy = vtkSmartPointer<vtkDataArray>::Take(vtkDataArray::CreateDataArray(array->GetDataType()));
+  copy->SetNumberOfComponents(array->GetNumberOfComponents());
+  Allocate(copy, array->GetNumberOfValues());
+  copy->InsertTuples(0, array->GetNumberOfTuples(), 0, array);
+  return copy;
+}
+
 bool PassPointData(vtkPointData* inPD, vtkPointData* outPD, vtkIdType numPoints,
-  const std::function<void(
-    rust::Slice<const std::uint8_t>, std::size_t, rust::Slice<std::uint8_t>)>& gather,
-  const std::function<void(rust::Slice<std::int64_t>)>& writeIds, std::string& error)
+  const PointGather& gather, const std::function<void(rust::Slice<std::int64_t>)>& writeIds,
+  std::string& error)
 {
   AllocateLike(inPD, outPD, numPoints);
   vtkNew<vtkIdList> pointIds; // only for arrays that are not one contiguous block
@@ -307,19 +319,29 @@ bool PassPointData(vtkPointData* inPD, vtkPointData* outPD, vtkIdType numPoints,
     {
       continue; // not passed through (e.g. global ids, as CopyData)
     }
-    ++k;
     vtkDataArray* data = vtkDataArray::SafeDownCast(in);
-    if (data && data->HasStandardMemoryLayout() && numPoints > 0)
+    if (!data && !writeIds)
     {
+      outPD->RemoveArray(k); // no tuple-by-tuple copy: left out
+      continue;
+    }
+    ++k;
+    if (numPoints == 0)
+    {
+      continue;
+    }
+    if (data && (data->HasStandardMemoryLayout() || !writeIds))
+    {
+      const vtkSmartPointer<vtkDataArray> contiguous = Contiguous(data);
       const std::size_t tupleBytes =
         static_cast<std::size_t>(data->GetDataTypeSize()) * data->GetNumberOfComponents();
-      const auto* source = static_cast<const std::uint8_t*>(data->GetVoidPointer(0));
-      gather(rust::Slice<const std::uint8_t>(source, tupleBytes * data->GetNumberOfTuples()),
+      const auto* source = static_cast<const std::uint8_t*>(contiguous->GetVoidPointer(0));
+      gather(data, rust::Slice<const std::uint8_t>(source, tupleBytes * data->GetNumberOfTuples()),
         tupleBytes,
         rust::Slice<std::uint8_t>(
           static_cast<std::uint8_t*>(out->GetVoidPointer(0)), tupleBytes * numPoints));
     }
-    else if (numPoints > 0)
+    else
     {
       if (pointIds->GetNumberOfIds() != numPoints)
       {
@@ -333,53 +355,42 @@ bool PassPointData(vtkPointData* inPD, vtkPointData* outPD, vtkIdType numPoints,
   return true;
 }
 
-bool PlanToUnstructuredGrid(const bridge::Hierarchy& hierarchy, const bridge::MeshPlan& plan,
-  vtkImageData* input, vtkUnstructuredGrid* output, double& maxError, std::string& error)
+bool WritePlan(const bridge::MeshPlan& plan, const bridge::PointFrame& frame, vtkPointData* inPD,
+  const PointGather& gather, const std::function<void(rust::Slice<std::int64_t>)>& writeIds,
+  const TetWriter<std::int32_t>& tets32, const TetWriter<std::int64_t>& tets64, bool globalIds,
+  vtkUnstructuredGrid* output, double& maxError, std::string& error)
 {
   const vtkIdType numPoints = static_cast<vtkIdType>(plan.number_of_points());
   const vtkIdType numTets = static_cast<vtkIdType>(plan.number_of_tetrahedra());
   try
   {
-    // Points at the exact input sample positions (the formula vtkImageData uses for its bounds).
     auto xyz = Uninitialized<vtkDoubleArray>(nullptr, numPoints, 3);
-    const ImageGeometry image(input);
-    bridge::PointFrame frame;
-    for (int axis = 0; axis < 3; ++axis)
-    {
-      frame.origin[axis] = image.Origin[axis];
-      frame.first_index[axis] = image.Extent[2 * axis];
-      frame.spacing[axis] = image.Spacing[axis];
-    }
     plan.write_points(frame, rust::Slice<double>(xyz->GetPointer(0), 3 * numPoints));
     vtkNew<vtkPoints> points;
     points->SetData(xyz);
     output->SetPoints(points);
 
-    if (!PassPointData(
-          input->GetPointData(), output->GetPointData(), numPoints,
-          [&](rust::Slice<const std::uint8_t> source, std::size_t tupleBytes,
-            rust::Slice<std::uint8_t> target)
-          { plan.gather_point_values(source, tupleBytes, target); },
-          [&](rust::Slice<std::int64_t> ids) { plan.write_point_ids(ids); }, error))
+    if (!PassPointData(inPD, output->GetPointData(), numPoints, gather, writeIds, error))
     {
       return false;
+    }
+    if (globalIds)
+    {
+      auto ids = Uninitialized<vtkIdTypeArray>("GlobalPointIds", numPoints, 1);
+      plan.write_point_ids(
+        rust::Slice<std::int64_t>(reinterpret_cast<std::int64_t*>(ids->GetPointer(0)), numPoints));
+      output->GetPointData()->SetGlobalIds(ids);
     }
 
     // Tetrahedra with 32-bit ids when the points and the offsets allow (half the memory).
     if (numPoints <= std::numeric_limits<vtkTypeInt32>::max() &&
       4 * numTets <= std::numeric_limits<vtkTypeInt32>::max())
     {
-      maxError = WriteTetrahedra<vtkTypeInt32Array>(numTets, output,
-        [&](rust::Slice<std::int32_t> c, rust::Slice<std::int32_t> o,
-          rust::Slice<std::uint8_t> d, rust::Slice<float> e)
-        { return hierarchy.write_tets_i32(plan, c, o, d, e); });
+      maxError = WriteTetrahedra<vtkTypeInt32Array>(numTets, output, tets32);
     }
     else
     {
-      maxError = WriteTetrahedra<vtkTypeInt64Array>(numTets, output,
-        [&](rust::Slice<std::int64_t> c, rust::Slice<std::int64_t> o,
-          rust::Slice<std::uint8_t> d, rust::Slice<float> e)
-        { return hierarchy.write_tets_i64(plan, c, o, d, e); });
+      maxError = WriteTetrahedra<vtkTypeInt64Array>(numTets, output, tets64);
     }
     return true;
   }
@@ -392,6 +403,30 @@ bool PlanToUnstructuredGrid(const bridge::Hierarchy& hierarchy, const bridge::Me
     error = OutOfMemoryMessage(e);
   }
   return false;
+}
+
+bool PlanToUnstructuredGrid(const bridge::Hierarchy& hierarchy, const bridge::MeshPlan& plan,
+  vtkImageData* input, vtkUnstructuredGrid* output, double& maxError, std::string& error)
+{
+  // Points at the exact input sample positions (the formula vtkImageData uses for its bounds).
+  const ImageGeometry image(input);
+  bridge::PointFrame frame;
+  for (int axis = 0; axis < 3; ++axis)
+  {
+    frame.origin[axis] = image.Origin[axis];
+    frame.first_index[axis] = image.Extent[2 * axis];
+    frame.spacing[axis] = image.Spacing[axis];
+  }
+  return WritePlan(
+    plan, frame, input->GetPointData(),
+    [&](vtkDataArray*, rust::Slice<const std::uint8_t> source, std::size_t tupleBytes,
+      rust::Slice<std::uint8_t> target) { plan.gather_point_values(source, tupleBytes, target); },
+    [&](rust::Slice<std::int64_t> ids) { plan.write_point_ids(ids); },
+    [&](rust::Slice<std::int32_t> c, rust::Slice<std::int32_t> o, rust::Slice<std::uint8_t> d,
+      rust::Slice<float> e) { return hierarchy.write_tets_i32(plan, c, o, d, e); },
+    [&](rust::Slice<std::int64_t> c, rust::Slice<std::int64_t> o, rust::Slice<std::uint8_t> d,
+      rust::Slice<float> e) { return hierarchy.write_tets_i64(plan, c, o, d, e); },
+    false, output, maxError, error);
 }
 
 //------------------------------------------------------------------------------

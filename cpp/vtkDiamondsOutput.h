@@ -19,6 +19,7 @@ class vtkAbstractArray;
 class vtkAlgorithm;
 class vtkCellArray;
 class vtkDataSet;
+class vtkDataArray;
 class vtkDataSetAttributes;
 class vtkIdTypeArray;
 class vtkImageData;
@@ -76,23 +77,48 @@ void ReportOutOfMemory(vtkAlgorithm* filter, const char* name, const std::bad_al
 void MeshToUnstructuredGrid(
   bridge::Mesh& mesh, vtkImageData* input, const char* errorName, vtkUnstructuredGrid* output);
 
+// How a point array is gathered by the core: `gather(in, source, tupleBytes, target)` copies the
+// tuple of each output point into `target` from `source`, the bytes of the input array `in`.
+using PointGather = std::function<void(vtkDataArray* in, rust::Slice<const std::uint8_t> source,
+  std::size_t tupleBytes, rust::Slice<std::uint8_t> target)>;
+
 // Passes every point array of `in` into `out` (`numPoints` tuples) as CopyData would (the same
 // arrays, attributes and information; arrays CopyAllocate leaves out, such as global ids, stay out):
-// an array of standard memory layout by `gather(source, tupleBytes, target)` (the core copies each
-// output point's tuple from its input point, in parallel), any other tuple by tuple from the input
-// point ids `writeIds` writes. Throws OutOfMemory and what the callbacks throw (rust::Error); returns
-// false with `error` set when the output arrays cannot be matched with the input's.
+// a numeric array by `gather` (the core copies each output point's tuple, in parallel); with
+// `writeIds`, an array of other memory layout or type tuple by tuple from the input point ids it
+// writes; without, a numeric array of other layout is gathered from a contiguous copy and an array
+// of other type (strings) is left out. Throws OutOfMemory and what the callbacks throw (rust::Error);
+// returns false with `error` set when the output arrays cannot be matched with the input's.
 bool PassPointData(vtkPointData* in, vtkPointData* out, vtkIdType numPoints,
-  const std::function<void(
-    rust::Slice<const std::uint8_t>, std::size_t, rust::Slice<std::uint8_t>)>& gather,
-  const std::function<void(rust::Slice<std::int64_t>)>& writeIds, std::string& error);
+  const PointGather& gather, const std::function<void(rust::Slice<std::int64_t>)>& writeIds,
+  std::string& error);
 
-// Fills `output` with the tetrahedra of `plan` (planned by `hierarchy`) over `input`, written by the
-// core straight into the VTK arrays, each allocated here once with its exact size: connectivity and
-// offsets (32-bit when the ids fit), points at the sample positions, every input point array passed
-// through, cell data "BisectionDepth" and "ApproximationError". Returns false with `error` set (and
-// `output` left incomplete: the caller initializes it again) when an array cannot be allocated or the
-// core fails; else sets `maxError` to the largest error.
+// `array` itself when its values are one contiguous block of tuples, else a copy that is (throws
+// OutOfMemory).
+vtkSmartPointer<vtkDataArray> Contiguous(vtkDataArray* array);
+
+// How the tetrahedra of a mesh plan are written, with 32- or 64-bit ids (the core's
+// write_tets_i32/_i64 of the hierarchy that planned it): connectivity, offsets, depths, errors;
+// returns the largest error.
+template <typename Id>
+using TetWriter = std::function<double(
+  rust::Slice<Id>, rust::Slice<Id>, rust::Slice<std::uint8_t>, rust::Slice<float>)>;
+
+// Fills `output` with the tetrahedra of `plan` over `inPD`'s points, written by the core straight
+// into the VTK arrays, each allocated here once with its exact size: connectivity and offsets
+// (32-bit when the ids fit, by `tets32`, else by `tets64`), points at `frame`'s positions, every
+// point array of `inPD` passed through (`gather`, `writeIds` as PassPointData), cell data
+// "BisectionDepth" and "ApproximationError", and with `globalIds` the point ids in the whole grid as
+// "GlobalPointIds". Returns false with `error` set (and `output` left incomplete: the caller
+// initializes it again) when an array cannot be allocated or the core fails; else sets `maxError`
+// to the largest error.
+bool WritePlan(const bridge::MeshPlan& plan, const bridge::PointFrame& frame, vtkPointData* inPD,
+  const PointGather& gather, const std::function<void(rust::Slice<std::int64_t>)>& writeIds,
+  const TetWriter<std::int32_t>& tets32, const TetWriter<std::int64_t>& tets64, bool globalIds,
+  vtkUnstructuredGrid* output, double& maxError, std::string& error);
+
+// WritePlan for a plan of the serial `hierarchy` over `input`: points at its sample positions, its
+// point arrays passed through.
 bool PlanToUnstructuredGrid(const bridge::Hierarchy& hierarchy, const bridge::MeshPlan& plan,
   vtkImageData* input, vtkUnstructuredGrid* output, double& maxError, std::string& error);
 

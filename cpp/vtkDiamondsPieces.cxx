@@ -153,6 +153,19 @@ vtkMultiProcessController* Pieces::DistributedController()
 }
 
 //------------------------------------------------------------------------------
+bridge::PointFrame Pieces::Frame() const
+{
+  bridge::PointFrame frame;
+  for (int axis = 0; axis < 3; ++axis)
+  {
+    frame.origin[axis] = this->Origin[axis];
+    frame.first_index[axis] = this->WholeLo[axis];
+    frame.spacing[axis] = this->WholeGrid.spacing[axis];
+  }
+  return frame;
+}
+
+//------------------------------------------------------------------------------
 Pieces::Pieces(vtkMultiProcessController* controller, const int wholeExtent[6],
   const int extent[6], const double origin[3], const double spacing[3])
   : Controller(controller)
@@ -272,17 +285,6 @@ vtkIdType TupleCount(Layout layout, const std::int64_t* e)
   }
 }
 
-// A contiguous array of `a`'s values (`a` itself when it already is one); throws OutOfMemory.
-vtkSmartPointer<vtkDataArray> Contiguous(vtkDataArray* a)
-{
-  if (a->HasStandardMemoryLayout())
-  {
-    return a;
-  }
-  auto copy = SameKind(a, a->GetNumberOfTuples());
-  copy->InsertTuples(0, a->GetNumberOfTuples(), 0, a);
-  return copy;
-}
 } // namespace
 
 bool Pieces::GatherWhole(vtkDataSet* input, const std::vector<vtkDataArray*>& pointArrays,

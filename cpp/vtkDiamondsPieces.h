@@ -54,6 +54,9 @@ public:
   int Size() const { return this->Ranks; }
   // The whole grid (origin at its first point).
   const bridge::GridSpec& Whole() const { return this->WholeGrid; }
+  // Where the whole grid's points are, by vtkImageData's formula (the origin, the whole extent's
+  // minima and the spacing), as the serial filters place them.
+  bridge::PointFrame Frame() const;
   // Every rank's extent, six values each (VTK order), relative to the whole extent's first point.
   rust::Slice<const std::int64_t> Extents() const { return { this->All.data(), this->All.size() }; }
   rust::Slice<const std::int64_t> OwnExtent() const { return { this->All.data() + 6 * this->Me, 6 }; }

@@ -362,7 +362,7 @@ try
       rust::Slice<double>(fieldError->GetPointer(0), static_cast<std::size_t>(nt)));
     if (!vtkDiamonds::PassPointData(
           tets->GetPointData(), output->GetPointData(), np,
-          [&](rust::Slice<const std::uint8_t> source, std::size_t tupleBytes,
+          [&](vtkDataArray*, rust::Slice<const std::uint8_t> source, std::size_t tupleBytes,
             rust::Slice<std::uint8_t> target)
           { pm.gather_level_point_values(source, tupleBytes, target); },
           [&](rust::Slice<std::int64_t> ids)

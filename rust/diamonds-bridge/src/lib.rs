@@ -365,15 +365,49 @@ mod ffi {
             refinement: &mut PieceRefinement,
             centers: &[i32],
         ) -> Result<usize>;
-        /// The tetrahedra this piece owns once no piece has anything to send (`pieces`: every
-        /// piece's extent, this one's at `rank`; a tetrahedron belongs to the first piece whose
-        /// cells hold its centroid): point ids are whole-grid indices.
-        fn piece_mesh(
+        /// Counts the tetrahedra this piece owns once no piece has anything to send (`pieces`:
+        /// every piece's extent, this one's at `rank`; a tetrahedron belongs to the first piece
+        /// whose cells hold its centroid) and their points (whole-grid indices), for the plan's
+        /// writers: `write_piece_tets_i32`/`_i64`, `write_points`, `write_point_ids` and
+        /// `gather_piece_point_values`.
+        /// The plan takes the refinement.
+        fn piece_plan(
             self: &PieceHierarchy,
-            refinement: &PieceRefinement,
+            refinement: Box<PieceRefinement>,
             pieces: &[i64],
             rank: usize,
-        ) -> Result<Box<Mesh>>;
+        ) -> Result<Box<MeshPlan>>;
+        /// `write_tets_i32` for a plan of this piece (`piece_plan`), with the piece's errors.
+        fn write_piece_tets_i32(
+            self: &PieceHierarchy,
+            plan: &MeshPlan,
+            connectivity: &mut [i32],
+            offsets: &mut [i32],
+            depths: &mut [u8],
+            errors: &mut [f32],
+        ) -> Result<f64>;
+        /// `write_tets_i64` for a plan of this piece (`piece_plan`), with the piece's errors.
+        fn write_piece_tets_i64(
+            self: &PieceHierarchy,
+            plan: &MeshPlan,
+            connectivity: &mut [i64],
+            offsets: &mut [i64],
+            depths: &mut [u8],
+            errors: &mut [f32],
+        ) -> Result<f64>;
+        /// For a piece's plan: the whole-grid index of each of its points the piece does not
+        /// hold, ascending (whose point data it fetches from the other pieces).
+        fn piece_remote_point_ids(self: &MeshPlan) -> Result<Vec<u64>>;
+        /// For a piece's plan: passes a point array through (`tuple_bytes` bytes per tuple) into
+        /// `target`, from `local` (the piece's own array, one tuple per point of its extent) and
+        /// `fetched` (one tuple per point of `piece_remote_point_ids`, in that order).
+        fn gather_piece_point_values(
+            self: &MeshPlan,
+            local: &[u8],
+            fetched: &[u8],
+            tuple_bytes: usize,
+            target: &mut [u8],
+        ) -> Result<()>;
         /// Fails unless the extents `pieces` (every rank's) cover every point and every cell of
         /// the whole grid: what a rank checks before it puts the whole image together from them.
         fn piece_check_cover(whole: &GridSpec, pieces: &[i64]) -> Result<()>;
@@ -885,8 +919,8 @@ pub struct Mesh(TetMesh);
 /// Opaque handle on a [`diamonds::mesh::MeshPlan`] for C++, with the identity of the [`Hierarchy`]
 /// that planned it (its errors are that hierarchy's).
 pub struct MeshPlan {
-    plan: diamonds::mesh::MeshPlan,
-    hierarchy: u64,
+    pub(crate) plan: diamonds::mesh::MeshPlan,
+    pub(crate) hierarchy: u64,
 }
 
 /// Opaque handle on a [`diamonds::IsoSurface`] for C++, checked for consistency before it is handed
@@ -1043,13 +1077,19 @@ fn core_grid(grid: &GridSpec) -> Grid {
     }
 }
 
+/// A new identity for a hierarchy (see [`Hierarchy`]) or a piece of one ([`PieceHierarchy`]): the
+/// mesh plans they make carry it.
+pub(crate) fn next_id() -> u64 {
+    static NEXT_ID: AtomicU64 = AtomicU64::new(0);
+    NEXT_ID.fetch_add(1, Ordering::Relaxed)
+}
+
 /// Gives a built hierarchy its id (see [`Hierarchy`]).
 fn wrap(built: diamonds::Result<diamonds::Hierarchy>) -> Result<Hierarchy, String> {
-    static NEXT_ID: AtomicU64 = AtomicU64::new(0);
     built
         .map(|hierarchy| Hierarchy {
             hierarchy,
-            id: NEXT_ID.fetch_add(1, Ordering::Relaxed),
+            id: next_id(),
         })
         .map_err(|e| e.to_string())
 }
@@ -1316,6 +1356,29 @@ impl MeshPlan {
     pub fn write_point_ids(&self, ids: &mut [i64]) -> Result<(), String> {
         guard("writing the mesh's point ids", || {
             self.plan.write_point_ids(ids).map_err(|e| e.to_string())
+        })
+    }
+
+    /// The points of a piece's plan its piece does not hold
+    /// ([`diamonds::mesh::MeshPlan::remote_point_ids`]).
+    pub fn piece_remote_point_ids(&self) -> Result<Vec<u64>, String> {
+        guard("finding the points other pieces hold", || {
+            self.plan.remote_point_ids().map_err(|e| e.to_string())
+        })
+    }
+
+    /// Copies a point array through on a piece ([`diamonds::mesh::MeshPlan::gather_piece`]).
+    pub fn gather_piece_point_values(
+        &self,
+        local: &[u8],
+        fetched: &[u8],
+        tuple_bytes: usize,
+        target: &mut [u8],
+    ) -> Result<(), String> {
+        guard("passing a point array through", || {
+            self.plan
+                .gather_piece(local, fetched, tuple_bytes, target)
+                .map_err(|e| e.to_string())
         })
     }
 

@@ -14,14 +14,14 @@ use std::pin::Pin;
 
 use diamonds::hierarchy::piece::{self, PieceLayout, PointBox, StridedBox};
 use diamonds::lattice::Lattice;
-use diamonds::validate::check_mesh_arrays;
 use glam::IVec3;
 
 use crate::ffi::{self, GridSpec, IsoSpec, QuerySpec, SampleRequests, ScalarType, SplitMessages};
-use crate::{check_core, core_grid, core_query, guard, typed_slice, Mesh};
+use crate::{core_grid, core_query, guard, typed_slice, MeshPlan};
 
-/// Opaque handle on a [`piece::PieceHierarchy`] for C++.
-pub struct PieceHierarchy(piece::PieceHierarchy);
+/// Opaque handle on a [`piece::PieceHierarchy`] for C++, with its identity (the mesh plans it
+/// makes carry it: see [`crate::Hierarchy`]).
+pub struct PieceHierarchy(piece::PieceHierarchy, u64);
 
 /// Opaque handle on a [`piece::PieceRefinement`] for C++: one query's split set on one piece.
 pub struct PieceRefinement(piece::PieceRefinement);
@@ -227,7 +227,7 @@ pub fn build_piece_hierarchy(
         let fetched = typed_slice(scalar_type, fetched)?;
         let mut report = crate::reporter(progress.as_mut());
         piece::PieceHierarchy::build(layout, &pieces, local, fetched, &mut report)
-            .map(|h| Box::new(PieceHierarchy(h)))
+            .map(|h| Box::new(PieceHierarchy(h, crate::next_id())))
             .map_err(|e| e.to_string())
     })
 }
@@ -286,22 +286,158 @@ impl PieceHierarchy {
         })
     }
 
-    /// The tetrahedra this piece owns (`pieces`: every piece's extent, this one's at `rank`), with
-    /// whole-grid point ids.
-    pub fn piece_mesh(
+    /// Counts the tetrahedra this piece owns (`pieces`: every piece's extent, this one's at
+    /// `rank`) and their points ([`piece::PieceHierarchy::plan`]).
+    pub fn piece_plan(
         &self,
-        refinement: &PieceRefinement,
+        refinement: Box<PieceRefinement>,
         pieces: &[i64],
         rank: usize,
-    ) -> Result<Box<Mesh>, String> {
-        guard("extracting a piece's mesh", || {
-            let mesh = self
+    ) -> Result<Box<MeshPlan>, String> {
+        guard("counting a piece's mesh", || {
+            let plan = self
                 .0
-                .mesh(&refinement.0, &boxes(pieces)?, rank)
+                .plan(refinement.0, &boxes(pieces)?, rank)
                 .map_err(|e| e.to_string())?;
-            let grid_points = self.0.layout().grid().len();
-            check_core(check_mesh_arrays(&mesh, grid_points))?;
-            Ok(Box::new(Mesh(mesh)))
+            Ok(Box::new(MeshPlan {
+                plan,
+                hierarchy: self.1,
+            }))
         })
+    }
+
+    /// Writes the tetrahedra of `plan`, a plan of this piece, into the caller's arrays
+    /// ([`piece::PieceHierarchy::write_tets`]).
+    pub fn write_piece_tets<I: diamonds::mesh::Index>(
+        &self,
+        plan: &MeshPlan,
+        connectivity: &mut [I],
+        offsets: &mut [I],
+        depths: &mut [u8],
+        errors: &mut [f32],
+    ) -> Result<f64, String> {
+        guard("writing a piece's mesh", || {
+            if plan.hierarchy != self.1 {
+                return Err("the mesh plan belongs to another hierarchy".into());
+            }
+            self.0
+                .write_tets(&plan.plan, connectivity, offsets, depths, errors)
+                .map_err(|e| e.to_string())
+        })
+    }
+
+    pub(crate) fn write_piece_tets_i32(
+        &self,
+        plan: &MeshPlan,
+        connectivity: &mut [i32],
+        offsets: &mut [i32],
+        depths: &mut [u8],
+        errors: &mut [f32],
+    ) -> Result<f64, String> {
+        self.write_piece_tets(plan, connectivity, offsets, depths, errors)
+    }
+
+    pub(crate) fn write_piece_tets_i64(
+        &self,
+        plan: &MeshPlan,
+        connectivity: &mut [i64],
+        offsets: &mut [i64],
+        depths: &mut [u8],
+        errors: &mut [f32],
+    ) -> Result<f64, String> {
+        self.write_piece_tets(plan, connectivity, offsets, depths, errors)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::build_with;
+    use diamonds::ScalarSlice;
+
+    /// A piece holding the whole grid writes, through the bridge, the serial mesh, point array and
+    /// point ids; plans are refused by the other kind of hierarchy.
+    #[test]
+    fn a_whole_piece_writes_the_serial_mesh() {
+        let whole = GridSpec {
+            dims: [9, 7, 6],
+            origin: [0.5, -1.0, 2.0],
+            spacing: [1.0, 0.5, 2.0],
+        };
+        let values: Vec<f64> = (0..9 * 7 * 6)
+            .map(|i| ((i * 37) % 23) as f64 * 0.5)
+            .collect();
+        let bytes: &[u8] = bytemuck::cast_slice(&values);
+        let extents = [0, 8, 0, 6, 0, 5];
+        let (layout, pieces) = piece_layout(&whole, &extents, 0).unwrap();
+        let mut built = piece::PieceHierarchy::build(
+            layout,
+            &pieces,
+            ScalarSlice::F64(&values),
+            ScalarSlice::F64(&[]),
+            &mut |_| true,
+        )
+        .unwrap();
+        let coarse = built.coarse_errors().to_vec();
+        built.combine_coarse_errors(&coarse).unwrap();
+        let piece = PieceHierarchy(built, crate::next_id());
+        let query = QuerySpec {
+            tolerance: 1.5,
+            max_tetrahedra: 0,
+            use_region_of_interest: false,
+            region_of_interest: [0.0; 6],
+        };
+        let mut refinement = piece.start_refinement(&query).unwrap();
+        let sent = piece.outgoing(&mut refinement, &extents).unwrap();
+        assert!(sent.centers.is_empty(), "one piece sends nothing");
+        let plan = piece.piece_plan(refinement, &extents, 0).unwrap();
+        let serial = build_with(&whole, ScalarType::F64, bytes, &mut |_| true).unwrap();
+        let serial_plan = serial.plan_mesh(&query).unwrap();
+        let (n, np) = (plan.number_of_tetrahedra(), plan.number_of_points());
+        assert!(n > 6, "refined beyond the base mesh");
+        assert_eq!(
+            (n, np),
+            (
+                serial_plan.number_of_tetrahedra(),
+                serial_plan.number_of_points()
+            )
+        );
+        type Writer<'a> = &'a dyn Fn(&mut [i32], &mut [i32], &mut [u8], &mut [f32]) -> f64;
+        let write = |with: Writer<'_>| {
+            let (mut c, mut o) = (vec![0i32; 4 * n], vec![0i32; n + 1]);
+            let (mut d, mut e) = (vec![0u8; n], vec![0f32; n]);
+            let max = with(&mut c, &mut o, &mut d, &mut e);
+            (c, o, d, e, max.to_bits())
+        };
+        assert_eq!(
+            write(&|c, o, d, e| piece.write_piece_tets_i32(&plan, c, o, d, e).unwrap()),
+            write(&|c, o, d, e| serial.write_tets_i32(&serial_plan, c, o, d, e).unwrap())
+        );
+        let (mut ids, mut serial_ids) = (vec![0i64; np], vec![0i64; np]);
+        plan.write_point_ids(&mut ids).unwrap();
+        serial_plan.write_point_ids(&mut serial_ids).unwrap();
+        assert_eq!(ids, serial_ids);
+        // The whole grid is the piece's own: nothing to fetch, every tuple from its own array.
+        assert!(plan.piece_remote_point_ids().unwrap().is_empty());
+        let (mut passed, mut serial_passed) = (vec![0u8; 8 * np], vec![0u8; 8 * np]);
+        plan.gather_piece_point_values(bytes, &[], 8, &mut passed)
+            .unwrap();
+        serial_plan
+            .gather_point_values(bytes, 8, &mut serial_passed)
+            .unwrap();
+        assert_eq!(passed, serial_passed);
+        assert!(plan
+            .gather_piece_point_values(bytes, &[0; 8], 8, &mut passed)
+            .is_err());
+        // A plan is written only by the hierarchy that made it; a serial plan is no piece's.
+        let refused = |r: Result<f64, String>| {
+            assert!(r.unwrap_err().contains("another hierarchy"));
+        };
+        refused(piece.write_piece_tets_i64(&serial_plan, &mut [], &mut [], &mut [], &mut []));
+        refused(serial.write_tets_i64(&plan, &mut [], &mut [], &mut [], &mut []));
+        assert!(serial_plan
+            .piece_remote_point_ids()
+            .unwrap_err()
+            .contains("not a piece's"));
     }
 }

@@ -7,9 +7,12 @@
 //! mesh is a root-cube corner or the midpoint of a bisection, i.e. the central vertex of a split
 //! diamond (LEB adds one vertex per split, Gregorski §3), and every split diamond's central vertex in
 //! the domain is a vertex of the leaves around it; so the split set's bitset over the domain, plus the
-//! root corners in it, *is* the set of used points, and a point's id is its rank in it.
+//! root corners in it, *is* the set of used points, and a point's id is its rank in it. A piece of a
+//! distributed mesh ([`MeshPlan::of_piece`]) writes only the tetrahedra it owns, so its counting walk
+//! marks their points instead.
 
 use crate::diamond::{bisect, signed_volume6, Diamond};
+use crate::hierarchy::piece::{CellOwner, PointBox};
 use crate::lattice::{Lattice, Placement, Tet};
 use crate::memory;
 use crate::refine::SplitSet;
@@ -22,6 +25,7 @@ use crate::{Error, Result};
 use glam::DVec3;
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// The current mesh of a query: deduplicated input points and positively oriented tetrahedra.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -162,18 +166,8 @@ fn walk(lattice: &Lattice, split: &SplitSet, t: Tet, mut visit: impl FnMut(&Tet,
 }
 
 /// A leaf as the mesh writes it: positively oriented, with its bisection depth and the `error` of
-/// its diamond (0 for a unit-cube tetrahedron, one bisection below the finest diamonds, which
-/// reproduces its samples).
-#[inline]
-pub(crate) fn output_tet(
-    lattice: &Lattice,
-    leaf: &Tet,
-    error: &impl Fn(Diamond) -> f64,
-) -> (Tet, u8, f32) {
-    output_leaf(lattice, leaf, Diamond::of_tet(leaf), error)
-}
-
-/// [`output_tet`] for a leaf whose diamond (`Diamond::of_tet`) is known.
+/// its diamond (`Diamond::of_tet`; 0 for a unit-cube tetrahedron, one bisection below the finest
+/// diamonds, which reproduces its samples).
 #[inline]
 fn output_leaf(
     lattice: &Lattice,
@@ -344,6 +338,26 @@ pub struct MeshPlan {
     visibility: Option<(DVec3, Direction)>,
     tets: usize,
     points: PointSet,
+    /// The part of a distributed mesh one piece writes, if the plan is a piece's.
+    piece: Option<PieceCells>,
+}
+
+/// The tetrahedra one piece of a distributed mesh writes ([`crate::hierarchy::piece`]): the leaves
+/// it owns ([`CellOwner`]), found below the tetrahedra that meet its points.
+#[derive(Clone, Debug)]
+pub(crate) struct PieceCells {
+    pub(crate) owned: PointBox,
+    pub(crate) owner: CellOwner,
+}
+
+impl PieceCells {
+    /// Is no leaf below `t` this piece's (`t` has no point in its box)?
+    #[inline]
+    fn prunes(&self, t: &Tet) -> bool {
+        let lo = t[0].min(t[1]).min(t[2].min(t[3]));
+        let hi = t[0].max(t[1]).max(t[2].max(t[3]));
+        !self.owned.meets(lo, hi)
+    }
 }
 
 /// The points of a mesh as a bitset over the grid's points (x fastest) with the number of points
@@ -380,29 +394,43 @@ impl PointSet {
         self.rank[w] as usize + (self.used[w] & ((1u64 << b) - 1)).count_ones() as usize
     }
 
-    /// The grid indices of the used points, ascending.
-    pub(crate) fn indices(&self) -> Result<Vec<usize>> {
-        let mut out = memory::filled(self.len, 0, "the mesh's point ids")?;
-        self.write_ids(&mut out);
-        Ok(out)
-    }
-
     /// Writes the grid index of each used point into `ids` (one slot per point), ascending.
     fn write_ids<I: Index>(&self, ids: &mut [I]) {
-        self.for_points(ids, 1, |grid_ids, chunk| {
+        self.for_points(ids, 1, |_, grid_ids, chunk| {
             for (slot, i) in chunk.iter_mut().zip(grid_ids) {
                 *slot = I::from_usize(i);
             }
         });
     }
 
-    /// Calls `write(i, chunk)` in parallel for consecutive chunks of `out` (`per` elements per
-    /// point), `i` the grid index of each used point of the chunk in order.
+    /// Number of the parallel tasks of [`PointSet::for_points`].
+    fn tasks(&self) -> usize {
+        self.used.len().div_ceil(WORDS_PER_TASK)
+    }
+
+    /// The grid index of each used point of task `task` of [`PointSet::for_points`], ascending.
+    fn task_ids(&self, task: usize) -> impl Iterator<Item = usize> + '_ {
+        let first = task * WORDS_PER_TASK;
+        let end = (first + WORDS_PER_TASK).min(self.used.len());
+        (first..end).flat_map(|w| {
+            let mut bits = self.used[w];
+            std::iter::from_fn(move || {
+                (bits != 0).then(|| {
+                    let b = bits.trailing_zeros() as usize;
+                    bits &= bits - 1;
+                    w * 64 + b
+                })
+            })
+        })
+    }
+
+    /// Calls `write(task, i, chunk)` in parallel for consecutive chunks of `out` (`per` elements per
+    /// point), `i` the grid index of each used point of the chunk in order ([`PointSet::task_ids`]).
     fn for_points<T: Send>(
         &self,
         out: &mut [T],
         per: usize,
-        write: impl Fn(&mut dyn Iterator<Item = usize>, &mut [T]) + Sync,
+        write: impl Fn(usize, &mut dyn Iterator<Item = usize>, &mut [T]) + Sync,
     ) {
         let words: Vec<usize> = self
             .used
@@ -412,21 +440,7 @@ impl PointSet {
         pieces(out, &words, per)
             .into_par_iter()
             .enumerate()
-            .for_each(|(task, chunk)| {
-                let first = task * WORDS_PER_TASK;
-                let end = (first + WORDS_PER_TASK).min(self.used.len());
-                let mut ids = (first..end).flat_map(|w| {
-                    let mut bits = self.used[w];
-                    std::iter::from_fn(move || {
-                        (bits != 0).then(|| {
-                            let b = bits.trailing_zeros() as usize;
-                            bits &= bits - 1;
-                            w * 64 + b
-                        })
-                    })
-                });
-                write(&mut ids, chunk);
-            });
+            .for_each(|(task, chunk)| write(task, &mut self.task_ids(task), chunk));
     }
 }
 
@@ -462,7 +476,71 @@ impl MeshPlan {
             roots,
             counts,
             points: PointSet::new(used)?,
+            piece: None,
         })
+    }
+
+    /// Counts the tetrahedra of `split` on `lattice` that `piece` owns, and their points: one
+    /// parallel walk marks the points in a bitset over the grid's points as it counts (the split
+    /// set's own bitset holds the whole mesh's points, most of them other pieces').
+    pub(crate) fn of_piece(lattice: &Lattice, split: SplitSet, piece: PieceCells) -> Result<Self> {
+        let roots = subtrees(lattice, &split);
+        let words = split.domain_bits().len();
+        let mut used: Vec<AtomicU64> = memory::with_capacity(words, "the mesh's point set")?;
+        used.extend((0..words).map(|_| AtomicU64::new(0)));
+        let mut counts = memory::with_capacity(roots.len(), "the mesh's subtrees")?;
+        counts.par_extend(roots.par_iter().map(|&root| {
+            let mut n = 0;
+            walk_pruned(
+                lattice,
+                &split,
+                root,
+                None,
+                |t| piece.prunes(t),
+                |t, _, _| {
+                    if piece.owner.owns(t) {
+                        n += 1;
+                        for p in t {
+                            let i = lattice.index(*p);
+                            used[i / 64].fetch_or(1 << (i % 64), Ordering::Relaxed);
+                        }
+                    }
+                },
+            );
+            n
+        }));
+        Ok(Self {
+            lattice: *lattice,
+            tets: counts.iter().sum(),
+            split,
+            sequence: (0..roots.len()).collect(),
+            visibility: None,
+            roots,
+            counts,
+            points: PointSet::new(used.into_iter().map(AtomicU64::into_inner).collect())?,
+            piece: Some(piece),
+        })
+    }
+
+    /// Visits the leaves below `root` that the plan writes (a piece's: those it owns), in the
+    /// plan's order.
+    fn walk_written(&self, root: (Tet, u64), mut visit: impl FnMut(&Tet, Option<Diamond>, u64)) {
+        let (lattice, split, order) = (&self.lattice, &self.split, self.visibility);
+        match &self.piece {
+            None => walk_pruned(lattice, split, root, order, |_| false, visit),
+            Some(piece) => walk_pruned(
+                lattice,
+                split,
+                root,
+                order,
+                |t| piece.prunes(t),
+                |t, diamond, path| {
+                    if piece.owner.owns(t) {
+                        visit(t, diamond, path)
+                    }
+                },
+            ),
+        }
     }
 
     /// Has every later [`MeshPlan::write_tets`], [`MeshPlan::write_paths`] and
@@ -630,24 +708,16 @@ impl MeshPlan {
             .map(|(root, c, d, e)| {
                 let mut k = 0;
                 let mut max = 0.0f32;
-                let (split, order) = (&self.split, self.visibility);
-                walk_pruned(
-                    lattice,
-                    split,
-                    root,
-                    order,
-                    |_| false,
-                    |leaf, diamond, _| {
-                        let (leaf, depth, err) = output_leaf(lattice, leaf, diamond, &error);
-                        for (slot, p) in c[4 * k..4 * k + 4].iter_mut().zip(leaf) {
-                            *slot = I::from_usize(self.points.id(lattice.index(p)));
-                        }
-                        d[k] = depth;
-                        e[k] = err;
-                        max = max.max(err);
-                        k += 1;
-                    },
-                );
+                self.walk_written(root, |leaf, diamond, _| {
+                    let (leaf, depth, err) = output_leaf(lattice, leaf, diamond, &error);
+                    for (slot, p) in c[4 * k..4 * k + 4].iter_mut().zip(leaf) {
+                        *slot = I::from_usize(self.points.id(lattice.index(p)));
+                    }
+                    d[k] = depth;
+                    e[k] = err;
+                    max = max.max(err);
+                    k += 1;
+                });
                 max
             })
             .reduce(|| 0.0, f32::max);
@@ -672,18 +742,10 @@ impl MeshPlan {
             .zip(pieces(paths, &counts, 1))
             .for_each(|(root, slice)| {
                 let mut k = 0;
-                let (split, order) = (&self.split, self.visibility);
-                walk_pruned(
-                    &self.lattice,
-                    split,
-                    root,
-                    order,
-                    |_| false,
-                    |_, _, path| {
-                        slice[k] = path;
-                        k += 1;
-                    },
-                );
+                self.walk_written(root, |_, _, path| {
+                    slice[k] = path;
+                    k += 1;
+                });
             });
         Ok(())
     }
@@ -702,7 +764,7 @@ impl MeshPlan {
         xyz: &mut [f64],
     ) -> Result<()> {
         check_len(xyz.len(), self.points.len(), 3, "point coordinates")?;
-        self.points.for_points(xyz, 3, |grid_ids, chunk| {
+        self.points.for_points(xyz, 3, |_, grid_ids, chunk| {
             for (slot, i) in chunk.chunks_exact_mut(3).zip(grid_ids) {
                 slot.copy_from_slice(&position(i));
             }
@@ -730,12 +792,93 @@ impl MeshPlan {
             return Ok(());
         }
         self.points
-            .for_points(target, tuple_bytes, |grid_ids, chunk| {
+            .for_points(target, tuple_bytes, |_, grid_ids, chunk| {
                 for (slot, i) in chunk.chunks_exact_mut(tuple_bytes).zip(grid_ids) {
                     slot.copy_from_slice(&source[i * tuple_bytes..(i + 1) * tuple_bytes]);
                 }
             });
         Ok(())
+    }
+
+    /// For a piece's plan ([`MeshPlan::of_piece`]): the grid index of each of its points that the
+    /// piece does not hold, ascending (the points whose values it fetches from the others).
+    pub fn remote_point_ids(&self) -> Result<Vec<u64>> {
+        let own = self.own_box()?;
+        let parts: Vec<Vec<u64>> = (0..self.points.tasks())
+            .into_par_iter()
+            .map(|task| {
+                self.points
+                    .task_ids(task)
+                    .filter(|&i| !own.contains(self.lattice.point(i)))
+                    .map(|i| i as u64)
+                    .collect()
+            })
+            .collect();
+        Ok(parts.concat())
+    }
+
+    /// For a piece's plan: copies each point's tuple of `tuple_bytes` bytes into `target` (one
+    /// tuple per point), in parallel, from `local` (one tuple per point of the piece's box, x
+    /// fastest: its own input array) or, for a point the piece does not hold, from `fetched` (one
+    /// tuple per point of [`MeshPlan::remote_point_ids`], in that order): a point array passed
+    /// through.
+    pub fn gather_piece(
+        &self,
+        local: &[u8],
+        fetched: &[u8],
+        tuple_bytes: usize,
+        target: &mut [u8],
+    ) -> Result<()> {
+        let own = self.own_box()?;
+        let remote = |i: usize| !own.contains(self.lattice.point(i));
+        check_len(local.len(), own.len(), tuple_bytes, "a point array's piece")?;
+        check_len(
+            target.len(),
+            self.points.len(),
+            tuple_bytes,
+            "a point array's target",
+        )?;
+        // The remote points before each task's.
+        let mut first: Vec<usize> = (0..self.points.tasks())
+            .into_par_iter()
+            .map(|task| self.points.task_ids(task).filter(|&i| remote(i)).count())
+            .collect();
+        let mut before = 0;
+        for n in &mut first {
+            (*n, before) = (before, before + *n);
+        }
+        check_len(
+            fetched.len(),
+            before,
+            tuple_bytes,
+            "a point array's fetched values",
+        )?;
+        if tuple_bytes == 0 {
+            return Ok(());
+        }
+        self.points
+            .for_points(target, tuple_bytes, |task, grid_ids, chunk| {
+                let mut next = first[task];
+                for (slot, i) in chunk.chunks_exact_mut(tuple_bytes).zip(grid_ids) {
+                    let p = self.lattice.point(i);
+                    let (source, k) = if own.contains(p) {
+                        (local, own.index(p))
+                    } else {
+                        next += 1;
+                        (fetched, next - 1)
+                    };
+                    slot.copy_from_slice(&source[k * tuple_bytes..(k + 1) * tuple_bytes]);
+                }
+            });
+        Ok(())
+    }
+
+    /// The points a piece's plan was made for.
+    fn own_box(&self) -> Result<PointBox> {
+        self.piece
+            .as_ref()
+            .map(|p| p.owned)
+            .ok_or_else(|| Error::Parameter("the mesh plan is not a piece's".into()))
     }
 
     /// The mesh as a [`TetMesh`] on `grid`, each tetrahedron with the `error` of its diamond.

@@ -35,7 +35,7 @@
 use super::{base_mesh, diamond_record, is_root_corner, record};
 use crate::diamond::Diamond;
 use crate::lattice::{Lattice, Placement, Tet};
-use crate::mesh::{self, PointSet, TetMesh};
+use crate::mesh::{Index, MeshPlan, PieceCells, TetMesh};
 use crate::refine::{grow_concurrent, outside_roi, query_region, BaseMesh, Query, SplitSet};
 use crate::scan::{scan_tet_part, Stencils, TetStats};
 use crate::volume::{Grid, Sample, ScalarSlice, Volume};
@@ -43,7 +43,6 @@ use crate::{memory, Error, Result};
 use glam::{DVec3, IVec3};
 use rayon::prelude::*;
 use rustc_hash::FxHashSet;
-use std::sync::atomic::{AtomicU64, Ordering};
 
 /// A closed box of lattice points, empty when `hi < lo` on some axis.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -92,7 +91,7 @@ impl PointBox {
 
     /// Index (x fastest) of `p`, a point of the box.
     #[inline]
-    fn index(&self, p: IVec3) -> usize {
+    pub(crate) fn index(&self, p: IVec3) -> usize {
         let [nx, ny, _] = self.dims();
         let o = (p - self.lo).as_uvec3();
         o.x as usize + nx * (o.y as usize + ny * o.z as usize)
@@ -826,12 +825,14 @@ impl PieceHierarchy {
         Ok(new)
     }
 
-    /// The tetrahedra of the refined mesh this piece owns, points numbered by whole-grid index
-    /// ([`TetMesh::point_ids`], ascending) at their world positions, with depths and errors as
-    /// [`crate::Hierarchy::query`] gives them. `pieces` are all pieces' owned boxes, this one's at
-    /// `me`: a tetrahedron belongs to the first piece whose half-open cell box `[lo, hi)` holds its
-    /// centroid (pieces that overlap, e.g. all holding the whole image, output it once).
-    pub fn mesh(&self, r: &PieceRefinement, pieces: &[PointBox], me: usize) -> Result<TetMesh> {
+    /// The tetrahedra of the refined mesh this piece owns, counted but not written yet (a
+    /// [`MeshPlan`] that [`Self::write_tets`], [`MeshPlan::write_points`],
+    /// [`MeshPlan::write_point_ids`] and [`MeshPlan::gather_piece`] write into the caller's arrays),
+    /// points numbered by whole-grid index, ascending: `pieces` are all pieces' owned boxes, this
+    /// one's at `me`; a tetrahedron belongs to the first piece whose half-open cell box `[lo, hi)`
+    /// holds its centroid (pieces that overlap, e.g. all holding the whole image, output it once).
+    /// The plan takes the refinement's split set (no copy of a whole-grid bitset).
+    pub fn plan(&self, r: PieceRefinement, pieces: &[PointBox], me: usize) -> Result<MeshPlan> {
         let owned = self.layout.owned;
         if pieces
             .get(me)
@@ -842,58 +843,31 @@ impl PieceHierarchy {
                 pieces.len()
             )));
         }
-        if owned.is_empty() {
-            return Ok(TetMesh::default());
-        }
-        let lattice = &self.layout.lattice;
-        let owner = CellOwner::new(pieces, me)?;
-        let error = |d: Diamond| self.error(d);
-        let leaves = mesh::leaves_where(
-            lattice,
-            &r.split,
-            |t: &Tet| {
-                let lo = t[0].min(t[1]).min(t[2].min(t[3]));
-                let hi = t[0].max(t[1]).max(t[2].max(t[3]));
-                !owned.meets(lo, hi)
-            },
-            |t: &Tet| owner.owns(t).then(|| mesh::output_tet(lattice, t, &error)),
-        )?;
-        // The points: a bitset over the whole grid, a point's id its rank there. Every buffer is
-        // allocated fallibly (a rank out of memory reports it to the others instead of aborting).
-        let words = self.layout.grid.len().div_ceil(64);
-        let mut used: Vec<AtomicU64> = memory::with_capacity(words, "the mesh's point set")?;
-        used.extend((0..words).map(|_| AtomicU64::new(0)));
-        leaves.par_iter().for_each(|(t, _, _)| {
-            for p in t {
-                let i = lattice.index(*p);
-                used[i / 64].fetch_or(1 << (i % 64), Ordering::Relaxed);
-            }
-        });
-        let points = PointSet::new(used.into_iter().map(AtomicU64::into_inner).collect())?;
-        let point_ids = points.indices()?;
-        let grid = &self.layout.grid;
-        let mut positions = memory::with_capacity(point_ids.len(), "the mesh's points")?;
-        positions.par_extend(point_ids.par_iter().map(|&i| grid.point(grid.ijk(i))));
-        let mut tets = memory::with_capacity(leaves.len(), "the mesh's tetrahedra")?;
-        tets.par_extend(
-            leaves
-                .par_iter()
-                .map(|(t, _, _)| t.map(|p| points.id(lattice.index(p)) as u32)),
-        );
-        let mut depths = memory::with_capacity(leaves.len(), "the mesh's depths")?;
-        depths.extend(leaves.iter().map(|l| l.1));
-        let mut errors = memory::with_capacity(leaves.len(), "the mesh's errors")?;
-        errors.extend(leaves.iter().map(|l| l.2));
-        let mut out = TetMesh {
-            points: positions,
-            tets,
-            depths,
-            errors,
-            max_error: 0.0,
-            point_ids,
+        let piece = PieceCells {
+            owned,
+            owner: CellOwner::new(pieces, me)?,
         };
-        out.max_error = out.errors.iter().fold(0.0f32, |m, &e| m.max(e)) as f64;
-        Ok(out)
+        MeshPlan::of_piece(&self.layout.lattice, r.split, piece)
+    }
+
+    /// Writes the tetrahedra of `plan` (made by [`Self::plan`]) with this piece's errors
+    /// ([`MeshPlan::write_tets`]); returns the largest error.
+    pub fn write_tets<I: Index>(
+        &self,
+        plan: &MeshPlan,
+        connectivity: &mut [I],
+        offsets: &mut [I],
+        depths: &mut [u8],
+        errors: &mut [f32],
+    ) -> Result<f64> {
+        plan.write_tets(|d| self.error(d), connectivity, offsets, depths, errors)
+    }
+
+    /// The tetrahedra of [`Self::plan`] as a [`TetMesh`], with depths and errors as
+    /// [`crate::Hierarchy::query`] gives them (the refinement is copied for the plan).
+    pub fn mesh(&self, r: &PieceRefinement, pieces: &[PointBox], me: usize) -> Result<TetMesh> {
+        self.plan(r.clone(), pieces, me)?
+            .to_mesh(&self.layout.grid, |d| self.error(d))
     }
 }
 
@@ -1007,7 +981,7 @@ impl PositionOwner {
 
 /// The split set of one query on one piece, grown in rounds with the other pieces
 /// ([`PieceHierarchy::start`], [`PieceHierarchy::outgoing`], [`PieceHierarchy::receive`]).
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub struct PieceRefinement {
     split: SplitSet,
     tolerance: f64,
@@ -1123,9 +1097,51 @@ mod tests {
             .iter()
             .zip(&states)
             .enumerate()
-            .map(|(me, (h, r))| h.mesh(r, boxes, me).unwrap())
+            .map(|(me, (h, r))| {
+                let mesh = h.mesh(r, boxes, me).unwrap();
+                assert_passes_point_data(h, r, boxes, me, &mesh);
+                mesh
+            })
             .collect();
         (meshes, rounds)
+    }
+
+    /// A point array passed through piece `me`'s plan, its own points' tuples from its box and the
+    /// others' from those fetched for [`MeshPlan::remote_point_ids`], holds each point's value (here
+    /// its grid index, 8 bytes); fetched values of the wrong size are refused.
+    fn assert_passes_point_data(
+        h: &PieceHierarchy,
+        r: &PieceRefinement,
+        boxes: &[PointBox],
+        me: usize,
+        mesh: &TetMesh,
+    ) {
+        let plan = h.plan(r.clone(), boxes, me).unwrap();
+        let (own, lattice) = (boxes[me], h.layout.lattice);
+        let held = |i: usize| own.contains(lattice.point(i));
+        let value = |i: usize| (i as u64).to_le_bytes();
+        let local: Vec<u8> = (0..h.layout.grid.len())
+            .filter(|&i| held(i))
+            .flat_map(value)
+            .collect();
+        let remote = plan.remote_point_ids().unwrap();
+        let expected: Vec<u64> = mesh
+            .point_ids
+            .iter()
+            .filter(|&&i| !held(i))
+            .map(|&i| i as u64)
+            .collect();
+        assert_eq!(remote, expected, "piece {me}");
+        let fetched: Vec<u8> = remote.iter().flat_map(|&i| value(i as usize)).collect();
+        let mut target = vec![0u8; 8 * plan.points()];
+        plan.gather_piece(&local, &fetched, 8, &mut target).unwrap();
+        let gathered: Vec<usize> = target
+            .chunks_exact(8)
+            .map(|c| u64::from_le_bytes(c.try_into().unwrap()) as usize)
+            .collect();
+        assert_eq!(gathered, mesh.point_ids, "piece {me}");
+        let short = &fetched[..fetched.len().saturating_sub(8)];
+        assert!(plan.gather_piece(&local, short, 8, &mut target).is_err() || fetched.is_empty());
     }
 
     /// Tetrahedra as sorted whole-grid point ids, with depth and error, sorted.
