@@ -919,8 +919,8 @@ pub struct Mesh(TetMesh);
 /// Opaque handle on a [`diamonds::mesh::MeshPlan`] for C++, with the identity of the [`Hierarchy`]
 /// that planned it (its errors are that hierarchy's).
 pub struct MeshPlan {
-    pub(crate) plan: diamonds::mesh::MeshPlan,
-    pub(crate) hierarchy: u64,
+    plan: diamonds::mesh::MeshPlan,
+    hierarchy: u64,
 }
 
 /// Opaque handle on a [`diamonds::IsoSurface`] for C++, checked for consistency before it is handed
@@ -1181,13 +1181,9 @@ impl Hierarchy {
         depths: &mut [u8],
         errors: &mut [f32],
     ) -> Result<f64, String> {
-        guard("writing the adaptive mesh", || {
-            if plan.hierarchy != self.id {
-                return Err("the mesh plan belongs to another hierarchy".into());
-            }
+        plan.written_by(self.id, |p| {
             self.hierarchy
-                .write_tets(&plan.plan, connectivity, offsets, depths, errors)
-                .map_err(|e| e.to_string())
+                .write_tets(p, connectivity, offsets, depths, errors)
         })
     }
 
@@ -1379,6 +1375,22 @@ impl MeshPlan {
             self.plan
                 .gather_piece(local, fetched, tuple_bytes, target)
                 .map_err(|e| e.to_string())
+        })
+    }
+
+    /// Runs `write` (the tetrahedra's writer of the hierarchy of identity `id`) on the plan, which
+    /// that hierarchy must have made: another's plan is an error, not a mesh written with the
+    /// wrong errors.
+    pub(crate) fn written_by(
+        &self,
+        id: u64,
+        write: impl FnOnce(&diamonds::mesh::MeshPlan) -> diamonds::Result<f64>,
+    ) -> Result<f64, String> {
+        guard("writing the adaptive mesh", || {
+            if self.hierarchy != id {
+                return Err("the mesh plan belongs to another hierarchy".into());
+            }
+            write(&self.plan).map_err(|e| e.to_string())
         })
     }
 

@@ -316,13 +316,8 @@ impl PieceHierarchy {
         depths: &mut [u8],
         errors: &mut [f32],
     ) -> Result<f64, String> {
-        guard("writing a piece's mesh", || {
-            if plan.hierarchy != self.1 {
-                return Err("the mesh plan belongs to another hierarchy".into());
-            }
-            self.0
-                .write_tets(&plan.plan, connectivity, offsets, depths, errors)
-                .map_err(|e| e.to_string())
+        plan.written_by(self.1, |p| {
+            self.0.write_tets(p, connectivity, offsets, depths, errors)
         })
     }
 

@@ -467,6 +467,19 @@ impl MeshPlan {
                 used[i / 64] |= 1 << (i % 64);
             }
         }
+        Self::counted(lattice, split, roots, counts, used, None)
+    }
+
+    /// The plan of `split` on `lattice` from its subtrees `roots` with their numbers of
+    /// tetrahedra `counts` and its points `used` (a bitset over the grid's points).
+    fn counted(
+        lattice: &Lattice,
+        split: SplitSet,
+        roots: Vec<(Tet, u64)>,
+        counts: Vec<usize>,
+        used: Vec<u64>,
+        piece: Option<PieceCells>,
+    ) -> Result<Self> {
         Ok(Self {
             lattice: *lattice,
             tets: counts.iter().sum(),
@@ -476,7 +489,7 @@ impl MeshPlan {
             roots,
             counts,
             points: PointSet::new(used)?,
-            piece: None,
+            piece,
         })
     }
 
@@ -509,17 +522,8 @@ impl MeshPlan {
             );
             n
         }));
-        Ok(Self {
-            lattice: *lattice,
-            tets: counts.iter().sum(),
-            split,
-            sequence: (0..roots.len()).collect(),
-            visibility: None,
-            roots,
-            counts,
-            points: PointSet::new(used.into_iter().map(AtomicU64::into_inner).collect())?,
-            piece: Some(piece),
-        })
+        let used = used.into_iter().map(AtomicU64::into_inner).collect();
+        Self::counted(lattice, split, roots, counts, used, Some(piece))
     }
 
     /// Visits the leaves below `root` that the plan writes (a piece's: those it owns), in the
