@@ -89,7 +89,10 @@ def measure():
 def run(ranks):
     env = dict(os.environ, PV_PLUGIN_PATH=os.path.join(ROOT, "build", "lib", "paraview-5.11", "plugins", "Diamonds"))
     out = subprocess.run(
-        ["mpiexec", "--allow-run-as-root", "--oversubscribe", "-n", str(ranks), "pvbatch", __file__, "--measure"]
+        # Unbound: Open MPI binds each of up to two ranks to one core, which would leave one rank's
+        # threads a single core of the two.
+        ["mpiexec", "--allow-run-as-root", "--oversubscribe", "--bind-to", "none", "-n", str(ranks), "pvbatch",
+         __file__, "--measure"]
         + (["--iso"] if ISO else []),
         env=env, check=True, capture_output=True, text=True).stdout
     line = next(l for l in out.splitlines() if l.startswith("RESULT "))
@@ -111,8 +114,8 @@ def mib(x):
 def report(results):
     what = f"isovalue {ISOVALUE:g}, Tolerance {TOLERANCE:.3g} (1 % of the diagonal)" if ISO else f"Tolerance {TOLERANCE:g}"
     lines = [HEADING, "",
-             f"Bonsai 256³ (u8), {what}, `mpiexec -n R pvbatch` on this 2-core machine (R ranks share "
-             "the two cores; each rank's core threads too). Wall times are medians of alternating runs; per-rank "
+             f"Bonsai 256³ (u8), {what}, `mpiexec --bind-to none -n R pvbatch` on this 2-core machine "
+             "(R ranks share the two cores; each rank's core threads too). Wall times are medians of alternating runs; per-rank "
              "figures are the filter's field data of the last run (seconds; bytes sent and seconds spent in exchanges, "
              "waiting for the other ranks included, of the first execution and of the second query; the peak is the "
              "process's resident set since it started, ParaView included; only the field data is fetched, not the mesh). One rank runs the "
