@@ -360,6 +360,33 @@ impl PieceCells {
     }
 }
 
+/// [`walk_pruned`] over the leaves a plan writes: every inside leaf below `root`, or with `piece`
+/// those it owns (below the tetrahedra that meet its points).
+fn walk_written(
+    lattice: &Lattice,
+    split: &SplitSet,
+    root: (Tet, u64),
+    order: Option<(DVec3, Direction)>,
+    piece: Option<&PieceCells>,
+    mut visit: impl FnMut(&Tet, Option<Diamond>, u64),
+) {
+    match piece {
+        None => walk_pruned(lattice, split, root, order, |_| false, visit),
+        Some(piece) => walk_pruned(
+            lattice,
+            split,
+            root,
+            order,
+            |t| piece.prunes(t),
+            |t, diamond, path| {
+                if piece.owner.owns(t) {
+                    visit(t, diamond, path)
+                }
+            },
+        ),
+    }
+}
+
 /// The points of a mesh as a bitset over the grid's points (x fastest) with the number of points
 /// before each word: a point's id is its rank among the used points.
 #[derive(Clone, Debug)]
@@ -504,47 +531,30 @@ impl MeshPlan {
         let mut counts = memory::with_capacity(roots.len(), "the mesh's subtrees")?;
         counts.par_extend(roots.par_iter().map(|&root| {
             let mut n = 0;
-            walk_pruned(
-                lattice,
-                &split,
-                root,
-                None,
-                |t| piece.prunes(t),
-                |t, _, _| {
-                    if piece.owner.owns(t) {
-                        n += 1;
-                        for p in t {
-                            let i = lattice.index(*p);
-                            used[i / 64].fetch_or(1 << (i % 64), Ordering::Relaxed);
-                        }
-                    }
-                },
-            );
+            walk_written(lattice, &split, root, None, Some(&piece), |t, _, _| {
+                n += 1;
+                for p in t {
+                    let i = lattice.index(*p);
+                    used[i / 64].fetch_or(1 << (i % 64), Ordering::Relaxed);
+                }
+            });
             n
         }));
         let used = used.into_iter().map(AtomicU64::into_inner).collect();
         Self::counted(lattice, split, roots, counts, used, Some(piece))
     }
 
-    /// Visits the leaves below `root` that the plan writes (a piece's: those it owns), in the
-    /// plan's order.
-    fn walk_written(&self, root: (Tet, u64), mut visit: impl FnMut(&Tet, Option<Diamond>, u64)) {
-        let (lattice, split, order) = (&self.lattice, &self.split, self.visibility);
-        match &self.piece {
-            None => walk_pruned(lattice, split, root, order, |_| false, visit),
-            Some(piece) => walk_pruned(
-                lattice,
-                split,
-                root,
-                order,
-                |t| piece.prunes(t),
-                |t, diamond, path| {
-                    if piece.owner.owns(t) {
-                        visit(t, diamond, path)
-                    }
-                },
-            ),
-        }
+    /// Visits the leaves below `root` that the plan writes, in the plan's order ([`walk_written`]).
+    fn walk_written(&self, root: (Tet, u64), visit: impl FnMut(&Tet, Option<Diamond>, u64)) {
+        let (split, order) = (&self.split, self.visibility);
+        walk_written(
+            &self.lattice,
+            split,
+            root,
+            order,
+            self.piece.as_ref(),
+            visit,
+        );
     }
 
     /// Has every later [`MeshPlan::write_tets`], [`MeshPlan::write_paths`] and
