@@ -292,11 +292,12 @@ impl<'h> Refiner<'h> {
     /// parents (those not outside the domain: the closure of Gregorski §4) and holds every child of a
     /// split diamond, and every unsplit diamond of the base mesh, whose error exceeds the tolerance —
     /// whatever the order of the splits (Gregorski §8: any diamond above the tolerance may go
-    /// next). So it is grown in rounds: every diamond of a round that sets its bit in the shared
-    /// bitset first (an atomic test-and-set: exactly one thread owns each split) puts its unsplit
-    /// parents and its children above the tolerance into the next round; a round's diamonds are
-    /// handled in parallel. Diamonds centred outside the domain are all split in the base mesh
-    /// (they straddle a far face) or lie outside it, so the shared part is the bitset alone.
+    /// next). So it is found in two passes over a shared bitset, where an atomic test-and-set
+    /// gives each split exactly one owner: one bisection depth after the other, every diamond above
+    /// the tolerance with a split parent ([`sweep_depths`]); then the closure of what that pass
+    /// split, grown in rounds ([`grow_concurrent`]). Diamonds centred outside the domain are all
+    /// split in the base mesh (they straddle a far face) or lie outside it, so the shared part is
+    /// the bitset alone.
     pub(crate) fn run_concurrent(
         grid: &Grid,
         base: &BaseMesh,
@@ -317,14 +318,11 @@ impl<'h> Refiner<'h> {
                 criterion(d)
             }
         };
-        let first: Vec<Diamond> = base
-            .candidates
-            .par_iter()
-            .copied()
-            .filter(|&d| !r.split.contains(d) && error(d) > tolerance)
-            .collect();
         let mut split = r.split;
-        grow_concurrent(&mut split, first, tolerance, &error, false)?;
+        let growing = Growing::new(&split)?;
+        let missing = sweep_depths(&growing, &base.candidates, tolerance, &error)?;
+        grow(&growing, missing, tolerance, &error, false)?;
+        split.bits = growing.into_bits();
         Ok(split)
     }
 
@@ -616,11 +614,65 @@ impl<'h> Refiner<'h> {
     }
 }
 
-/// The growth of [`Refiner::run_concurrent`], from any closed split set `split`: splits the
+/// A split set growing in parallel: its bitset over the domain as atomics, so that an atomic
+/// test-and-set gives each split exactly one owner; the diamonds centred outside the domain, all
+/// split in the base mesh or outside it, are only read.
+struct Growing<'s> {
+    lattice: Lattice,
+    bits: Vec<AtomicU64>,
+    outside: &'s FxHashSet<IVec3>,
+}
+
+impl<'s> Growing<'s> {
+    fn new(split: &'s SplitSet) -> Result<Self> {
+        let mut bits =
+            crate::memory::with_capacity(split.bits.len(), "the refinement's split set")?;
+        bits.extend(split.bits.iter().map(|&w| AtomicU64::new(w)));
+        Ok(Self {
+            lattice: split.lattice,
+            bits,
+            outside: &split.outside,
+        })
+    }
+
+    #[inline]
+    fn contains(&self, d: Diamond) -> bool {
+        if self.lattice.in_domain(d.center) {
+            let i = self.lattice.index(d.center);
+            self.bits[i / 64].load(AtomicOrdering::Relaxed) >> (i % 64) & 1 == 1
+        } else {
+            self.outside.contains(&d.center)
+        }
+    }
+
+    /// Marks `d`, centred in the domain, split; returns whether this call split it.
+    #[inline]
+    fn claim(&self, d: Diamond) -> bool {
+        let i = self.lattice.index(d.center);
+        let bit = 1u64 << (i % 64);
+        self.bits[i / 64].fetch_or(bit, AtomicOrdering::Relaxed) & bit == 0
+    }
+
+    /// `d`'s parents that the closure still has to split (unsplit, not outside the domain).
+    fn unsplit_parents(&self, d: Diamond, into: &mut Vec<Diamond>) {
+        into.extend(
+            d.parents(&self.lattice)
+                .into_iter()
+                .filter(|&p| !self.contains(p) && p.placement(&self.lattice) != Placement::Outside),
+        );
+    }
+
+    fn into_bits(self) -> Vec<u64> {
+        self.bits.into_iter().map(AtomicU64::into_inner).collect()
+    }
+}
+
+/// Grows `split` in parallel rounds (the second pass of [`Refiner::run_concurrent`]): splits the
 /// diamonds of `first` (split whatever their error), their unsplit parents not outside the domain,
-/// and every child of a diamond split here whose `error` exceeds `tolerance`, in parallel rounds.
-/// `split` becomes the least such closed superset of itself, whatever the order of the splits (left
-/// as it was on an error). With `record`, returns the diamonds split here, in index order (else
+/// and every child of a diamond split here whose `error` exceeds `tolerance`. When the diamonds of
+/// `split` have their unsplit parents in `first` (a closed `split` has none), `split` becomes the
+/// least such closed superset of itself, whatever the order of the splits (left as it was on an
+/// error). With `record`, returns the diamonds split here, in index order (else
 /// nothing: neither collected nor sorted — a sequential sort of millions of diamonds).
 pub(crate) fn grow_concurrent(
     split: &mut SplitSet,
@@ -629,67 +681,187 @@ pub(crate) fn grow_concurrent(
     error: &(dyn Fn(Diamond) -> f64 + Sync),
     record: bool,
 ) -> Result<Vec<Diamond>> {
+    let growing = Growing::new(split)?;
+    let added = grow(&growing, first, tolerance, error, record)?;
+    split.bits = growing.into_bits();
+    Ok(added)
+}
+
+/// [`grow_concurrent`] on a [`Growing`] split set.
+fn grow(
+    split: &Growing,
+    first: Vec<Diamond>,
+    tolerance: f64,
+    error: &(dyn Fn(Diamond) -> f64 + Sync),
+    record: bool,
+) -> Result<Vec<Diamond>> {
     let lattice = split.lattice;
-    let bits: Vec<AtomicU64> = split.bits.iter().map(|&w| AtomicU64::new(w)).collect();
-    let outside = &split.outside;
-    let is_split = |d: Diamond| {
-        if lattice.in_domain(d.center) {
-            let i = lattice.index(d.center);
-            bits[i / 64].load(AtomicOrdering::Relaxed) >> (i % 64) & 1 == 1
-        } else {
-            outside.contains(&d.center)
-        }
-    };
     let mut round = first;
     let mut added = Vec::new();
     while !round.is_empty() {
         crate::memory::check("the refinement's rounds")?;
         // Per thread: the diamonds to try next round, and the diamonds split in this one.
-        let next: Result<(Vec<Diamond>, Vec<Diamond>)> =
-            round
-                .par_iter()
-                .try_fold(
-                    Default::default,
-                    |(mut next, mut here): (Vec<_>, Vec<_>), &d| {
-                        if !lattice.in_domain(d.center) {
-                            return Err(Error::Parameter(format!(
+        let next: Result<(Vec<Diamond>, Vec<Diamond>)> = round
+            .par_iter()
+            .try_fold(
+                Default::default,
+                |(mut next, mut here): (Vec<_>, Vec<_>), &d| {
+                    if !lattice.in_domain(d.center) {
+                        return Err(Error::Parameter(format!(
                         "internal error: diamond {:?} outside the domain is not in the base mesh",
                         d.center
                     )));
-                        }
-                        let i = lattice.index(d.center);
-                        let bit = 1u64 << (i % 64);
-                        if bits[i / 64].fetch_or(bit, AtomicOrdering::Relaxed) & bit != 0 {
-                            return Ok((next, here)); // split by another diamond of this round
-                        }
-                        if record {
-                            here.push(d);
-                        }
-                        next.extend(d.parents(&lattice).into_iter().filter(|&p| {
-                            !is_split(p) && p.placement(&lattice) != Placement::Outside
-                        }));
-                        next.extend(
-                            d.children(&lattice)
-                                .into_iter()
-                                .filter(|&c| !is_split(c) && error(c) > tolerance),
-                        );
-                        Ok((next, here))
-                    },
-                )
-                .try_reduce(Default::default, |(mut a, mut x), (mut b, mut y)| {
-                    a.append(&mut b);
-                    x.append(&mut y);
-                    Ok((a, x))
-                });
+                    }
+                    if !split.claim(d) {
+                        return Ok((next, here)); // split by another diamond of this round
+                    }
+                    if record {
+                        here.push(d);
+                    }
+                    split.unsplit_parents(d, &mut next);
+                    next.extend(
+                        d.children(&lattice)
+                            .into_iter()
+                            .filter(|&c| !split.contains(c) && error(c) > tolerance),
+                    );
+                    Ok((next, here))
+                },
+            )
+            .try_reduce(Default::default, |(mut a, mut x), (mut b, mut y)| {
+                a.append(&mut b);
+                x.append(&mut y);
+                Ok((a, x))
+            });
         let (next, mut here) = next?;
         added.append(&mut here);
         round = next;
     }
-    split.bits = bits.into_iter().map(AtomicU64::into_inner).collect();
     if record {
         added.par_sort_unstable_by_key(|d| lattice.index(d.center));
     }
     Ok(added)
+}
+
+/// The first pass of [`Refiner::run_concurrent`]: one bisection depth after the other, coarsest
+/// first, splits every unsplit diamond centred in the domain whose `error` exceeds `tolerance` and
+/// one of whose parents is split — the candidates of the base mesh and the children of the diamonds
+/// split at the depth before (all parents of a diamond are one depth coarser, so each depth is
+/// decided once, in parallel, whatever the order). Every diamond split here is one the least closed
+/// split set holds; returns the parents their closure still needs (possibly repeated), which
+/// [`grow`] splits with all they entail.
+///
+/// A depth is found either by visiting those children, or by scanning all the diamonds of the
+/// depth — a sublattice of the domain's points, read in memory order — when there would be at
+/// least as many children to visit (counted with repeats, up to 8 per diamond split) as diamonds
+/// of the depth: at fine tolerances, where most fine diamonds are split, visiting each through
+/// its parents costs scattered reads of errors and split bits, several times per diamond. (Scanned
+/// or visited, a diamond costs about the same on bonsai 256³.)
+fn sweep_depths(
+    split: &Growing,
+    candidates: &[Diamond],
+    tolerance: f64,
+    error: &(dyn Fn(Diamond) -> f64 + Sync),
+) -> Result<Vec<Diamond>> {
+    let lattice = split.lattice;
+    let depths = 3 * lattice.levels as usize;
+    let mut base = vec![Vec::new(); depths];
+    for &d in candidates {
+        base[d.depth(&lattice) as usize].push(d);
+    }
+    let above = |d: Diamond| !split.contains(d) && error(d) > tolerance;
+    // Splits `d` (unsplit, above the tolerance, with a split parent) unless another thread did,
+    // into `new`, with its parents still unsplit into `missing`.
+    let claim = |(mut new, mut missing): (Vec<Diamond>, Vec<Diamond>), d: Diamond| {
+        if split.claim(d) {
+            split.unsplit_parents(d, &mut missing);
+            new.push(d);
+        }
+        (new, missing)
+    };
+    let join = |(mut a, mut x): (Vec<Diamond>, Vec<Diamond>), (mut b, mut y)| {
+        a.append(&mut b);
+        x.append(&mut y);
+        (a, x)
+    };
+    let mut new: Vec<Diamond> = Vec::new();
+    let mut missing = Vec::new();
+    for (depth, base) in base.iter().enumerate() {
+        crate::memory::check("the refinement's depths")?;
+        let layer = Layer::of_depth(&lattice, depth);
+        let children = base.len() + 8 * new.len();
+        let scan = depth > 0 && children >= layer.len();
+        let (found, mut closure) = if scan {
+            layer
+                .rows()
+                .into_par_iter()
+                .fold(Default::default, |mut acc, (y, z, xs)| {
+                    for x in xs {
+                        let d = Diamond::new(IVec3::new(x, y, z));
+                        if above(d) && d.parents(&lattice).iter().any(|&p| split.contains(p)) {
+                            acc = claim(acc, d);
+                        }
+                    }
+                    acc
+                })
+                .reduce(Default::default, join)
+        } else {
+            base.par_iter()
+                .copied()
+                .chain(new.par_iter().flat_map_iter(|d| d.children(&lattice)))
+                .filter(|&d| lattice.in_domain(d.center) && above(d))
+                .fold(Default::default, claim)
+                .reduce(Default::default, join)
+        };
+        new = found;
+        missing.append(&mut closure);
+    }
+    Ok(missing)
+}
+
+/// The diamonds of one bisection depth centred in the domain: for scale `s`, the central vertices
+/// `c` whose coordinates over `s` are all odd (cube diamonds), two of them odd (face diamonds) or
+/// one (edge diamonds), the others even ([`Diamond::class`]).
+struct Layer {
+    hi: IVec3,
+    scale: i32,
+    /// Which coordinates are odd multiples of the scale, one bit per axis, per orientation.
+    odd: &'static [u8],
+}
+
+impl Layer {
+    fn of_depth(lattice: &Lattice, depth: usize) -> Self {
+        let sigma = lattice.levels - 1 - (depth / 3) as u32;
+        Self {
+            hi: lattice.hi,
+            scale: 1 << sigma,
+            odd: [&[0b111][..], &[0b011, 0b101, 0b110], &[0b001, 0b010, 0b100]][depth % 3],
+        }
+    }
+
+    /// The coordinates along `axis` of the orientation `odd`: odd or even multiples of the scale.
+    fn axis(&self, odd: u8, axis: usize) -> std::iter::StepBy<std::ops::Range<i32>> {
+        let first = if odd >> axis & 1 == 1 { self.scale } else { 0 };
+        (first..self.hi[axis] + 1).step_by(2 * self.scale as usize)
+    }
+
+    /// Number of diamonds.
+    fn len(&self) -> usize {
+        self.odd
+            .iter()
+            .map(|&o| (0..3).map(|a| self.axis(o, a).len()).product::<usize>())
+            .sum()
+    }
+
+    /// The diamonds as rows along x: `(y, z, x values)`.
+    fn rows(&self) -> Vec<(i32, i32, std::iter::StepBy<std::ops::Range<i32>>)> {
+        self.odd
+            .iter()
+            .flat_map(|&o| {
+                self.axis(o, 2)
+                    .flat_map(move |z| self.axis(o, 1).map(move |y| (y, z, self.axis(o, 0))))
+            })
+            .collect()
+    }
 }
 
 /// Checks the tolerance of `query` and returns its region of interest in lattice coordinates of
@@ -759,7 +931,8 @@ mod tests {
     #[test]
     fn concurrent_refinement_splits_what_sequential_refinement_splits() {
         // Grids with and without a base mesh, an error that is not monotone along the hierarchy
-        // (closures split extra parents), with and without a region of interest.
+        // (closures split extra parents), with and without a region of interest; the depths are
+        // both scanned (fine tolerances) and visited through their parents' children (coarse).
         for dims in [[13, 9, 11], [17, 17, 17], [33, 5, 20], [2, 2, 2]] {
             let grid = crate::fields::unit_grid(dims);
             let lattice = Lattice::new(dims).unwrap();
@@ -790,6 +963,36 @@ mod tests {
                 ..Query::tolerance(0.0)
             };
             assert!(Refiner::run_concurrent(&grid, &base, &budget, &criterion).is_err());
+        }
+    }
+
+    #[test]
+    fn layers_hold_each_diamond_of_the_domain_once_at_its_depth() {
+        for dims in [[13, 9, 11], [17, 17, 17], [33, 5, 20], [2, 2, 2], [5, 3, 2]] {
+            let lattice = Lattice::new(dims).unwrap();
+            let mut seen = FxHashSet::default();
+            for depth in 0..3 * lattice.levels as usize {
+                let layer = Layer::of_depth(&lattice, depth);
+                let mut n = 0;
+                for (y, z, xs) in layer.rows() {
+                    for x in xs {
+                        let d = Diamond::new(IVec3::new(x, y, z));
+                        assert!(lattice.in_domain(d.center), "{dims:?} {d:?}");
+                        assert_eq!(d.depth(&lattice) as usize, depth, "{dims:?} {d:?}");
+                        assert!(seen.insert(d.center), "{dims:?} {d:?} twice");
+                        n += 1;
+                    }
+                }
+                assert_eq!(layer.len(), n, "{dims:?} depth {depth}");
+            }
+            // Every domain point but the root cube's corners is a central vertex.
+            let points: usize = dims.iter().product();
+            let corners = (0..8)
+                .filter(|c| {
+                    lattice.in_domain(IVec3::new(c & 1, c >> 1 & 1, c >> 2) * lattice.size())
+                })
+                .count();
+            assert_eq!(seen.len(), points - corners, "{dims:?}");
         }
     }
 
