@@ -319,10 +319,7 @@ impl<'h> Refiner<'h> {
             }
         };
         let mut split = r.split;
-        let growing = Growing::new(&split)?;
-        let missing = sweep_depths(&growing, &base.candidates, tolerance, &error)?;
-        grow(&growing, missing, tolerance, &error, false)?;
-        split.bits = growing.into_bits();
+        refine_concurrent(&mut split, &base.candidates, tolerance, &error, None, false)?;
         Ok(split)
     }
 
@@ -682,12 +679,42 @@ pub(crate) fn grow_concurrent(
     record: bool,
 ) -> Result<Vec<Diamond>> {
     let growing = Growing::new(split)?;
-    let added = grow(&growing, first, tolerance, error, record)?;
+    let mut added = grow(&growing, first, tolerance, error, record)?;
     split.bits = growing.into_bits();
+    sort_by_index(&split.lattice, &mut added);
     Ok(added)
 }
 
-/// [`grow_concurrent`] on a [`Growing`] split set.
+/// Refines the closed split set `split` from its unsplit `candidates` (those of its mesh): splits
+/// every diamond the least closed superset holds in which every child of a split diamond, and
+/// every candidate, whose `error` exceeds `tolerance` is split ([`Refiner::run_concurrent`]):
+/// [`sweep_depths`], then [`grow`] for the closure. With `region` (a box of domain points), only
+/// diamonds that meet it can have an `error` above 0. With `record`, returns the diamonds split
+/// here, in index order (else nothing).
+pub(crate) fn refine_concurrent(
+    split: &mut SplitSet,
+    candidates: &[Diamond],
+    tolerance: f64,
+    error: &(dyn Fn(Diamond) -> f64 + Sync),
+    region: Option<(IVec3, IVec3)>,
+    record: bool,
+) -> Result<Vec<Diamond>> {
+    let growing = Growing::new(split)?;
+    let (missing, mut added) =
+        sweep_depths(&growing, candidates, tolerance, error, region, record)?;
+    added.append(&mut grow(&growing, missing, tolerance, error, record)?);
+    split.bits = growing.into_bits();
+    sort_by_index(&split.lattice, &mut added);
+    Ok(added)
+}
+
+/// Sorts diamonds centred in the domain by the index of their central vertex, in parallel.
+fn sort_by_index(lattice: &Lattice, diamonds: &mut [Diamond]) {
+    diamonds.par_sort_unstable_by_key(|d| lattice.index(d.center));
+}
+
+/// [`grow_concurrent`] on a [`Growing`] split set; with `record`, returns the diamonds split here,
+/// unordered.
 fn grow(
     split: &Growing,
     first: Vec<Diamond>,
@@ -736,9 +763,6 @@ fn grow(
         added.append(&mut here);
         round = next;
     }
-    if record {
-        added.par_sort_unstable_by_key(|d| lattice.index(d.center));
-    }
     Ok(added)
 }
 
@@ -748,7 +772,9 @@ fn grow(
 /// split at the depth before (all parents of a diamond are one depth coarser, so each depth is
 /// decided once, in parallel, whatever the order). Every diamond split here is one the least closed
 /// split set holds; returns the parents their closure still needs (possibly repeated), which
-/// [`grow`] splits with all they entail.
+/// [`grow`] splits with all they entail, and with `record` the diamonds split here (unordered).
+/// With `region` (a box of domain points that every diamond above 0 meets), a depth is scanned
+/// only where its diamonds meet the box.
 ///
 /// A depth is found either by visiting those children, or by scanning all the diamonds of the
 /// depth — a sublattice of the domain's points, read in memory order — when there would be at
@@ -761,7 +787,9 @@ fn sweep_depths(
     candidates: &[Diamond],
     tolerance: f64,
     error: &(dyn Fn(Diamond) -> f64 + Sync),
-) -> Result<Vec<Diamond>> {
+    region: Option<(IVec3, IVec3)>,
+    record: bool,
+) -> Result<(Vec<Diamond>, Vec<Diamond>)> {
     let lattice = split.lattice;
     let depths = 3 * lattice.levels as usize;
     let mut base = vec![Vec::new(); depths];
@@ -784,10 +812,13 @@ fn sweep_depths(
         (a, x)
     };
     let mut new: Vec<Diamond> = Vec::new();
-    let mut missing = Vec::new();
+    let (mut missing, mut added) = (Vec::new(), Vec::new());
     for (depth, base) in base.iter().enumerate() {
         crate::memory::check("the refinement's depths")?;
-        let layer = Layer::of_depth(&lattice, depth);
+        if record {
+            added.extend_from_slice(&new);
+        }
+        let layer = Layer::of_depth(&lattice, depth, region);
         let children = base.len() + 8 * new.len();
         let scan = depth > 0 && children >= layer.len();
         let (found, mut closure) = if scan {
@@ -815,13 +846,18 @@ fn sweep_depths(
         new = found;
         missing.append(&mut closure);
     }
-    Ok(missing)
+    if record {
+        added.append(&mut new);
+    }
+    Ok((missing, added))
 }
 
-/// The diamonds of one bisection depth centred in the domain: for scale `s`, the central vertices
-/// `c` whose coordinates over `s` are all odd (cube diamonds), two of them odd (face diamonds) or
-/// one (edge diamonds), the others even ([`Diamond::class`]).
+/// The diamonds of one bisection depth centred in the domain (or those that meet a box): for scale
+/// `s`, the central vertices `c` whose coordinates over `s` are all odd (cube diamonds), two of them
+/// odd (face diamonds) or one (edge diamonds), the others even ([`Diamond::class`]).
 struct Layer {
+    /// The box the central vertices lie in.
+    lo: IVec3,
     hi: IVec3,
     scale: i32,
     /// Which coordinates are odd multiples of the scale, one bit per axis, per orientation.
@@ -829,19 +865,33 @@ struct Layer {
 }
 
 impl Layer {
-    fn of_depth(lattice: &Lattice, depth: usize) -> Self {
+    /// The diamonds of `depth`, with `region` those whose bounds (`c ± s`) meet that box.
+    fn of_depth(lattice: &Lattice, depth: usize, region: Option<(IVec3, IVec3)>) -> Self {
         let sigma = lattice.levels - 1 - (depth / 3) as u32;
+        let scale = 1 << sigma;
+        let (lo, hi) = region.map_or((IVec3::ZERO, lattice.hi), |(lo, hi)| {
+            (
+                (lo - IVec3::splat(scale)).max(IVec3::ZERO),
+                (hi + IVec3::splat(scale)).min(lattice.hi),
+            )
+        });
         Self {
-            hi: lattice.hi,
-            scale: 1 << sigma,
+            lo,
+            hi,
+            scale,
             odd: [&[0b111][..], &[0b011, 0b101, 0b110], &[0b001, 0b010, 0b100]][depth % 3],
         }
     }
 
     /// The coordinates along `axis` of the orientation `odd`: odd or even multiples of the scale.
     fn axis(&self, odd: u8, axis: usize) -> std::iter::StepBy<std::ops::Range<i32>> {
-        let first = if odd >> axis & 1 == 1 { self.scale } else { 0 };
-        (first..self.hi[axis] + 1).step_by(2 * self.scale as usize)
+        let (s, lo) = (self.scale, self.lo[axis].max(0));
+        // The first multiple of `s` at or above `lo` of the wanted parity.
+        let mut first = (lo + s - 1) / s * s;
+        if (first / s) & 1 != (odd >> axis & 1) as i32 {
+            first += s;
+        }
+        (first..self.hi[axis] + 1).step_by(2 * s as usize)
     }
 
     /// Number of diamonds.
@@ -966,24 +1016,43 @@ mod tests {
         }
     }
 
+    /// The diamonds of a [`Layer`], checked against its length.
+    fn layer_diamonds(layer: &Layer) -> Vec<Diamond> {
+        let mut out = Vec::new();
+        for (y, z, xs) in layer.rows() {
+            out.extend(xs.map(|x| Diamond::new(IVec3::new(x, y, z))));
+        }
+        assert_eq!(layer.len(), out.len());
+        out
+    }
+
     #[test]
     fn layers_hold_each_diamond_of_the_domain_once_at_its_depth() {
         for dims in [[13, 9, 11], [17, 17, 17], [33, 5, 20], [2, 2, 2], [5, 3, 2]] {
             let lattice = Lattice::new(dims).unwrap();
             let mut seen = FxHashSet::default();
             for depth in 0..3 * lattice.levels as usize {
-                let layer = Layer::of_depth(&lattice, depth);
-                let mut n = 0;
-                for (y, z, xs) in layer.rows() {
-                    for x in xs {
-                        let d = Diamond::new(IVec3::new(x, y, z));
-                        assert!(lattice.in_domain(d.center), "{dims:?} {d:?}");
-                        assert_eq!(d.depth(&lattice) as usize, depth, "{dims:?} {d:?}");
-                        assert!(seen.insert(d.center), "{dims:?} {d:?} twice");
-                        n += 1;
-                    }
+                let all = layer_diamonds(&Layer::of_depth(&lattice, depth, None));
+                for &d in &all {
+                    assert!(lattice.in_domain(d.center), "{dims:?} {d:?}");
+                    assert_eq!(d.depth(&lattice) as usize, depth, "{dims:?} {d:?}");
+                    assert!(seen.insert(d.center), "{dims:?} {d:?} twice");
                 }
-                assert_eq!(layer.len(), n, "{dims:?} depth {depth}");
+                // With a region: exactly those whose bounds meet it.
+                for (lo, hi) in [
+                    ([1, 0, 2], [4, 3, 5]),
+                    ([0, 0, 0], [0, 0, 0]),
+                    ([3, 1, 1], [12, 8, 10]),
+                ] {
+                    let (lo, hi) = (IVec3::from(lo), IVec3::from(hi).min(lattice.hi));
+                    let meets = |d: &Diamond| {
+                        let (a, b) = d.bounds();
+                        a.cmple(hi).all() && b.cmpge(lo).all()
+                    };
+                    let expected: Vec<Diamond> = all.iter().copied().filter(meets).collect();
+                    let clipped = layer_diamonds(&Layer::of_depth(&lattice, depth, Some((lo, hi))));
+                    assert_eq!(clipped, expected, "{dims:?} depth {depth} {lo} {hi}");
+                }
             }
             // Every domain point but the root cube's corners is a central vertex.
             let points: usize = dims.iter().product();

@@ -36,7 +36,9 @@ use super::{base_mesh, diamond_record, is_root_corner, record};
 use crate::diamond::Diamond;
 use crate::lattice::{Lattice, Placement, Tet};
 use crate::mesh::{Index, MeshPlan, PieceCells, TetMesh};
-use crate::refine::{grow_concurrent, outside_roi, query_region, BaseMesh, Query, SplitSet};
+use crate::refine::{
+    grow_concurrent, outside_roi, query_region, refine_concurrent, BaseMesh, Query, SplitSet,
+};
 use crate::scan::{scan_tet_part, Stencils, TetStats};
 use crate::volume::{Grid, Sample, ScalarSlice, Volume};
 use crate::{memory, Error, Result};
@@ -711,7 +713,8 @@ impl PieceHierarchy {
     }
 
     /// Starts refining for `query` (tolerance and region of interest; no budget): splits, with
-    /// closure, what the piece's own diamonds require.
+    /// closure, what the piece's own diamonds require ([`refine_concurrent`]: the bisection depths
+    /// swept where their diamonds meet the piece, then the closure in rounds).
     pub fn start(&self, query: &Query) -> Result<PieceRefinement> {
         if query.max_tetrahedra > 0 {
             return Err(Error::Parameter(
@@ -732,15 +735,14 @@ impl PieceHierarchy {
             roi,
             outbox: Vec::new(),
         };
-        if !self.layout.owned.is_empty() {
-            let first = self
-                .base
-                .candidates
-                .par_iter()
-                .copied()
-                .filter(|&d| !r.split.contains(d) && self.judged_error(r.roi, d) > r.tolerance)
-                .collect();
-            self.grow(&mut r, first, &[])?;
+        let owned = self.layout.owned;
+        if !owned.is_empty() {
+            let judge = |d: Diamond| self.judged_error(roi, d);
+            let region = Some((owned.lo, owned.hi));
+            let candidates = &self.base.candidates;
+            let added =
+                refine_concurrent(&mut r.split, candidates, r.tolerance, &judge, region, true)?;
+            r.outbox.extend(added);
         }
         Ok(r)
     }
