@@ -26,6 +26,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::OnceLock;
 
 /// The current mesh of a query: deduplicated input points and positively oriented tetrahedra.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -340,6 +341,9 @@ pub struct MeshPlan {
     points: PointSet,
     /// The part of a distributed mesh one piece writes, if the plan is a piece's.
     piece: Option<PieceCells>,
+    /// For a piece's plan, once asked: the number of its points the piece does not hold in each
+    /// task of [`PointSet::for_points`].
+    remote: OnceLock<Vec<usize>>,
 }
 
 /// The tetrahedra one piece of a distributed mesh writes ([`crate::hierarchy::piece`]): the leaves
@@ -517,6 +521,7 @@ impl MeshPlan {
             counts,
             points: PointSet::new(used)?,
             piece,
+            remote: OnceLock::new(),
         })
     }
 
@@ -817,18 +822,33 @@ impl MeshPlan {
     /// For a piece's plan ([`MeshPlan::of_piece`]): the grid index of each of its points that the
     /// piece does not hold, ascending (the points whose values it fetches from the others).
     pub fn remote_point_ids(&self) -> Result<Vec<u64>> {
-        let own = self.own_box()?;
-        let parts: Vec<Vec<u64>> = (0..self.points.tasks())
+        let (remote, counts) = self.remote_points()?;
+        let total = counts.iter().sum();
+        let mut ids = memory::filled(total, 0u64, "the ids of the points to fetch")?;
+        pieces(&mut ids, counts, 1)
             .into_par_iter()
-            .map(|task| {
-                self.points
-                    .task_ids(task)
-                    .filter(|&i| !own.contains(self.lattice.point(i)))
-                    .map(|i| i as u64)
-                    .collect()
-            })
-            .collect();
-        Ok(parts.concat())
+            .enumerate()
+            .for_each(|(task, chunk)| {
+                let task_remote = self.points.task_ids(task).filter(|&i| remote(i));
+                for (slot, i) in chunk.iter_mut().zip(task_remote) {
+                    *slot = i as u64;
+                }
+            });
+        Ok(ids)
+    }
+
+    /// For a piece's plan: whether a point (grid index) is one the piece does not hold, and the
+    /// number of such points of the plan in each task of [`PointSet::for_points`] (counted once).
+    fn remote_points(&self) -> Result<(impl Fn(usize) -> bool + Sync + '_, &[usize])> {
+        let own = self.own_box()?;
+        let remote = move |i: usize| !own.contains(self.lattice.point(i));
+        let counts = self.remote.get_or_init(|| {
+            (0..self.points.tasks())
+                .into_par_iter()
+                .map(|task| self.points.task_ids(task).filter(|&i| remote(i)).count())
+                .collect()
+        });
+        Ok((remote, counts))
     }
 
     /// For a piece's plan: copies each point's tuple of `tuple_bytes` bytes into `target` (one
@@ -844,7 +864,6 @@ impl MeshPlan {
         target: &mut [u8],
     ) -> Result<()> {
         let own = self.own_box()?;
-        let remote = |i: usize| !own.contains(self.lattice.point(i));
         check_len(local.len(), own.len(), tuple_bytes, "a point array's piece")?;
         check_len(
             target.len(),
@@ -853,13 +872,12 @@ impl MeshPlan {
             "a point array's target",
         )?;
         // The remote points before each task's.
-        let mut first: Vec<usize> = (0..self.points.tasks())
-            .into_par_iter()
-            .map(|task| self.points.task_ids(task).filter(|&i| remote(i)).count())
-            .collect();
+        let (_, counts) = self.remote_points()?;
+        let mut first = Vec::with_capacity(counts.len());
         let mut before = 0;
-        for n in &mut first {
-            (*n, before) = (before, before + *n);
+        for n in counts {
+            first.push(before);
+            before += n;
         }
         check_len(
             fetched.len(),
