@@ -823,11 +823,10 @@ fn sweep_depths(
         let scan = depth > 0 && children >= layer.len();
         let (found, mut closure) = if scan {
             layer
-                .rows()
-                .into_par_iter()
-                .fold(Default::default, |mut acc, (y, z, xs)| {
-                    for x in xs {
-                        let d = Diamond::new(IVec3::new(x, y, z));
+                .planes()
+                .fold(Default::default, |mut acc, plane| {
+                    for c in layer.plane(plane) {
+                        let d = Diamond::new(c);
                         if above(d) && d.parents(&lattice).iter().any(|&p| split.contains(p)) {
                             acc = claim(acc, d);
                         }
@@ -902,15 +901,23 @@ impl Layer {
             .sum()
     }
 
-    /// The diamonds as rows along x: `(y, z, x values)`.
-    fn rows(&self) -> Vec<(i32, i32, std::iter::StepBy<std::ops::Range<i32>>)> {
-        self.odd
-            .iter()
-            .flat_map(|&o| {
-                self.axis(o, 2)
-                    .flat_map(move |z| self.axis(o, 1).map(move |y| (y, z, self.axis(o, 0))))
-            })
-            .collect()
+    /// The layer's planes, in parallel: each orientation's z coordinates (no list is built: a
+    /// large grid has millions of rows per depth).
+    fn planes(&self) -> impl ParallelIterator<Item = (u8, i32)> + '_ {
+        self.odd.par_iter().flat_map(move |&o| {
+            let zs = self.axis(o, 2);
+            let (first, n) = (zs.clone().next().unwrap_or(0), zs.len());
+            let step = 2 * self.scale;
+            (0..n as i32)
+                .into_par_iter()
+                .map(move |k| (o, first + k * step))
+        })
+    }
+
+    /// The central vertices of plane `z` of orientation `o`, in memory order.
+    fn plane(&self, (o, z): (u8, i32)) -> impl Iterator<Item = IVec3> + '_ {
+        self.axis(o, 1)
+            .flat_map(move |y| self.axis(o, 0).map(move |x| IVec3::new(x, y, z)))
     }
 }
 
@@ -1018,10 +1025,11 @@ mod tests {
 
     /// The diamonds of a [`Layer`], checked against its length.
     fn layer_diamonds(layer: &Layer) -> Vec<Diamond> {
-        let mut out = Vec::new();
-        for (y, z, xs) in layer.rows() {
-            out.extend(xs.map(|x| Diamond::new(IVec3::new(x, y, z))));
-        }
+        let planes: Vec<(u8, i32)> = layer.planes().collect();
+        let out: Vec<Diamond> = planes
+            .into_iter()
+            .flat_map(|plane| layer.plane(plane).map(Diamond::new))
+            .collect();
         assert_eq!(layer.len(), out.len());
         out
     }
