@@ -141,7 +141,9 @@ pub(crate) struct BaseMesh {
     pub(crate) split: SplitSet,
     /// Its tetrahedra inside the domain.
     pub(crate) tets: usize,
-    /// The unsplit diamonds with tetrahedra in it, where refinement starts.
+    /// The unsplit diamonds with tetrahedra in it, where refinement starts, ordered by bisection
+    /// depth, coarsest first (so that the depth sweep of [`refine_concurrent`] takes each depth's
+    /// as a slice, with no per-query copy).
     pub(crate) candidates: Vec<Diamond>,
 }
 
@@ -768,7 +770,8 @@ fn grow(
 
 /// The first pass of [`Refiner::run_concurrent`]: one bisection depth after the other, coarsest
 /// first, splits every unsplit diamond centred in the domain whose `error` exceeds `tolerance` and
-/// one of whose parents is split — the candidates of the base mesh and the children of the diamonds
+/// one of whose parents is split — the `candidates` of the base mesh (ordered by depth, coarsest
+/// first, as [`BaseMesh::candidates`]: each depth's are a slice of them) and the children of the diamonds
 /// split at the depth before (all parents of a diamond are one depth coarser, so each depth is
 /// decided once, in parallel, whatever the order). Every diamond split here is one the least closed
 /// split set holds; returns the parents their closure still needs (possibly repeated), which
@@ -791,11 +794,14 @@ fn sweep_depths(
     record: bool,
 ) -> Result<(Vec<Diamond>, Vec<Diamond>)> {
     let lattice = split.lattice;
-    let depths = 3 * lattice.levels as usize;
-    let mut base = vec![Vec::new(); depths];
-    for &d in candidates {
-        base[d.depth(&lattice) as usize].push(d);
-    }
+    let depth_of = |d: &Diamond| d.depth(&lattice) as usize;
+    debug_assert!(
+        candidates
+            .windows(2)
+            .all(|w| depth_of(&w[0]) <= depth_of(&w[1])),
+        "candidates ordered by depth"
+    );
+    let mut rest = candidates;
     let above = |d: Diamond| !split.contains(d) && error(d) > tolerance;
     // Splits `d` (unsplit, above the tolerance, with a split parent) unless another thread did,
     // into `new`, with its parents still unsplit into `missing`.
@@ -813,8 +819,11 @@ fn sweep_depths(
     };
     let mut new: Vec<Diamond> = Vec::new();
     let (mut missing, mut added) = (Vec::new(), Vec::new());
-    for (depth, base) in base.iter().enumerate() {
+    for depth in 0..3 * lattice.levels as usize {
         crate::memory::check("the refinement's depths")?;
+        // The candidates of this depth: a prefix of the rest, since they are ordered by depth.
+        let (base, later) = rest.split_at(rest.partition_point(|d| depth_of(d) == depth));
+        rest = later;
         if record {
             added.extend_from_slice(&new);
         }

@@ -271,9 +271,12 @@ impl Hierarchy {
 /// its closure (also the start of material refinement, whose lattice is one level finer than its data).
 pub(crate) fn base_mesh(lattice: Lattice) -> BaseMesh {
     let split = Refiner::base_mesh(lattice);
+    let mut candidates = Refiner::candidates(&lattice, &split);
+    // Ordered by depth, as the depth sweep takes them (stable: in walk order within a depth).
+    candidates.sort_by_key(|d| d.depth(&lattice));
     BaseMesh {
         tets: mesh::count_tets(&lattice, &split),
-        candidates: Refiner::candidates(&lattice, &split),
+        candidates,
         split,
     }
 }
