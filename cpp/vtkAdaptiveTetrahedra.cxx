@@ -396,16 +396,19 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
     {
       return pieces.Failed();
     }
-    if (pieces.Sum(static_cast<vtkIdType>(outgoing->centers.size())) == 0)
-    {
-      break;
-    }
     std::vector<std::int32_t> received;
     std::string error;
-    ok = pieces.Exchange(*outgoing, received, error);
+    bool moved = false;
+    ok = pieces.Exchange(*outgoing, received, moved, error);
     if (!ok)
     {
       vtkErrorMacro(<< "Adaptive Tetrahedra " << refinementFailed << ": " << error);
+    }
+    if (!moved)
+    {
+      // No rank split a diamond another rank needs: every piece is closed (every rank leaves
+      // here alike; a failure goes on to the steps below, which all ranks take together).
+      break;
     }
     ok = ok && run(refinementFailed, [&] {
       piece.receive(**refinement, { received.data(), received.size() });

@@ -698,7 +698,7 @@ bool Pieces::Concatenate(
 }
 
 bool Pieces::Exchange(const bridge::SplitMessages& outgoing, std::vector<std::int32_t>& received,
-  std::string& error)
+  bool& moved, std::string& error)
 {
   const auto& counts = outgoing.counts;
   const std::int32_t* values = outgoing.centers.data();
@@ -711,14 +711,29 @@ bool Pieces::Exchange(const bridge::SplitMessages& outgoing, std::vector<std::in
     error = std::to_string(counts.size()) + " lists to send for " + std::to_string(this->Ranks) +
       " ranks";
   }
+  // Who sends to whom: row p holds a bit per rank q that p has a list for.
+  const std::size_t row = (static_cast<std::size_t>(this->Ranks) + 7) / 8;
+  std::vector<unsigned char> mine(row, 0);
+  for (int q = 0; q < this->Ranks && ok; ++q)
+  {
+    if (q != this->Me && counts[q] > 0)
+    {
+      mine[q / 8] |= static_cast<unsigned char>(1u << (q % 8));
+    }
+  }
+  std::vector<unsigned char> all(row * this->Ranks);
+  this->Controller->AllGather(mine.data(), all.data(), static_cast<vtkIdType>(row));
+  this->Sent += row;
+  const auto sends = [&](int p, int q) { return (all[p * row + q / 8] >> (q % 8)) & 1u; };
+  moved = std::any_of(all.begin(), all.end(), [](unsigned char b) { return b != 0; });
   std::size_t offset = 0;
   for (int q = 0; q < this->Ranks; ++q)
   {
     const std::size_t n = ok ? counts[q] : 0;
-    if (q != this->Me)
+    if (q != this->Me && (sends(this->Me, q) || sends(q, this->Me)))
     {
       std::string swapError;
-      const bool moved = this->Swap(
+      const bool swapped = this->Swap(
         q, values + offset, static_cast<vtkIdType>(n * sizeof(std::int32_t)),
         [&](vtkIdType bytes) -> void* {
           const std::size_t old = received.size();
@@ -726,7 +741,7 @@ bool Pieces::Exchange(const bridge::SplitMessages& outgoing, std::vector<std::in
           return received.data() + old;
         },
         swapError);
-      if (!moved && ok)
+      if (!swapped && ok)
       {
         error = swapError;
         ok = false;

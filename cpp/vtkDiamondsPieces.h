@@ -105,11 +105,15 @@ public:
     const std::vector<std::int32_t>& values, std::vector<std::int32_t>& all, std::string& error);
   // Collective: sends each rank q its list of `outgoing` (`counts[q]` values of `centers`, the
   // lists in rank order, this rank's own skipped) and receives into `received` what every other rank sent this one,
-  // in rank order. Pairwise exchanges in one global pair order (as Fetch), so a rank receives only
-  // what is addressed to it. False with `error` set when a rank could not allocate what it
-  // receives (every pair still completes its exchange).
+  // in rank order. First every rank learns who sends to whom (an all-gather of one bit per rank
+  // pair, P²/8 bytes in all); then only the pairs with a list in either direction exchange,
+  // pairwise in one global pair order (as Fetch), so a rank receives only what is addressed to
+  // it and talks only to the ranks its diamonds reach or that reach it (before, every pair of
+  // ranks exchanged three messages per round, empty or not). `moved` tells every rank alike
+  // whether any rank sent anything. False with `error` set when a rank could not allocate what
+  // it receives (every pair still completes its exchange).
   bool Exchange(const bridge::SplitMessages& outgoing, std::vector<std::int32_t>& received,
-    std::string& error);
+    bool& moved, std::string& error);
   // Collective: one value per rank.
   std::vector<double> PerRank(double value);
 
