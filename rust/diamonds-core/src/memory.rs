@@ -4,7 +4,7 @@
 //! becomes [`Error::OutOfMemory`], which the filter reports as its error.
 //!
 //! Any of the many small allocations may still be the one that fails when memory is nearly used up.
-//! [`Reserving`], the global allocator of the plugin's Rust code (and of the CLI), keeps an
+//! [`Reserving`], the global allocator of the plugin's Rust code (the bridge registers it), keeps an
 //! emergency reserve for that case: when the system allocator fails, the reserve is given back and
 //! the allocation retried, and [`exhausted`] tells the caller that the work running must end with an
 //! out-of-memory error (the bridge checks it when a call returns and at every progress report) —
@@ -223,7 +223,7 @@ unsafe impl GlobalAlloc for Reserving {
     }
 }
 
-/// Before a unit of work (a bridge call, a CLI command): takes the emergency reserve if it is not
+/// Before a unit of work (a bridge call): takes the emergency reserve if it is not
 /// held (untouched address space, no physical memory) and clears [`exhausted`]. Without
 /// [`Reserving`] as the global allocator this only clears the flag.
 pub fn arm() {
