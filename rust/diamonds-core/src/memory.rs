@@ -70,8 +70,8 @@ fn reserve_layout() -> Layout {
 /// for mapping (up to 32 MiB) and for trimming (up to 64 MiB), so the next ones come from the
 /// heaps of the threads that ask for them, rayon's workers, and stay resident after they are
 /// freed (`malloc_trim` does not give back the top of a thread's heap). Measured: Adaptive
-/// Tetrahedra's first execution on bonsai 256³ at Tolerance 8 kept 507 MiB resident for an
-/// output of 406 MiB, about 50 MiB of them such freed blocks.
+/// Tetrahedra's first execution on bonsai 256³ at Tolerance 8 kept 498 MiB resident for an
+/// output of 406 MiB, 454 MiB with large blocks mapped here.
 pub struct Reserving;
 
 /// Size from which [`Reserving`] maps a block from the kernel.
