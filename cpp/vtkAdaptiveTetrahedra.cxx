@@ -186,6 +186,12 @@ try
   try
   {
     plan.emplace(hierarchy.plan_mesh(query));
+    const rust::String warning = hierarchy.budget_warning(query.max_tetrahedra);
+    if (!warning.empty())
+    {
+      vtkWarningMacro(<< "Adaptive Tetrahedra, array \"" << array->GetName()
+                      << "\": " << std::string(warning));
+    }
   }
   catch (const rust::Error& e)
   {

@@ -27,6 +27,7 @@
 #include <cmath>
 #include <optional>
 #include <string>
+#include <utility>
 
 vtkStandardNewMacro(vtkViewDependentTetrahedra);
 
@@ -48,6 +49,9 @@ public:
   vtkDiamonds::HierarchyCache Cache{ vtkDiamonds::HierarchyCache::Use::Tetrahedra };
   // The split and merge queues' state of the last execution (belongs to the cached hierarchy).
   std::optional<rust::Box<bridge::ViewMesh>> View;
+  // The hierarchy build and budget of the last budget warning: said once for them, not at every
+  // camera move (the Adaptive Volume representation executes the filter at every frame).
+  std::pair<vtkIdType, vtkIdType> BudgetWarned{ -1, -1 };
 };
 
 //------------------------------------------------------------------------------
@@ -163,6 +167,15 @@ try
     this->UpdateProgress(0.7);
     frame = (*view)->update_view(hierarchy, spec);
     plan.emplace((*view)->view_plan(hierarchy));
+    const rust::String warning = hierarchy.budget_warning(spec.max_tetrahedra);
+    const std::pair<vtkIdType, vtkIdType> warned{ this->NumberOfHierarchyBuilds,
+      this->MaximumNumberOfTetrahedra };
+    if (!warning.empty() && this->Internals->BudgetWarned != warned)
+    {
+      this->Internals->BudgetWarned = warned;
+      vtkWarningMacro(<< "View Dependent Tetrahedra, array \"" << array->GetName()
+                      << "\": " << std::string(warning));
+    }
     // With SortCells, the core writes the tetrahedra in that order (no tree, no reordering).
     hierarchy.order_plan(**plan, static_cast<std::uint8_t>(this->SortCells),
       rust::Slice<const double>(this->CameraPosition, 3));

@@ -155,6 +155,35 @@ for isovalues, budget, phrase in (([1e9], 0, "outside"), ([150.0], 1, "budget of
     print(f"   [isosurface warning] {messages.text().strip()}")
     dc.check(phrase in messages.text(), f"isosurface {isovalues}, budget {budget}: warns {phrase!r}")
 
+# ---- A tetrahedron budget below the coarsest mesh, text from the core: a 32^3 image (2^k points, not
+# 2^k + 1) has a band of small tetrahedra along its far faces that no budget removes. That mesh is the
+# output, with a warning: at every execution of Adaptive Tetrahedra; once per budget and hierarchy for
+# View Dependent Tetrahedra (the Adaptive Volume representation executes it at every camera move).
+band = simple.Wavelet()
+band.WholeExtent = [0, 31, 0, 31, 0, 31]
+band.UpdatePipeline()
+coarsest = dc.fetch(simple.AdaptiveTetrahedra(Input=band, Tolerance=1e30)).GetNumberOfCells()
+phrase = "budget of 100 tetrahedra cannot be met: the coarsest mesh of this 32×32×32 image has"
+budgeted = simple.AdaptiveTetrahedra(Input=band, Tolerance=0.0, MaximumNumberOfTetrahedra=100)
+with dc.ErrorCapture(budgeted) as messages:
+    cells = dc.fetch(budgeted).GetNumberOfCells()
+print(f"   [budget warning] {messages.text().strip()}")
+dc.check(phrase in messages.text() and f"has {coarsest} tetrahedra" in messages.text() and cells == coarsest,
+         f"Adaptive Tetrahedra, budget 100 below the coarsest mesh ({coarsest}): that mesh, a warning")
+budgeted.MaximumNumberOfTetrahedra = coarsest
+with dc.ErrorCapture(budgeted) as messages:
+    cells = dc.fetch(budgeted).GetNumberOfCells()
+dc.check(messages.text() == "" and cells == coarsest, f"budget equal to the coarsest mesh: no warning ({messages.text()!r})")
+view = simple.ViewDependentTetrahedra(Input=band, MaximumNumberOfTetrahedra=100)
+said = []
+for position, budget in (((0.0, 0.0, 100.0), 100), ((100.0, 0.0, 0.0), 100), ((100.0, 0.0, 0.0), 200)):
+    view.CameraPosition = position
+    view.MaximumNumberOfTetrahedra = budget
+    with dc.ErrorCapture(view) as messages:
+        cells = dc.fetch(view).GetNumberOfCells()
+    said.append(f"budget of {budget} tetrahedra cannot be met" in messages.text() and cells == coarsest)
+dc.check(said == [True, False, True], f"View Dependent Tetrahedra: warns for a budget below the coarsest mesh once per budget, not per camera ({said})")
+
 # ---- An allocation failure is the filter's error, not the end of the process: a 300^3 Wavelet with
 # the process's address space limited to what it uses plus 32 MiB (the hierarchy alone needs 54 MB,
 # 2 bytes per point).

@@ -469,6 +469,9 @@ mod ffi {
         fn write_point_ids(self: &MeshPlan, ids: &mut [i64]) -> Result<()>;
         /// Bytes of per-diamond metadata held by the hierarchy (0 for an isosurface-only one).
         fn metadata_bytes(self: &Hierarchy) -> usize;
+        /// What the user should know of a tetrahedron budget (0: none) on this hierarchy: one
+        /// below its coarsest mesh cannot be met (empty when there is nothing to say).
+        fn budget_warning(self: &Hierarchy, max_tetrahedra: usize) -> Result<String>;
         /// Extracts the isosurfaces of `isovalues`. `samples` (of `scalar_type`) must be the very
         /// samples the hierarchy was built from: the caller keeps them alive and unchanged. `state`
         /// carries the adaptive mesh from one query to the next: reused as is when only
@@ -1211,6 +1214,15 @@ impl Hierarchy {
 
     fn metadata_bytes(&self) -> usize {
         self.hierarchy.metadata_bytes()
+    }
+
+    fn budget_warning(&self, max_tetrahedra: usize) -> Result<String, String> {
+        guard("checking the tetrahedron budget", || {
+            Ok(self
+                .hierarchy
+                .budget_warning(max_tetrahedra)
+                .unwrap_or_default())
+        })
     }
 
     /// Extracts the isosurfaces of `isovalues` and checks the result before C++ indexes with it.

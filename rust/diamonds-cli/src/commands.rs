@@ -135,6 +135,9 @@ pub fn tetra(opts: &TetraOptions) -> Result<TetraSummary> {
     let start = Instant::now();
     let hierarchy = Hierarchy::build(grid, array.scalar_slice()?, &mut |_| true)?;
     let build_seconds = start.elapsed().as_secs_f64();
+    if let Some(w) = hierarchy.budget_warning(opts.max_tets) {
+        eprintln!("warning: '{}': {w}", array.name);
+    }
     let start = Instant::now();
     let mesh = hierarchy.query(&Query {
         tolerance: opts.tolerance,

@@ -99,6 +99,9 @@ pub fn view(opts: &ViewOptions) -> Result<ViewSummary> {
     let hierarchy = Hierarchy::build(grid, array.scalar_slice()?, &mut |_| true)?;
     let errors = ViewErrors::new(&hierarchy)?;
     let build_seconds = start.elapsed().as_secs_f64();
+    if let Some(w) = hierarchy.budget_warning(opts.max_tets) {
+        eprintln!("warning: '{}': {w}", array.name);
+    }
     let (extra, degrees) = opts.orbit.unwrap_or((0, 0.0));
     let mut state = ViewState::new(&hierarchy);
     let mut camera = opts.camera;

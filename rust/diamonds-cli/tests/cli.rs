@@ -325,9 +325,27 @@ fn budget_region_of_interest_and_threads() {
     let lossless = count(&full);
 
     let budget = dir.join("budget.vtu");
-    diamonds(["tetra", s(&input), s(&budget), "--max-tets", "5000"]).ok();
+    let run = diamonds(["tetra", s(&input), s(&budget), "--max-tets", "5000"]);
+    assert!(!run.stderr.contains("warning"), "{run:#?}");
+    run.ok();
     let mesh = read_unstructured(&budget).unwrap();
     assert!(mesh.types.len() <= 5000, "{} > 5000", mesh.types.len());
+    // A budget below the coarsest mesh (the root cube's six tetrahedra here; on a 32³ image the
+    // band along its far faces): that mesh, and a warning that says so.
+    let band = dir.join("band.vti");
+    diamonds(["generate", s(&band), "--dims", "32", "32", "32"]).ok();
+    let coarse = dir.join("coarse.vtu");
+    for (image, coarsest) in [(&input, 6usize), (&band, 0)] {
+        let run = diamonds(["tetra", s(image), s(&coarse), "--max-tets", "5"]);
+        assert!(
+            run.stderr
+                .contains("warning: 'marschner_lobb': the budget of 5 tetrahedra cannot be met"),
+            "{run:#?}"
+        );
+        run.ok();
+        let tets = count(&coarse);
+        assert!(tets > 5 && (coarsest == 0 || tets == coarsest), "{tets}");
+    }
     // The mesh meets the error it reports.
     let reached = field(&mesh, "MaximumError").to_string();
     let report = diamonds(["verify", s(&input), s(&budget), "--tolerance", &reached]).ok();

@@ -178,6 +178,16 @@ fn bad_cameras_are_clean_errors() {
     }
     let same = ["--position", "0", "0", "0", "--focal-point", "0", "0", "0"];
     assert!(run(&same).user_error().contains("same point"));
+    // A budget below the coarsest mesh (the root cube's six tetrahedra): a warning, not an error.
+    let budget: Vec<&str> = camera.iter().chain(&["--max-tets", "3"]).copied().collect();
+    let warned = run(&budget);
+    assert!(
+        warned.stderr.contains(
+            "the budget of 3 tetrahedra cannot be met: the coarsest mesh of this 9×9×9 image has 6"
+        ),
+        "{warned:#?}"
+    );
+    warned.ok();
     let nan = [
         "--position",
         "NaN",

@@ -250,6 +250,24 @@ impl Hierarchy {
         self.base.tets
     }
 
+    /// What a user should know of a budget of `max_tetrahedra` (0: none): one below the base mesh
+    /// cannot be met, and a query under it yields the base mesh.
+    pub fn budget_warning(&self, max_tetrahedra: usize) -> Option<String> {
+        let base = self.base.tets;
+        if max_tetrahedra == 0 || base <= max_tetrahedra {
+            return None;
+        }
+        let [nx, ny, nz] = self.grid.dims;
+        let why = if self.base.split.is_empty() {
+            "its root cube's"
+        } else {
+            "the refinement its far faces force, least when every axis has 2^k + 1 points: 33, 65, 129, 257, ..."
+        };
+        Some(format!(
+            "the budget of {max_tetrahedra} tetrahedra cannot be met: the coarsest mesh of this {nx}×{ny}×{nz} image has {base} tetrahedra ({why}); the output is that mesh"
+        ))
+    }
+
     /// Where every query starts: the base mesh and its candidates for splitting.
     pub(crate) fn base(&self) -> &BaseMesh {
         &self.base
@@ -393,6 +411,49 @@ mod tests {
         .unwrap_err();
         assert!(matches!(err, Error::TooLarge { needed, available: 10, .. } if needed > 10));
         assert!(err.to_string().contains("needs"));
+    }
+
+    /// A budget below the base mesh is reported, with the base mesh's size and why; one that the
+    /// base mesh fits, or none, is not.
+    #[test]
+    fn a_budget_below_the_base_mesh_is_reported() {
+        let build = |n: usize| {
+            let samples: Vec<u8> = (0..n * n * n).map(|i| (i * 37 % 251) as u8).collect();
+            Hierarchy::build(Grid::new([n; 3]), ScalarSlice::U8(&samples), &mut |_| true).unwrap()
+        };
+        let cube = build(9);
+        assert_eq!(cube.base_tetrahedra(), 6);
+        assert_eq!(cube.budget_warning(0), None);
+        assert_eq!(cube.budget_warning(6), None);
+        let w = cube
+            .budget_warning(5)
+            .expect("a budget below the root cube's six");
+        assert!(
+            w.contains("budget of 5 tetrahedra")
+                && w.contains("has 6 tetrahedra (its root cube's)"),
+            "{w}"
+        );
+        let band = build(8);
+        let base = band.base_tetrahedra();
+        assert!(base > 6);
+        assert_eq!(band.budget_warning(base), None);
+        let w = band
+            .budget_warning(base - 1)
+            .expect("a budget below the band");
+        assert!(
+            w.contains(&format!(
+                "8×8×8 image has {base} tetrahedra (the refinement its far faces force"
+            )),
+            "{w}"
+        );
+        // The query under that budget is the base mesh, as the message says.
+        let mesh = band
+            .query(&Query {
+                max_tetrahedra: base - 1,
+                ..Query::tolerance(0.0)
+            })
+            .unwrap();
+        assert_eq!(mesh.tets.len(), base);
     }
 
     #[test]
