@@ -286,6 +286,13 @@ try
     try
     {
       pm.reduce_for(this->TargetReduction, progress);
+      const rust::String warning = pm.reduction_warning(this->TargetReduction);
+      if (!warning.empty())
+      {
+        vtkWarningMacro(<< "Progressive Tetrahedral Mesh, array \"" << array->GetName() << "\", "
+                        << "TargetReduction " << this->TargetReduction << ": "
+                        << std::string(warning));
+      }
     }
     catch (const rust::Error& e)
     {

@@ -96,6 +96,18 @@ dc.check(same and dc.field_value(continued, "MaximumFieldError") == error90,
 stepwise.TargetReduction = 0.5
 dc.check(dc.fetch(stepwise).GetNumberOfCells() == level50 and simplifications(stepwise) == 1,
          "back to 50 %: replayed, the same level")
+# A reduction that cannot reach its target (1: no tetrahedron left) stops where no valid collapse
+# is left and says so, with where and why; a reachable one says nothing.
+with dc.ErrorCapture(stepwise) as capture:
+    dc.fetch(stepwise)
+dc.check(capture.text() == "", f"50 %: no warning ({capture.text()[:80]!r})")
+stepwise.TargetReduction = 1.0
+with dc.ErrorCapture(stepwise) as capture:
+    coarsest = dc.fetch(stepwise).GetNumberOfCells()
+print(f"   [shortfall] {capture.text().strip()[:300]}")
+dc.check(0 < coarsest < level90 and f"the reduction stops at {coarsest} tetrahedra" in capture.text()
+         and f"input's {n})" in capture.text() and "short of the 0 asked" in capture.text(),
+         f"TargetReduction 1: the coarsest mesh ({coarsest} tetrahedra) and a warning")
 prog.MaximumFieldError = 0
 prog.FieldWeight = 2.0
 dc.fetch(prog)

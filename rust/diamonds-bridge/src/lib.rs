@@ -775,6 +775,9 @@ mod ffi {
             target_reduction: f64,
             progress: Pin<&mut ProgressObserver>,
         ) -> Result<usize>;
+        /// What the user should know after `reduce_for(target_reduction)`: that the reduction
+        /// stopped short of it, where and why (empty when it did not).
+        fn reduction_warning(self: &Progressive, target_reduction: f64) -> Result<String>;
         /// The number of vertex splits: levels go from 0 (the base mesh) to it (the original).
         fn number_of_levels(self: &Progressive) -> usize;
         /// The coarsest level with at most `(1 - target_reduction)` of the original's tetrahedra

@@ -157,6 +157,15 @@ impl Progressive {
         added
     }
 
+    /// The reduction's shortfall of `target_reduction` ([`diamonds::progressive::Reduction::shortfall`]),
+    /// empty when there is none.
+    pub fn reduction_warning(&self, target_reduction: f64) -> Result<String, String> {
+        guard("checking the reduction", || {
+            let target = self.target_tets(target_reduction)?;
+            Ok(self.reduction.shortfall(target).unwrap_or_default())
+        })
+    }
+
     /// The tetrahedra left at `target_reduction`.
     fn target_tets(&self, target_reduction: f64) -> Result<usize, String> {
         if !(0.0..=1.0).contains(&target_reduction) {

@@ -6,7 +6,7 @@
 use crate::read::tetrahedra;
 use crate::{bail, Array, Result, Values};
 use diamonds::progressive::stream::{self, PointArray};
-use diamonds::progressive::{self, Params, TetInput};
+use diamonds::progressive::{Params, Reduction, TetInput};
 use flate2::read::ZlibDecoder;
 use flate2::write::ZlibEncoder;
 use std::path::{Path, PathBuf};
@@ -100,16 +100,22 @@ pub fn encode(opts: &EncodeOptions) -> Result<String> {
         boundary_tolerance: opts.boundary_tolerance * diagonal,
     };
     let start = Instant::now();
-    let pm = progressive::simplify(
+    let mut reduction = Reduction::new(
         TetInput {
             points: &grid.points,
             tets: &tets,
             scalars: &values,
         },
         &params,
-        &mut |_| true,
     )
     .map_err(|e| in_file(e.to_string()))?;
+    reduction
+        .reduce_to(params.target_tets, &mut |_| true)
+        .map_err(|e| in_file(e.to_string()))?;
+    if let Some(w) = reduction.shortfall(params.target_tets) {
+        eprintln!("warning: '{}': {w}", scalars.name);
+    }
+    let pm = reduction.into_mesh();
     let seconds = start.elapsed().as_secs_f64();
     let arrays: Vec<PointArray> = grid
         .point_data

@@ -524,6 +524,36 @@ impl Reduction {
         self.exhausted
     }
 
+    /// What the user should know after a reduction to `target_tets`: that it stopped short of it
+    /// ([`Self::exhausted`] above the target), where and why; `None` when the target is reached or
+    /// the reduction has not gone as far as it can.
+    pub fn shortfall(&self, target_tets: usize) -> Option<String> {
+        let reached = self.pm.error(0).tets;
+        if !self.exhausted || reached <= target_tets {
+            return None;
+        }
+        let input = self.pm.original_tets().len();
+        let params = &self.s.params;
+        let mut why = String::from(
+            "every collapse left would flip or flatten a tetrahedron or break the mesh's manifold structure",
+        );
+        if params.preserve_boundary {
+            why.push_str(
+                ", or move the boundary (corners and feature edges stay; a removed boundary vertex must lie within the boundary tolerance of the boundary)",
+            );
+        }
+        if params.max_field_error > 0.0 {
+            why.push_str(&format!(
+                ", or exceed the maximum field error {}",
+                params.max_field_error
+            ));
+        }
+        Some(format!(
+            "the reduction stops at {reached} tetrahedra ({:.2} % of the input's {input}), short of the {target_tets} asked: {why}",
+            100.0 * reached as f64 / input.max(1) as f64
+        ))
+    }
+
     /// The progressive mesh of the collapses made so far (its base mesh the current state).
     pub fn mesh(&self) -> &ProgressiveMesh {
         &self.pm

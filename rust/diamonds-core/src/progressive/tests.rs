@@ -283,6 +283,19 @@ fn a_reduction_continued_in_steps_makes_the_sequence_of_one_run() {
         assert_eq!(replay.tets(), r.mesh().error(0).tets);
     }
     assert!(r.exhausted());
+    // Asked for 0 tetrahedra, the reduction stopped short: said, with where and why; a target it
+    // reached is not.
+    let reached = r.mesh().error(0).tets;
+    assert!(reached > 0);
+    let said = r.shortfall(0).expect("short of 0 tetrahedra");
+    assert!(
+        said.contains(&format!("stops at {reached} tetrahedra"))
+            && said.contains(&format!("of the input's {m})"))
+            && said.contains("short of the 0 asked")
+            && said.contains("boundary tolerance"),
+        "{said}"
+    );
+    assert_eq!(r.shortfall(reached), None);
     assert_eq!(r.into_mesh(), whole);
 }
 
