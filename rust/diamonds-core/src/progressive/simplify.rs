@@ -43,7 +43,7 @@ use rstar::primitives::{GeomWithData, Rectangle};
 use rstar::{
     Envelope, PointDistance, RStarInsertionStrategy, RTree, RTreeObject, RTreeParams, AABB,
 };
-use rustc_hash::FxBuildHasher;
+use rustc_hash::{FxBuildHasher, FxHashSet};
 use std::cmp::Ordering;
 
 /// What the reduction was doing when memory ran out, for [`Error::OutOfMemory`].
@@ -360,6 +360,9 @@ struct Simplifier {
     faces: RTree<BoundaryFace, FaceTreeParams>,
     /// How many faces of [`Self::faces`] are dead.
     dead_faces: usize,
+    /// The live faces of [`Self::faces`] by their (sorted) corners: whether a face is on the
+    /// boundary without counting the tetrahedra around it.
+    live_faces: FxHashSet<[u32; 3]>,
     outside: RTree<OutsideBall>,
     boundary_distance: Vec<f64>,
     field_set: ErrorTree,
@@ -382,6 +385,18 @@ struct Simplifier {
     /// target, measure): a collapse popped again before any other is made needs no new measure
     /// (about a third of the requeued ones on the blunt fin).
     measured: Vec<(u32, u32, Exact)>,
+}
+
+/// The face of `c` without its corner `skip`, in `c`'s order.
+fn face(c: [u32; 4], skip: usize) -> [u32; 3] {
+    std::array::from_fn(|k| c[if k < skip { k } else { k + 1 }])
+}
+
+/// [`face`] with its corners sorted.
+fn sorted_face(c: [u32; 4], skip: usize) -> [u32; 3] {
+    let mut f = face(c, skip);
+    f.sort_unstable();
+    f
 }
 
 /// Simplifies `input` by half-edge collapses (§3.2) until `params.target_tets` is reached or no valid
@@ -652,6 +667,7 @@ impl Simplifier {
             field_error: vec![0.0; n],
             home: vec![u32::MAX; n],
             outside_distance: vec![0.0; n],
+            live_faces: faces.iter().map(|f| f.corners).collect(),
             faces,
             dead_faces: 0,
             outside: RTree::new(),
@@ -1203,7 +1219,7 @@ impl Simplifier {
                 )
                 .collect();
             if !carried.is_empty() {
-                let faces = self.new_boundary_faces(j, &removed, &new);
+                let faces = self.new_boundary_faces(&new, &new_faces);
                 for v in carried {
                     let p = self.pos[v as usize];
                     let (tet, d) = faces
@@ -1233,40 +1249,20 @@ impl Simplifier {
         })
     }
 
-    /// The boundary faces of the tetrahedra `new` (after `hec(i → j)`, `removed` the tetrahedra around
-    /// the edge): a face through `j` is on the boundary if no other tetrahedron around `j` after the
-    /// collapse has it, any other face if no other live tetrahedron has it now.
+    /// The boundary faces of the tetrahedra `new` (after `hec(i → j)`): the collapse keeps every
+    /// boundary face without `i` and replaces those at `i` by `new_faces`
+    /// ([`Self::faces_replacing`]).
     fn new_boundary_faces(
         &self,
-        j: u32,
-        removed: &[u32],
         new: &[(u32, [u32; 4])],
+        new_faces: &[BoundaryFace],
     ) -> Vec<(u32, [DVec3; 3])> {
-        let around_j: Vec<[u32; 4]> = new
-            .iter()
-            .map(|&(_, c)| c)
-            .chain(
-                self.star[j as usize]
-                    .iter()
-                    .filter(|t| !removed.contains(t))
-                    .map(|&t| self.tets[t as usize]),
-            )
-            .collect();
-        let has = |c: &[u32; 4], f: &[u32; 3]| f.iter().all(|v| c.contains(v));
         let mut faces = Vec::new();
         for &(t, c) in new {
             for skip in 0..4 {
-                let f: [u32; 3] = std::array::from_fn(|k| c[if k < skip { k } else { k + 1 }]);
-                let count = if f.contains(&j) {
-                    around_j.iter().filter(|o| has(o, &f)).count()
-                } else {
-                    self.star[f[0] as usize]
-                        .iter()
-                        .filter(|&&o| has(&self.tets[o as usize], &f))
-                        .count()
-                };
-                if count == 1 {
-                    faces.push((t, f.map(|v| self.pos[v as usize])));
+                let f = sorted_face(c, skip);
+                if self.live_faces.contains(&f) || new_faces.iter().any(|n| n.corners == f) {
+                    faces.push((t, face(c, skip).map(|v| self.pos[v as usize])));
                 }
             }
         }
@@ -1310,7 +1306,16 @@ impl Simplifier {
         }
         // The faces at `i` stay in the R-tree, dead with `i` ([`Self::is_live`]).
         self.dead_faces += faces_gone;
+        if faces_gone > 0 {
+            for &t in removed.iter().chain(&moved) {
+                let c = self.tets[t as usize];
+                for skip in (0..4).filter(|&k| c[k] != i) {
+                    self.live_faces.remove(&sorted_face(c, skip));
+                }
+            }
+        }
         for f in new_faces {
+            self.live_faces.insert(f.corners);
             self.faces.insert(f);
         }
         for &t in &removed {
@@ -1483,12 +1488,12 @@ mod tests {
         );
     }
 
-    /// The live faces of the boundary R-tree are exactly the boundary faces of the current mesh
-    /// (faces of one live tetrahedron), each once, and the dead ones are at most half the tree, at
+    /// The live faces of the boundary R-tree, and the set of live faces, are exactly the boundary
+    /// faces of the current mesh (faces of one live tetrahedron), each once, and the dead ones are at most half the tree, at
     /// every step of a cube's reduction to a twentieth (collapses on its sides kill faces and
     /// compact the tree).
     #[test]
-    fn the_live_faces_of_the_boundary_tree_are_the_current_boundary() {
+    fn the_live_faces_of_the_boundary_tree_and_set_are_the_current_boundary() {
         let g = grid(6, |p| p.x * p.y + p.z);
         let mut reduction = Reduction::new(g.input(), &Params::default()).expect("a valid cube");
         let (mut compacted, mut dead_before) = (false, 0);
@@ -1517,6 +1522,9 @@ mod tests {
                 .collect();
             live.sort_unstable();
             assert_eq!(live, want, "after step {step}");
+            let mut set: Vec<[u32; 3]> = s.live_faces.iter().copied().collect();
+            set.sort_unstable();
+            assert_eq!(set, want, "the set of live faces after step {step}");
             assert_eq!(s.faces.size() - live.len(), s.dead_faces);
             assert!(2 * s.dead_faces <= s.faces.size());
             compacted |= s.dead_faces < dead_before;
