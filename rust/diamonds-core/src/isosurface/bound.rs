@@ -7,7 +7,8 @@
 //! refinement by the isosurface error, the surface `S` drawn from the carrier leaves is checked:
 //! - every vertex of `F` lies within the tolerance of `S`;
 //! - every point of [`triangle_samples`] of the triangles of `S` (its vertices and points spaced at
-//!   most `h`, the smallest grid spacing) lies within the tolerance of `F`.
+//!   most `h`, the smallest grid spacing) lies within the tolerance of `F` — the output's triangles
+//!   ([`super::fine::output_triangles`]): another triangulation of a polygon has other samples.
 //!
 //! Distances are certified cheaply where possible ([`super::blocks`]): a point of `F` within a block
 //! of a sample of `S` is within the tolerance of `S`, and a sample of `S` within a block of a vertex
@@ -31,7 +32,7 @@
 
 use super::blocks::{bits, set_bit, Blocks};
 use super::error::{child_coordinates, tet_size2, RootTets};
-use super::fine::{cell_triangles, tet_triangles, vertices_from};
+use super::fine::{cell_triangles, output_triangles, vertices_from};
 use super::marching::carries;
 use super::{value, world};
 use super::{Extraction, IsoQuery};
@@ -241,11 +242,13 @@ impl<T: Sample> Extraction<'_, '_, T> {
     ) -> Result<Far> {
         let volume = self.volume;
         let grid = &volume.grid;
-        // The surface of a carrier as marching tetrahedra draws it (the polygon of a linear
-        // function in a tetrahedron is planar, so any triangulation covers the same points).
+        // The surface of a carrier as the output draws it: its samples are those of the output's
+        // triangles (another triangulation of the polygon covers the same points, but at other
+        // samples: checked at those, the output's went 0.348 from F at tolerance 0.3, on a volume
+        // of spacings 0.7, 1.3 and 2.1).
         let surface_of = |t: &Tet| {
             let corners = t.map(|q| world(volume, q));
-            tet_triangles(corners, t.map(|q| value(volume, q)), v)
+            output_triangles(t, corners, t.map(|q| value(volume, q)), v)
                 .into_iter()
                 .filter(|t| (t[1] - t[0]).cross(t[2] - t[0]) != DVec3::ZERO)
         };

@@ -17,6 +17,7 @@
 //! samples linearly along the cell edges, but inside a cell the two differ, by less than the cell
 //! (one voxel diagonal).
 
+use super::marching::{crosses, polygon_edges};
 use crate::lattice::Tet;
 use crate::volume::{Sample, Volume};
 use arrayvec::ArrayVec;
@@ -152,6 +153,27 @@ pub(crate) fn tet_triangles(p: [DVec3; 4], f: [f64; 4], v: f64) -> ArrayVec<[DVe
             out.push([q[0], q[2], q[3]]);
         }
         _ => {}
+    }
+    out
+}
+
+/// The triangles the output draws in the tetrahedron `t` (world corners `p`, values `f`) for the
+/// isovalue `v`: the points of [`tet_triangles`], triangulated as the output is (the fan of the
+/// polygon from its first corner, [`super::marching::polygon_edges`]), so that samples of them are
+/// samples of the output's triangles.
+pub(crate) fn output_triangles(
+    t: &Tet,
+    p: [DVec3; 4],
+    f: [f64; 4],
+    v: f64,
+) -> ArrayVec<[DVec3; 3], 2> {
+    let mut out = ArrayVec::new();
+    if crosses(&f, v) {
+        let (edges, n) = polygon_edges(t, &f, v);
+        let x = |(a, b): (usize, usize)| crossing(p[a], p[b], f[a], f[b], v);
+        for k in 1..n - 1 {
+            out.push([x(edges[0]), x(edges[k]), x(edges[k + 1])]);
+        }
     }
     out
 }

@@ -382,6 +382,52 @@ fn polygons(field: &impl Marching, tets: &[Tet]) -> Vec<Polygon> {
     )
 }
 
+/// The edges of the tetrahedron `t` (pairs of corners, the one above the isovalue `v` first) on
+/// which its polygon for `v` has its corners, in the polygon's cyclic order (3 or 4 of them; the
+/// rest unused), facing from the vertices below `v` to those above; `v` must cross `f`
+/// ([`crosses`]). The order is the output's: its triangles are the fan from the first corner.
+pub(crate) fn polygon_edges(t: &Tet, f: &[f64; 4], v: f64) -> ([(usize, usize); 4], usize) {
+    let mut above = [0usize; 4];
+    let mut below = [0usize; 4];
+    let (mut na, mut nb) = (0, 0);
+    for (i, &fi) in f.iter().enumerate() {
+        if fi >= v {
+            above[na] = i;
+            na += 1;
+        } else {
+            below[nb] = i;
+            nb += 1;
+        }
+    }
+    // The crossed edges in cyclic order around the polygon.
+    let (mut edges, n) = match (na, nb) {
+        (1, 3) => {
+            let a = above[0];
+            ([(a, below[0]), (a, below[1]), (a, below[2]), (0, 0)], 3)
+        }
+        (3, 1) => {
+            let b = below[0];
+            ([(above[0], b), (above[1], b), (above[2], b), (0, 0)], 3)
+        }
+        _ => {
+            let ([a, b], [c, d]) = ([above[0], above[1]], [below[0], below[1]]);
+            ([(a, c), (a, d), (b, d), (b, c)], 4)
+        }
+    };
+    // Orientation from the lattice alone, so that it holds even when points coincide with samples
+    // (zero-area triangles): the polygon through the edges' midpoints, in doubled integer
+    // coordinates, must face from the vertices below to those above. (A positive diagonal scaling
+    // to world coordinates keeps the sign.)
+    let mid2 = |(a, b): (usize, usize)| (t[a] + t[b]).as_i64vec3();
+    let (q0, q1, q2) = (mid2(edges[0]), mid2(edges[1]), mid2(edges[2]));
+    let sum = |vs: &[usize]| vs.iter().map(|&i| t[i].as_i64vec3()).sum::<I64Vec3>();
+    let up = sum(&above[..na]) * nb as i64 - sum(&below[..nb]) * na as i64;
+    if (q1 - q0).cross(q2 - q0).dot(up) < 0 {
+        edges[..n].reverse();
+    }
+    (edges, n)
+}
+
 /// The polygons of `tets` for every level of `levels`, the values at the vertices of tetrahedron
 /// `k` being `values(k, tet)` and the name of a vertex `index(p)`.
 fn polygons_of(
@@ -399,44 +445,7 @@ fn polygons_of(
                 if !crosses(&f, v) {
                     return None;
                 }
-                let mut above = [0usize; 4];
-                let mut below = [0usize; 4];
-                let (mut na, mut nb) = (0, 0);
-                for (i, &fi) in f.iter().enumerate() {
-                    if fi >= v {
-                        above[na] = i;
-                        na += 1;
-                    } else {
-                        below[nb] = i;
-                        nb += 1;
-                    }
-                }
-                // The crossed edges in cyclic order around the polygon.
-                let (mut edges, n) = match (na, nb) {
-                    (1, 3) => {
-                        let a = above[0];
-                        ([(a, below[0]), (a, below[1]), (a, below[2]), (0, 0)], 3)
-                    }
-                    (3, 1) => {
-                        let b = below[0];
-                        ([(above[0], b), (above[1], b), (above[2], b), (0, 0)], 3)
-                    }
-                    _ => {
-                        let ([a, b], [c, d]) = ([above[0], above[1]], [below[0], below[1]]);
-                        ([(a, c), (a, d), (b, d), (b, c)], 4)
-                    }
-                };
-                // Orientation from the lattice alone, so that it holds even when points coincide
-                // with samples (zero-area triangles): the polygon through the edges' midpoints, in
-                // doubled integer coordinates, must face from the vertices below to those above.
-                // (A positive diagonal scaling to world coordinates keeps the sign.)
-                let mid2 = |(a, b): (usize, usize)| (t[a] + t[b]).as_i64vec3();
-                let (q0, q1, q2) = (mid2(edges[0]), mid2(edges[1]), mid2(edges[2]));
-                let sum = |vs: &[usize]| vs.iter().map(|&i| t[i].as_i64vec3()).sum::<I64Vec3>();
-                let up = sum(&above[..na]) * nb as i64 - sum(&below[..nb]) * na as i64;
-                if (q1 - q0).cross(q2 - q0).dot(up) < 0 {
-                    edges[..n].reverse();
-                }
+                let (edges, n) = polygon_edges(t, &f, v);
                 let keys = edges.map(|(a, b)| {
                     let (ia, ib) = (index(t[a]), index(t[b]));
                     (ia.min(ib), ia.max(ib), k as u32)
