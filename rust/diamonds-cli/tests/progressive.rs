@@ -68,27 +68,22 @@ fn decoded_levels_equal_the_replay_and_pass_point_data_through() {
     let dir = TempDir::new("progressive");
     let vtu = adaptive_mesh(&dir);
     let dpm = dir.join("ml.dpm");
-    let run = diamonds([
-        "progressive",
-        "encode",
-        s(&vtu),
-        s(&dpm),
-        "--target-reduction",
-        "0.8",
-    ]);
+    let encode = |out: &Path, reduction: &str| {
+        diamonds([
+            "progressive",
+            "encode",
+            s(&vtu),
+            s(out),
+            "--target-reduction",
+            reduction,
+        ])
+    };
+    let run = encode(&dpm, "0.8");
     assert!(!run.stderr.contains("warning"), "{run:#?}");
     let report = run.ok();
     assert!(report.contains("% of the .vtu's"), "{report}");
     // A target no valid collapse reaches: the stream of the coarsest mesh reached, and a warning.
-    let all = dir.join("all.dpm");
-    let run = diamonds([
-        "progressive",
-        "encode",
-        s(&vtu),
-        s(&all),
-        "--target-reduction",
-        "1",
-    ]);
+    let run = encode(&dir.join("all.dpm"), "1");
     assert!(
         run.stderr.contains("the reduction stops at")
             && run.stderr.contains("short of the 0 asked"),

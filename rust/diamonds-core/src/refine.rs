@@ -893,8 +893,9 @@ impl Layer {
 
     /// The coordinates along `axis` of the orientation `odd`: odd or even multiples of the scale.
     fn axis(&self, odd: u8, axis: usize) -> std::iter::StepBy<std::ops::Range<i32>> {
-        let (s, lo) = (self.scale, self.lo[axis]); // ≥ 0: `of_depth` clamps it
-                                                   // The first multiple of `s` at or above `lo` of the wanted parity.
+        // `lo` ≥ 0: `of_depth` clamps it. The first multiple of `s` at or above `lo` of the wanted
+        // parity:
+        let (s, lo) = (self.scale, self.lo[axis]);
         let mut first = (lo + s - 1) / s * s;
         if (first / s) & 1 != (odd >> axis & 1) as i32 {
             first += s;

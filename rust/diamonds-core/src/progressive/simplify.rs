@@ -1489,9 +1489,9 @@ mod tests {
     }
 
     /// The live faces of the boundary R-tree, and the set of live faces, are exactly the boundary
-    /// faces of the current mesh (faces of one live tetrahedron), each once, and the dead ones are at most half the tree, at
-    /// every step of a cube's reduction to a twentieth (collapses on its sides kill faces and
-    /// compact the tree).
+    /// faces of the current mesh (faces of one live tetrahedron), each once, and the dead ones are
+    /// at most half the tree, at every step of a cube's reduction to a twentieth (collapses on its
+    /// sides kill faces and compact the tree).
     #[test]
     fn the_live_faces_of_the_boundary_tree_and_set_are_the_current_boundary() {
         let g = grid(6, |p| p.x * p.y + p.z);
