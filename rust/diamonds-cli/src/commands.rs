@@ -870,7 +870,7 @@ pub fn verify_surface(
             &triangles
         ));
         let measured = format!(
-            "full-resolution surface of '{}' at {} ({} triangles): from its {} vertices to the surface {}, from the surface's {} vertices and samples to it {} (every point of the surface within {:.4} more)",
+            "full-resolution surface of '{}' at {} ({} triangles): from its {} vertices and samples to the surface {}, from the surface's {} vertices and samples to it {} (every point of either surface within {:.4} more)",
             array.name,
             b.isovalue,
             d.fine_triangles,

@@ -328,8 +328,9 @@ enum Command {
         image: Option<PathBuf>,
         /// Also measure both one-sided Hausdorff distances (exact point-triangle distances) between the
         /// surface and the image's full-resolution marching-tetrahedra surface at this isovalue: from
-        /// every vertex of that surface to ours, and from every vertex of ours and samples of its
-        /// triangles spaced at most one voxel to it.
+        /// every vertex of that surface and samples of its triangles spaced at most one voxel to
+        /// ours, and from every vertex of ours and samples of its triangles spaced at most one voxel
+        /// to it.
         #[arg(
             long,
             value_name = "V",

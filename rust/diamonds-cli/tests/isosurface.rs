@@ -537,7 +537,7 @@ fn verify_surface_measures_both_distances_to_the_full_resolution_surface() {
     assert_eq!(run.code, 1, "{run:#?}");
     assert!(
         run.stdout
-            .contains("distance: FAILED: a vertex of the full-resolution surface lies")
+            .contains("distance: FAILED: a point of the full-resolution surface lies")
             && run.stdout.contains("verify-surface: FAILED"),
         "{run:#?}"
     );

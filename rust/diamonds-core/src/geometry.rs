@@ -161,6 +161,22 @@ pub fn triangle_samples(corners: [DVec3; 3], spacing: f64) -> impl Iterator<Item
     })
 }
 
+/// The `n²` triangles of the subdivision whose nodes [`triangle_samples`] lists (`count` of them),
+/// as indices into that list, each with the orientation of the whole triangle.
+pub fn sample_triangles(count: usize) -> impl Iterator<Item = [usize; 3]> {
+    // count = (n + 1)(n + 2) / 2; row i holds n + 1 − i nodes.
+    let n = (((8 * count + 1) as f64).sqrt().round() as usize - 3) / 2;
+    let node = move |i: usize, j: usize| i * (n + 1) - i * i.saturating_sub(1) / 2 + j;
+    (0..n).flat_map(move |i| {
+        (0..n - i).flat_map(move |j| {
+            let up = [node(i, j), node(i + 1, j), node(i, j + 1)];
+            let down =
+                (i + j + 2 <= n).then(|| [node(i + 1, j), node(i + 1, j + 1), node(i, j + 1)]);
+            std::iter::once(up).chain(down)
+        })
+    })
+}
+
 /// The sign of the exact orientation of `d` against the plane through `a`, `b`, `c` (Shewchuk's
 /// adaptive predicate, [`robust::orient3d`]): positive if `d` lies below it (`a`, `b`, `c`
 /// counter-clockwise seen from above), negative above, 0 exactly when the four are coplanar.
@@ -303,6 +319,38 @@ mod tests {
 
     fn tri(ids: [u32; 3], x: [[f64; 3]; 3]) -> ([u32; 3], [DVec3; 3]) {
         (ids, x.map(DVec3::from_array))
+    }
+
+    #[test]
+    fn sample_triangles_tile_the_triangle_with_small_similar_ones() {
+        let t = [
+            DVec3::new(0.3, -1.0, 2.0),
+            DVec3::new(4.1, 0.5, 1.0),
+            DVec3::new(-0.7, 2.2, 0.4),
+        ];
+        let area = |t: [DVec3; 3]| (t[1] - t[0]).cross(t[2] - t[0]);
+        for spacing in [10.0, 2.0, 0.9, 0.31] {
+            let samples: Vec<DVec3> = triangle_samples(t, spacing).collect();
+            let parts: Vec<[usize; 3]> = sample_triangles(samples.len()).collect();
+            let n = (samples.len() as f64 * 2.0).sqrt().floor() as usize - 1;
+            assert_eq!(parts.len(), n * n, "{spacing}");
+            let mut sum = DVec3::ZERO;
+            for p in &parts {
+                let p = p.map(|i| samples[i]);
+                assert!((0..3).all(|i| p[i].distance(p[(i + 1) % 3]) <= spacing + 1e-12));
+                // Same orientation: the normals add up to the whole's.
+                assert!(area(p).dot(area(t)) > 0.0);
+                sum += area(p);
+            }
+            assert!(
+                (sum - area(t)).length() < 1e-9 * area(t).length(),
+                "{spacing}"
+            );
+            // Every node is a corner of a part.
+            let mut used = vec![false; samples.len()];
+            parts.iter().flatten().for_each(|&i| used[i] = true);
+            assert!(used.into_iter().all(|u| u));
+        }
     }
 
     #[test]

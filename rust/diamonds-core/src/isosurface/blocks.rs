@@ -32,8 +32,7 @@ pub(super) fn set_bit(bits: &[AtomicU64], i: usize) -> bool {
 /// The blocks within one block of a set of points (see the module documentation).
 pub(super) struct Blocks {
     origin: DVec3,
-    /// The upper corner of the box and the reach the blocks were made for.
-    hi: DVec3,
+    /// The reach the blocks were made for.
     reach: f64,
     side: f64,
     /// Blocks along each axis (dense bitset) or none (hash set).
@@ -51,7 +50,12 @@ enum Storage {
 impl Blocks {
     /// The blocks of side `reach / (2√3)` within one block of `points`, over the box `[lo, hi]`
     /// (points outside it may be left out: the certificate then does not apply to them).
-    pub(super) fn around(lo: DVec3, hi: DVec3, reach: f64, points: &[DVec3]) -> Result<Self> {
+    pub(super) fn around(
+        lo: DVec3,
+        hi: DVec3,
+        reach: f64,
+        points: impl ParallelIterator<Item = DVec3>,
+    ) -> Result<Self> {
         let side = reach / (2.0 * 3f64.sqrt());
         let n = ((hi - lo) / side).floor() + DVec3::ONE;
         let dense = n.x * n.y * n.z <= MAX_DENSE as f64;
@@ -63,7 +67,6 @@ impl Blocks {
         let row = dims[0].div_ceil(64);
         let mut blocks = Self {
             origin: lo,
-            hi,
             reach,
             side,
             dims,
@@ -73,7 +76,7 @@ impl Blocks {
         blocks.storage = if dense {
             let marked = bits(row * 64 * dims[1] * dims[2]);
             // (`bits` is small: at most MAX_DENSE bits.)
-            points.par_iter().for_each(|&p| {
+            points.for_each(|p| {
                 if let Some(i) = blocks.dense_index(p) {
                     set_bit(&marked, i);
                 }
@@ -81,7 +84,8 @@ impl Blocks {
             let marked = marked.into_iter().map(AtomicU64::into_inner).collect();
             Storage::Dense(blocks.grow(marked)?)
         } else {
-            let marked: FxHashSet<[i64; 3]> = points.iter().map(|&p| blocks.block(p)).collect();
+            let marked: Vec<[i64; 3]> = points.map(|p| blocks.block(p)).collect();
+            let marked: FxHashSet<[i64; 3]> = marked.into_iter().collect();
             let mut grown = FxHashSet::default();
             for [x, y, z] in marked {
                 for dz in -1..=1 {
@@ -97,9 +101,9 @@ impl Blocks {
         Ok(blocks)
     }
 
-    /// The blocks around `points` over the same box and of the same side as these.
-    pub(super) fn alike(&self, points: &[DVec3]) -> Result<Self> {
-        Self::around(self.origin, self.hi, self.reach, points)
+    /// The reach the blocks were made for.
+    pub(super) fn reach(&self) -> f64 {
+        self.reach
     }
 
     /// Is `p` within one block of one of the points (so within `reach` of it)?
@@ -183,9 +187,9 @@ mod tests {
             DVec3::new(200.0, 1.0, 1.0),
         ];
         let reach = 2.0 * 3f64.sqrt(); // blocks of side 1
-        let dense = Blocks::around(lo, hi, reach, &points).unwrap();
+        let dense = Blocks::around(lo, hi, reach, points.par_iter().copied()).unwrap();
         assert!(matches!(dense.storage, Storage::Dense(_)));
-        let mut sparse = Blocks::around(lo, hi, reach, &points).unwrap();
+        let mut sparse = Blocks::around(lo, hi, reach, points.par_iter().copied()).unwrap();
         sparse.storage = Storage::Sparse(
             points
                 .iter()

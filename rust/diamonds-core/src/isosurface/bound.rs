@@ -4,45 +4,52 @@
 //! all lie on one side of the isovalue hides whatever its samples draw — a speck, a thin branch).
 //!
 //! Relative to the full-resolution surface `F` ([`super::fine`]) and for every isovalue, after the
-//! refinement by the isosurface error, the surface `S` drawn from the carrier leaves is checked:
-//! - every vertex of `F` lies within the tolerance of `S`;
-//! - every point of [`triangle_samples`] of the triangles of `S` (its vertices and points spaced at
-//!   most `h`, the smallest grid spacing) lies within the tolerance of `F` — the output's triangles
-//!   ([`super::fine::output_triangles`]): another triangulation of a polygon has other samples.
+//! refinement by the isosurface error, the surface `S` drawn from the carrier leaves is checked at
+//! every point of both ([`Cover`]):
+//! - every point of every triangle of `F` lies within the tolerance of `S`;
+//! - every point of every triangle of `S` (the output's, [`super::fine::output_triangles`]) lies
+//!   within the tolerance of `F`.
 //!
-//! Distances are certified cheaply where possible ([`super::blocks`]): a point of `F` within a block
-//! of a sample of `S` is within the tolerance of `S`, and a sample of `S` within a block of a vertex
-//! of `F` is within it of `F`. The rest are measured exactly: each vertex of `F` left against the
-//! triangles of `S` near it, from an [`rstar`] R-tree of them (stopping at the first within the
-//! tolerance), the triangles of
-//! `F` within the tolerance of a sample of `S` from the grid cells around it that `F` crosses
-//! ([`super::fine::cell_triangles`]). Every point that fails is a *violation*: the leaf holding it is
-//! split — the diamonds on the path from the root down to the tetrahedra around the point no larger
-//! than the tolerance, or, when the leaf already is, down to the finest tetrahedra — with closure,
-//! refinement continues from that mesh, and the check runs again. On the finest tetrahedra `S` is `F`,
-//! so this ends; every round splits at least one more diamond. A round after the first checks only
-//! what the splits may have changed: the surface of the new carriers and of the carriers that held a
-//! violation, and the vertices of F within the tolerance of a carrier that was split (the surface
-//! that certified them may be gone) or that were violations; everything else was certified by
-//! surface that is still there, against the same `F`.
+//! A triangle of `S` is covered by the parts of its subdivision at [`triangle_samples`] spaced at
+//! most `h` (the smallest grid spacing), a triangle of `F` (inside one grid cell) as it is; the
+//! parts near the tolerance are cut further. Distances are certified cheaply where possible
+//! ([`super::blocks`]): a sample of `S` within a block of a vertex of `F` is within the blocks'
+//! reach of `F`, and a grid cell whose centre is within a block of a sample of `S` holds no point
+//! of `F` beyond the tolerance (the reaches leave room for the parts' size, [`Reach`]). The rest
+//! are measured exactly: points of `F` against the triangles of `S` near them, from an [`rstar`]
+//! R-tree of them; points of `S` against the triangles of `F` in the grid cells around them that
+//! `F` crosses ([`super::fine::piece_triangles`]). Every point that fails is a *violation*: the
+//! leaf holding it is split — the diamonds on the path from the root down to the tetrahedra around
+//! the point no larger than the tolerance, or, when the leaf already is, down to the finest
+//! tetrahedra — with closure, refinement continues from that mesh, and the check runs again. On
+//! the finest tetrahedra `S` is `F`, so this ends; every round splits at least one more diamond. A
+//! round after the first checks only what the splits may have changed: the surface of the new
+//! carriers and of the carriers that held a violation, and the cells of F within the tolerance of
+//! a carrier that was split (the surface that certified them may be gone) or that held violations;
+//! everything else was certified by surface that is still there, against the same `F`.
 //!
 //! Both directions are checked against the tolerance less a millionth of the volume's diagonal (at
-//! most half the tolerance), for rounding (points written in single precision). Points outside the region of interest are not
-//! checked (the tolerance applies inside it).
+//! most half the tolerance), for rounding (points written in single precision). Points outside the
+//! region of interest are not checked (the tolerance applies inside it).
 
 use super::blocks::{bits, set_bit, Blocks};
+use super::cover::{Cover, Known, Surface};
 use super::error::{child_coordinates, tet_size2, RootTets};
-use super::fine::{cell_triangles, output_triangles, vertices_from};
+use super::fine::{cell_pieces, cell_triangles, output_triangles, piece_triangles, vertices_from};
 use super::marching::carries;
 use super::{value, world};
 use super::{Extraction, IsoQuery};
 use crate::diamond::{child_of, Diamond};
-use crate::geometry::{point_triangle_distance, triangle_samples, triangle_tree};
+use crate::geometry::{
+    point_triangle_distance, sample_triangles, triangle_samples, triangle_tree, Triangle,
+    TriangleTree,
+};
 use crate::lattice::Tet;
 use crate::mesh;
 use crate::refine::{Refiner, SplitSet};
-use crate::volume::{Grid, Sample};
+use crate::volume::{Grid, Sample, Volume};
 use crate::Result;
+use arrayvec::ArrayVec;
 use glam::{DVec3, IVec3};
 use rayon::prelude::*;
 use rustc_hash::FxHashSet;
@@ -50,13 +57,52 @@ use std::sync::atomic::AtomicU64;
 
 /// The full-resolution surface F of one isovalue as the check reads it.
 struct Fine {
-    /// Its vertices (inside the region of interest).
-    vertices: Vec<DVec3>,
-    /// The blocks around its vertices.
-    blocks: Blocks,
-    /// The grid cells it crosses, a bit per lower corner (point index).
+    /// The blocks around its vertices (inside the region of interest), of reach [`Reach::samples`].
+    blocks: Option<Blocks>,
+    /// The grid cells it crosses, a bit per lower corner (point index), and listed.
     crossed: Vec<u64>,
+    cells: Vec<u32>,
 }
+
+/// The distances the check compares with.
+#[derive(Clone, Copy)]
+struct Reach {
+    /// The tolerance less the rounding allowance.
+    full: f64,
+    /// The reach of the blocks of F's vertices, which certify the samples of `S`, leaving room for
+    /// the parts between samples (at most `h` long, so within `h / √3` of a sample); none when
+    /// that leaves less than a quarter of the reach (tolerances below about a voxel: every sample
+    /// is measured).
+    samples: Option<f64>,
+    /// The reach of the blocks of `S`'s samples, which certify whole grid cells by their centres
+    /// (every point of a cell lies within half its diagonal `D` of it) and the corners of F's
+    /// triangles (at most `D` long, so room for `D / √3`); none as above.
+    cells: Option<f64>,
+}
+
+impl Reach {
+    fn new(grid: &Grid, tolerance: f64) -> Self {
+        let full = tolerance - (1e-6 * grid.diagonal()).min(0.5 * tolerance);
+        let h = grid.spacing.into_iter().fold(f64::INFINITY, f64::min);
+        let diagonal = DVec3::from(grid.spacing).length();
+        let room = |margin: f64| Some(full - margin).filter(|&r| r >= 0.25 * full);
+        Self {
+            full,
+            samples: room(h / 3f64.sqrt()),
+            cells: room(diagonal / 3f64.sqrt()),
+        }
+    }
+}
+
+/// The grid's bounds, lower and upper corners.
+fn bounding_box(grid: &Grid) -> (DVec3, DVec3) {
+    let b = grid.bounds();
+    (DVec3::new(b[0], b[2], b[4]), DVec3::new(b[1], b[3], b[5]))
+}
+
+/// Parts of triangles are cut down to `h / FLOOR` (`h` the smallest grid spacing) before a part
+/// near the tolerance counts as a violation.
+const FLOOR: f64 = 16.0;
 
 /// Rounds of checking and splitting at most (each splits at least one diamond; in practice a few).
 const MAX_ROUNDS: usize = 64;
@@ -74,15 +120,14 @@ impl<T: Sample> Extraction<'_, '_, T> {
         let isovalues = &query.isovalues;
         let mut carriers = self.carriers_of(isovalues, &split)?;
         let grid = &self.volume.grid;
-        let reach = tolerance - (1e-6 * grid.diagonal()).min(0.5 * tolerance);
+        let reach = Reach::new(grid, tolerance);
         let inside = |p: DVec3| {
             query
                 .region_of_interest
                 .is_none_or(|r| (0..3).all(|a| r[2 * a] <= p[a] && p[a] <= r[2 * a + 1]))
         };
         // F, per isovalue, once.
-        let b = grid.bounds();
-        let (lo, hi) = (DVec3::new(b[0], b[2], b[4]), DVec3::new(b[1], b[3], b[5]));
+        let (lo, hi) = bounding_box(grid);
         let fine = isovalues
             .iter()
             .map(|&v| {
@@ -90,16 +135,18 @@ impl<T: Sample> Extraction<'_, '_, T> {
                 let points = super::error::corners_of(grid.dims, &cells);
                 let mut vertices = vertices_from(self.volume, v, &points);
                 vertices.retain(|&p| inside(p));
-                let blocks = Blocks::around(lo, hi, reach, &vertices)?;
+                let blocks = (reach.samples)
+                    .map(|r| Blocks::around(lo, hi, r, vertices.par_iter().copied()))
+                    .transpose()?;
                 let crossed = bits(grid.len());
                 cells.par_iter().for_each(|&c| {
                     set_bit(&crossed, c as usize);
                 });
                 let crossed = crossed.into_iter().map(AtomicU64::into_inner).collect();
                 Ok(Fine {
-                    vertices,
                     blocks,
                     crossed,
+                    cells,
                 })
             })
             .collect::<Result<Vec<Fine>>>()?;
@@ -110,11 +157,16 @@ impl<T: Sample> Extraction<'_, '_, T> {
             let mut violations = Vec::new();
             let mut far = Vec::with_capacity(isovalues.len());
             for ((&v, fine), pending) in isovalues.iter().zip(&fine).zip(&pending) {
-                let found = self.violations(v, &carriers, fine, pending, reach, &inside)?;
-                // One per block: the splits a violation causes cover its neighbours in the block.
+                let found =
+                    self.violations(v, &carriers, fine, pending, reach, query.region_of_interest)?;
+                // One per cube of side `reach / (2√3)`: the splits a violation causes cover its
+                // neighbours in the cube.
                 let mut seen = FxHashSet::default();
+                let side = reach.full / (2.0 * 3f64.sqrt());
                 violations.extend(
-                    (found.points.iter().copied()).filter(|&p| seen.insert(fine.blocks.block(p))),
+                    (found.points.iter().copied()).filter(|&p| {
+                        seen.insert(((p - lo) / side).floor().as_i64vec3().to_array())
+                    }),
                 );
                 far.push(found);
             }
@@ -128,22 +180,21 @@ impl<T: Sample> Extraction<'_, '_, T> {
             let (removed, kept);
             (split, carriers, removed, kept) =
                 self.force(isovalues, split, carriers, &forced, &criterion, tolerance);
-            let near_removed = self.cells_near(&removed, reach);
+            let near_removed = self.cells_near(&removed, reach.full);
             let gone: FxHashSet<Tet> = removed.into_iter().collect();
             pending = (far.into_iter().zip(&fine))
                 .map(|(far, fine)| {
                     let mut again = carriers[kept..].to_vec();
                     again.extend(far.carriers.into_iter().filter(|t| !gone.contains(t)));
-                    let mut vertices: Vec<u32> = (0..fine.vertices.len() as u32)
-                        .into_par_iter()
-                        .filter(|&i| near_removed.holds(fine.vertices[i as usize]))
+                    let mut cells: Vec<u32> = (fine.cells.par_iter().copied())
+                        .filter(|&c| near_removed.has(c as usize))
                         .collect();
-                    vertices.extend(far.vertices);
-                    vertices.sort_unstable();
-                    vertices.dedup();
+                    cells.extend(far.cells);
+                    cells.sort_unstable();
+                    cells.dedup();
                     Pending::Some {
                         carriers: again,
-                        vertices,
+                        cells,
                     }
                 })
                 .collect();
@@ -156,49 +207,183 @@ impl<T: Sample> Extraction<'_, '_, T> {
 /// certified while the surface that certified it is there: splits remove the surface of the
 /// carriers they split only, and F does not change.
 enum Pending {
-    /// Every sample of the surface and every vertex of F (the first round).
+    /// Every triangle of the surface and every crossed cell of F (the first round).
     All,
-    /// After splits: the samples of the surface of `carriers` (the new carriers, and the old ones
-    /// that held a violation and were not split) and the vertices of F numbered `vertices` (those
-    /// within the reach of a carrier that was split, whose surface may have certified them, and
-    /// those that were violations).
-    Some {
-        carriers: Vec<Tet>,
-        vertices: Vec<u32>,
-    },
+    /// After splits: the triangles of the surface of `carriers` (the new carriers, and the old ones
+    /// that held a violation and were not split) and the crossed cells `cells` (those within the
+    /// reach of a carrier that was split, whose surface may have certified them, and those that
+    /// held violations).
+    Some { carriers: Vec<Tet>, cells: Vec<u32> },
 }
 
 /// The violations of one round for one isovalue.
 struct Far {
     /// Every violating point (world).
     points: Vec<DVec3>,
-    /// The carriers whose surface holds a violating sample.
+    /// The carriers whose surface holds a violating point.
     carriers: Vec<Tet>,
-    /// The vertices of F that violate (numbers).
-    vertices: Vec<u32>,
+    /// The crossed cells whose part of F holds a violating point.
+    cells: Vec<u32>,
+}
+
+/// F as the surface the points of `S` are measured against: its pieces are the polygons of the
+/// finest tetrahedra, a grid cell's (lower corner's point index) `k`-th ([`super::fine::cell_tets`]).
+struct FineSurface<'v, 'a, T: Sample> {
+    volume: &'v Volume<'a, T>,
+    v: f64,
+    crossed: &'v [u64],
+}
+
+impl<T: Sample> FineSurface<'_, '_, T> {
+    /// Calls `visit` with each crossed grid cell (lower corner's point index and coordinates) of
+    /// the box of cells `lo..=up` (clamped to the grid) within `reach` of `p`, and the distance
+    /// from `p` to the cell, while it returns true.
+    fn cells(
+        &self,
+        p: DVec3,
+        (lo, up): (IVec3, IVec3),
+        reach: f64,
+        mut visit: impl FnMut(u32, IVec3, f64) -> bool,
+    ) -> bool {
+        let grid = &self.volume.grid;
+        let (origin, spacing) = (DVec3::from(grid.origin), DVec3::from(grid.spacing));
+        let hi = IVec3::from(grid.dims.map(|d| d as i32 - 2));
+        let (lo, up) = (lo.max(IVec3::ZERO), up.min(hi));
+        for z in lo.z..=up.z {
+            for y in lo.y..=up.y {
+                for x in lo.x..=up.x {
+                    let c = IVec3::new(x, y, z);
+                    let i = grid.index(x as usize, y as usize, z as usize);
+                    if self.crossed[i / 64] & (1 << (i % 64)) == 0 {
+                        continue;
+                    }
+                    let low = origin + c.as_dvec3() * spacing;
+                    let gap = (low - p).max(p - low - spacing).max(DVec3::ZERO).length();
+                    if gap <= reach && !visit(i as u32, c, gap) {
+                        return false;
+                    }
+                }
+            }
+        }
+        true
+    }
+
+    /// The box of the grid cells around the one holding `p`, `r` (world) in every direction.
+    fn around(&self, p: DVec3, r: f64) -> (IVec3, IVec3) {
+        let grid = &self.volume.grid;
+        let (origin, spacing) = (DVec3::from(grid.origin), DVec3::from(grid.spacing));
+        let cell = |p: DVec3| ((p - origin) / spacing).floor().as_ivec3();
+        (cell(p - r), cell(p + r))
+    }
+}
+
+impl<T: Sample> Surface for FineSurface<'_, '_, T> {
+    type Piece = (u32, u8);
+
+    fn nearest(&self, p: DVec3, enough: f64, reach: f64) -> (f64, Option<(u32, u8)>) {
+        // The crossed cells next to p's first, then those within the best distance so far,
+        // skipping cells farther than it; done at a piece within `enough`.
+        let best = std::cell::Cell::new((f64::INFINITY, None));
+        let visit = |i: u32, c: IVec3, gap: f64| {
+            if gap < best.get().0 {
+                for (k, t) in cell_pieces(self.volume, c, self.v) {
+                    let d = point_triangle_distance(p, t);
+                    if d < best.get().0 {
+                        best.set((d, Some((i, k))));
+                    }
+                }
+            }
+            best.get().0 > enough
+        };
+        let next = self.around(p, 0.0);
+        if self.cells(p, (next.0 - IVec3::ONE, next.1 + IVec3::ONE), reach, visit) {
+            let r = best.get().0.min(reach);
+            self.cells(p, self.around(p, r), r, visit);
+        }
+        let (d, piece) = best.get();
+        (d, piece.filter(|_| d <= reach))
+    }
+
+    fn distance_to(&self, (cell, k): (u32, u8), p: DVec3) -> f64 {
+        let c = IVec3::from(self.volume.grid.ijk(cell as usize).map(|c| c as i32));
+        piece_triangles(self.volume, c, k as usize, self.v)
+            .map(|t| point_triangle_distance(p, t))
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    fn any_piece(&self, p: DVec3, reach: f64, test: &mut dyn FnMut((u32, u8)) -> bool) -> bool {
+        !self.cells(p, self.around(p, reach), reach, |i, c, _| {
+            let mut pieces = cell_pieces(self.volume, c, self.v).into_iter().peekable();
+            while let Some((k, t)) = pieces.next() {
+                // A piece's triangles are consecutive: the piece is near when one of them is.
+                let mut near = point_triangle_distance(p, t) <= reach;
+                while let Some(&(_, t)) = pieces.peek().filter(|(next, _)| *next == k) {
+                    near |= point_triangle_distance(p, t) <= reach;
+                    pieces.next();
+                }
+                if near && test((i, k)) {
+                    return false;
+                }
+            }
+            true
+        })
+    }
+}
+
+/// The drawn surface `S` as the surface the points of F are measured against: its triangles with
+/// their carriers' numbers (each carrier's together), in an R-tree; its pieces are the carriers'
+/// polygons, named by one of their triangles.
+struct Drawn {
+    triangles: Vec<([DVec3; 3], u32)>,
+    tree: TriangleTree,
+}
+
+impl Surface for Drawn {
+    type Piece = u32;
+
+    fn nearest(&self, p: DVec3, enough: f64, reach: f64) -> (f64, Option<u32>) {
+        let within = |r: f64| self.tree.locate_within_distance(p.to_array(), r * r);
+        let measure = |t: &Triangle| (point_triangle_distance(p, t.corners), t.id);
+        let found = (within(enough).next().filter(|_| enough >= 0.0).map(measure)).or_else(|| {
+            within(reach)
+                .map(measure)
+                .min_by(|a, b| a.0.total_cmp(&b.0))
+        });
+        found.map_or((f64::INFINITY, None), |(d, id)| (d, Some(id)))
+    }
+
+    fn distance_to(&self, piece: u32, p: DVec3) -> f64 {
+        let i = piece as usize;
+        let owner = self.triangles[i].1;
+        (i.saturating_sub(1)..(i + 2).min(self.triangles.len()))
+            .filter(|&j| self.triangles[j].1 == owner)
+            .map(|j| point_triangle_distance(p, self.triangles[j].0))
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    fn any_piece(&self, p: DVec3, reach: f64, test: &mut dyn FnMut(u32) -> bool) -> bool {
+        (self
+            .tree
+            .locate_within_distance(p.to_array(), reach * reach))
+        .any(|t| test(t.id))
+    }
 }
 
 /// Grid cells marked in a bitset (a bit per lower corner's point index).
-struct Cells<'g> {
-    grid: &'g Grid,
+struct Cells {
     bits: Vec<u64>,
 }
 
-impl Cells<'_> {
-    /// Is `p` in a marked cell (the one `floor` gives, clamped to the grid)?
-    fn holds(&self, p: DVec3) -> bool {
-        let g = self.grid;
-        let top = DVec3::from(g.dims.map(|d| d as f64 - 2.0));
-        let c = ((p - DVec3::from(g.origin)) / DVec3::from(g.spacing)).floor();
-        let c = c.clamp(DVec3::ZERO, top);
-        let i = g.index(c.x as usize, c.y as usize, c.z as usize);
+impl Cells {
+    /// Is the cell with lower corner `i` (point index) marked?
+    fn has(&self, i: usize) -> bool {
         self.bits[i / 64] & (1 << (i % 64)) != 0
     }
 }
 
 impl<T: Sample> Extraction<'_, '_, T> {
     /// The grid cells within `reach` (world) of the bounding box of one of `tets`.
-    fn cells_near(&self, tets: &[Tet], reach: f64) -> Cells<'_> {
+    fn cells_near(&self, tets: &[Tet], reach: f64) -> Cells {
         let grid = &self.volume.grid;
         let marked = bits(grid.len());
         let (margin, hi) = (
@@ -221,7 +406,6 @@ impl<T: Sample> Extraction<'_, '_, T> {
             }
         });
         Cells {
-            grid,
             bits: marked.into_iter().map(AtomicU64::into_inner).collect(),
         }
     }
@@ -229,23 +413,22 @@ impl<T: Sample> Extraction<'_, '_, T> {
 
 impl<T: Sample> Extraction<'_, '_, T> {
     /// The points that break the bound for isovalue `v` on the surface of `carriers`, among those
-    /// `pending` names: vertices of F (`fine`) farther than `reach` from the surface, samples of the
-    /// surface farther than `reach` from F.
+    /// `pending` names: points of F's triangles in the pending cells of `fine` farther than `reach`
+    /// from the surface, points of the pending surface farther than `reach` from F ([`Cover`]).
     fn violations(
         &self,
         v: f64,
         carriers: &[Tet],
         fine: &Fine,
         pending: &Pending,
-        reach: f64,
-        inside: &(dyn Fn(DVec3) -> bool + Sync),
+        reach: Reach,
+        region: Option<[f64; 6]>,
     ) -> Result<Far> {
         let volume = self.volume;
         let grid = &volume.grid;
-        // The surface of a carrier as the output draws it: its samples are those of the output's
-        // triangles (another triangulation of the polygon covers the same points, but at other
-        // samples: checked at those, the output's went 0.348 from F at tolerance 0.3, on a volume
-        // of spacings 0.7, 1.3 and 2.1).
+        // The surface of a carrier as the output draws it (the fan of its polygon from its first
+        // corner). Any triangulation of the polygon covers the same points; the samples of the
+        // first cheap pass are those of the output's triangles.
         let surface_of = |t: &Tet| {
             let corners = t.map(|q| world(volume, q));
             output_triangles(t, corners, t.map(|q| value(volume, q)), v)
@@ -257,92 +440,136 @@ impl<T: Sample> Extraction<'_, '_, T> {
             Pending::All => carriers,
             Pending::Some { carriers, .. } => carriers,
         };
-        // The checked surface's triangles with their carriers, marched once: the samples come from
-        // them, and so does the R-tree below when every carrier is checked (the first round).
+        // The checked surface's triangles with their carriers (each carrier's together).
         let checked_triangles: Vec<([DVec3; 3], u32)> = (checked.par_iter().enumerate())
             .flat_map_iter(|(k, t)| surface_of(t).map(move |t| (t, k as u32)))
             .collect();
-        let (samples, owners): (Vec<DVec3>, Vec<u32>) = (checked_triangles.par_iter())
-            .flat_map_iter(|&(t, k)| {
-                triangle_samples(t, h)
-                    .filter(|&p| inside(p))
-                    .map(move |p| (p, k))
-            })
-            .unzip();
-        let all_triangles = matches!(pending, Pending::All).then_some(checked_triangles);
-        // F → S: vertices of F near a block of the checked surface's samples are within `reach` of
-        // it (blocks: a point near a block of the other set is within `reach` of it); each of the
-        // others is looked up in an R-tree of the triangles of S, stopping at the first within
-        // `reach` — most are, so a vertex costs a few distance tests.
-        let with_samples = fine.blocks.alike(&samples)?;
-        let far_from_samples = |i: &u32| !with_samples.near(fine.vertices[*i as usize]);
-        let open: Vec<u32> = match pending {
-            Pending::All => (0..fine.vertices.len() as u32)
-                .into_par_iter()
-                .filter(far_from_samples)
-                .collect(),
-            Pending::Some { vertices, .. } => vertices
-                .par_iter()
-                .copied()
-                .filter(far_from_samples)
-                .collect(),
+        // S → F: each triangle's samples spaced at most `h` (the cheap certificate from the blocks
+        // of F's vertices), then the parts of the triangles between them covered.
+        let to_fine = Cover {
+            surface: &FineSurface {
+                volume,
+                v,
+                crossed: &fine.crossed,
+            },
+            reach: reach.full,
+            floor: h / FLOOR,
+            region,
         };
-        let vertices: Vec<u32> = if open.is_empty() {
+        let near_fine = |p: DVec3| match &fine.blocks {
+            Some(blocks) if blocks.near(p) => Known::within(blocks.reach()),
+            _ => Known::UNKNOWN,
+        };
+        let far_samples: Vec<(DVec3, u32)> = (checked_triangles.par_iter())
+            .flat_map_iter(|&(t, k)| {
+                // Most triangles lie well within the reach: their samples near the blocks settle
+                // every part.
+                if fine.blocks.is_some()
+                    && triangle_samples(t, h).all(|p| near_fine(p).d < f64::INFINITY)
+                {
+                    return Vec::new();
+                }
+                let samples: Vec<DVec3> = triangle_samples(t, h).collect();
+                let mut known: Vec<_> = samples.iter().map(|&p| near_fine(p)).collect();
+                let mut far = Vec::new();
+                for [a, b, c] in sample_triangles(samples.len()) {
+                    let mut k3 = [known[a], known[b], known[c]];
+                    let found = to_fine.violation([samples[a], samples[b], samples[c]], &mut k3);
+                    [known[a], known[b], known[c]] = k3;
+                    far.extend(found.map(|p| (p, k)));
+                }
+                far
+            })
+            .collect();
+        // F → S: the crossed cells pending whose centre lies near a block of the checked
+        // surface's samples are within `reach` of it; each triangle of F in the others is covered
+        // against the whole surface (an R-tree of its triangles).
+        let with_samples = (reach.cells)
+            .map(|r| {
+                let (lo, hi) = bounding_box(grid);
+                let samples =
+                    (checked_triangles.par_iter()).flat_map_iter(|&(t, _)| triangle_samples(t, h));
+                Blocks::around(lo, hi, r, samples)
+            })
+            .transpose()?;
+        let near_drawn = |p: DVec3| match &with_samples {
+            Some(blocks) if blocks.near(p) => Known::within(blocks.reach()),
+            _ => Known::UNKNOWN,
+        };
+        let (origin, spacing) = (DVec3::from(grid.origin), DVec3::from(grid.spacing));
+        let open: Vec<u32> = match pending {
+            Pending::All => &fine.cells,
+            Pending::Some { cells, .. } => cells,
+        }
+        .par_iter()
+        .copied()
+        .filter(|&c| {
+            let centre =
+                origin + (DVec3::from(grid.ijk(c as usize).map(|c| c as f64)) + 0.5) * spacing;
+            near_drawn(centre).d == f64::INFINITY
+        })
+        .collect();
+        let far_cells: Vec<(DVec3, u32)> = if open.is_empty() {
             Vec::new()
         } else {
-            let tree = match all_triangles {
-                Some(triangles) => triangle_tree(triangles.into_iter().map(|(t, _)| t)),
-                None => {
-                    let triangles: Vec<[DVec3; 3]> =
-                        carriers.par_iter().flat_map_iter(surface_of).collect();
-                    triangle_tree(triangles.into_iter())
-                }
+            let all = match pending {
+                Pending::All => checked_triangles,
+                Pending::Some { .. } => (carriers.par_iter().enumerate())
+                    .flat_map_iter(|(k, t)| surface_of(t).map(move |t| (t, k as u32)))
+                    .collect(),
             };
-            let reach2 = reach * reach;
+            let drawn = Drawn {
+                tree: triangle_tree(all.iter().map(|&(t, _)| t)),
+                triangles: all,
+            };
+            let to_drawn = Cover {
+                surface: &drawn,
+                reach: reach.full,
+                floor: h / FLOOR,
+                region,
+            };
             open.into_par_iter()
-                .filter(|&i| {
-                    let p = fine.vertices[i as usize].to_array();
-                    tree.locate_within_distance(p, reach2).next().is_none()
+                .flat_map_iter(|c| {
+                    let cell = IVec3::from(grid.ijk(c as usize).map(|c| c as i32));
+                    let to_drawn = &to_drawn;
+                    let near_drawn = &near_drawn;
+                    // The cell's points (a point of F is a corner of several of its triangles;
+                    // the same point reached along another tetrahedron's edge may differ in its
+                    // last bits, far below the rounding allowance), each measured once.
+                    let triangles = cell_triangles(volume, cell, v);
+                    let mut points = ArrayVec::<(DVec3, Known<u32>), 36>::new();
+                    let same = h * 1e-9;
+                    let mut found = ArrayVec::<(DVec3, u32), 12>::new();
+                    for t in triangles {
+                        let at = t.map(|p| {
+                            points
+                                .iter()
+                                .position(|q| q.0.distance(p) <= same)
+                                .unwrap_or_else(|| {
+                                    points.push((p, near_drawn(p)));
+                                    points.len() - 1
+                                })
+                        });
+                        let mut known = at.map(|i| points[i].1);
+                        found.extend(to_drawn.violation(t, &mut known).map(|p| (p, c)));
+                        for (i, k) in at.into_iter().zip(known) {
+                            points[i].1 = k;
+                        }
+                    }
+                    found
                 })
                 .collect()
         };
-        // S → F.
-        let (origin, spacing) = (DVec3::from(grid.origin), DVec3::from(grid.spacing));
-        let hi = IVec3::from(grid.dims.map(|d| d as i32 - 2));
-        let far_samples: Vec<usize> = (0..samples.len())
-            .into_par_iter()
-            .filter(|&k| !fine.blocks.near(samples[k]))
-            .filter(|&k| {
-                // The crossed cells around p's, then all those within `reach` of p (lower
-                // corners).
-                let p = samples[k];
-                let cell = |p: DVec3| ((p - origin) / spacing).floor().as_ivec3();
-                let near = |lo: IVec3, up: IVec3| {
-                    let (lo, up) = (lo.max(IVec3::ZERO), up.min(hi));
-                    (lo.z..=up.z).any(|z| {
-                        (lo.y..=up.y).any(|y| {
-                            (lo.x..=up.x).any(|x| {
-                                let i = grid.index(x as usize, y as usize, z as usize);
-                                fine.crossed[i / 64] & (1 << (i % 64)) != 0
-                                    && cell_triangles(volume, IVec3::new(x, y, z), v)
-                                        .iter()
-                                        .any(|t| point_triangle_distance(p, *t) <= reach)
-                            })
-                        })
-                    })
-                };
-                let c = cell(p);
-                !(near(c - IVec3::ONE, c + IVec3::ONE) || near(cell(p - reach), cell(p + reach)))
-            })
-            .collect();
-        let mut far_carriers: Vec<u32> = far_samples.iter().map(|&k| owners[k]).collect();
+        let mut far_carriers: Vec<u32> = far_samples.iter().map(|&(_, k)| k).collect();
         far_carriers.dedup();
+        let mut cells: Vec<u32> = far_cells.iter().map(|&(_, c)| c).collect();
+        cells.dedup();
         Ok(Far {
-            points: (vertices.iter().map(|&i| fine.vertices[i as usize]))
-                .chain(far_samples.iter().map(|&k| samples[k]))
+            points: (far_cells.iter().chain(&far_samples))
+                .map(|&(p, _)| p)
                 .collect(),
             carriers: far_carriers.iter().map(|&k| checked[k as usize]).collect(),
-            vertices,
+            cells,
         })
     }
 

@@ -185,16 +185,48 @@ pub(crate) fn cell_triangles<T: Sample>(
     c: IVec3,
     v: f64,
 ) -> ArrayVec<[DVec3; 3], 12> {
+    cell_pieces(volume, c, v)
+        .into_iter()
+        .map(|(_, t)| t)
+        .collect()
+}
+
+/// The triangles of `F` for isovalue `v` (those of positive area) in the grid cell with lower
+/// corner `c`, each with the number of its tetrahedron among the [`cell_tets`]: the triangles of
+/// one tetrahedron together make a convex polygon (a plane's section of it), a *piece* of `F`.
+pub(crate) fn cell_pieces<T: Sample>(
+    volume: &Volume<'_, T>,
+    c: IVec3,
+    v: f64,
+) -> ArrayVec<(u8, [DVec3; 3]), 12> {
     let mut out = ArrayVec::new();
-    for t in cell_tets(c) {
-        let f = t.map(|q| super::value(volume, q));
-        out.extend(
-            tet_triangles(t.map(|q| super::world(volume, q)), f, v)
-                .into_iter()
-                .filter(|t| (t[1] - t[0]).cross(t[2] - t[0]) != DVec3::ZERO),
-        );
+    for (k, t) in cell_tets(c).into_iter().enumerate() {
+        out.extend(tet_piece(volume, t, v).map(|t| (k as u8, t)));
     }
     out
+}
+
+/// The triangles of the piece of `F` in the `k`-th of the [`cell_tets`] of the grid cell with lower
+/// corner `c` ([`cell_pieces`]).
+pub(crate) fn piece_triangles<T: Sample>(
+    volume: &Volume<'_, T>,
+    c: IVec3,
+    k: usize,
+    v: f64,
+) -> impl Iterator<Item = [DVec3; 3]> {
+    tet_piece(volume, cell_tets(c)[k], v)
+}
+
+/// The triangles of positive area of `F` for isovalue `v` in the finest tetrahedron `t`.
+fn tet_piece<T: Sample>(
+    volume: &Volume<'_, T>,
+    t: Tet,
+    v: f64,
+) -> impl Iterator<Item = [DVec3; 3]> {
+    let f = t.map(|q| super::value(volume, q));
+    tet_triangles(t.map(|q| super::world(volume, q)), f, v)
+        .into_iter()
+        .filter(|t| (t[1] - t[0]).cross(t[2] - t[0]) != DVec3::ZERO)
 }
 
 /// The full-resolution surface `F` of `isovalues` as a triangle soup (world coordinates, unoriented):

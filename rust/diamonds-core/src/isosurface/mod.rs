@@ -13,11 +13,9 @@
 //!
 //! **The bound.** Relative to the full-resolution surface `F` (marching tetrahedra on the finest
 //! tetrahedra of the grid, [`fine`]: what tolerance 0 draws), for every isovalue, a query's surface `S`
-//! satisfies: every vertex of `F` is within the tolerance of `S`, and every vertex of `S` and every
-//! sample of its triangles spaced at most `h` (the smallest grid spacing) is within the tolerance of
-//! `F`, so every point of `S` is within the tolerance plus `h / √3` of `F` (exact point–triangle
-//! distances; checked against the tolerance less a millionth of the diagonal for rounding; inside the
-//! region of interest only). Gregorski's error estimates but does not guarantee this, so [`bound`]
+//! satisfies: every point of `F` is within the tolerance of `S`, and every point of `S` within the
+//! tolerance of `F` (exact point–triangle distances; checked against the tolerance less a millionth
+//! of the diagonal for rounding; inside the region of interest only). Gregorski's error estimates but does not guarantee this, so [`bound`]
 //! checks the refined surface and splits where it fails until it holds. `F` is not the trilinear
 //! surface of marching cubes or Flying Edges: both interpolate the same samples linearly along the
 //! cell edges, but inside a cell they differ by less than one voxel diagonal. A query's result depends
@@ -43,8 +41,8 @@
 //! - [`bricks`]: sample ranges of 8³ bricks, which bound any box's range and list the crossed cells;
 //! - [`criterion`]: the diamond error refinement compares with the tolerance (§6.1 culling, §6.2);
 //! - [`error`]: `ae` measured per query at the surface samples, which descend the hierarchy together;
-//! - [`bound`]: the two-sided bound, checked and refined until it holds, with [`blocks`] as its
-//!   cheap distance certificate;
+//! - [`bound`]: the two-sided bound, checked and refined until it holds, with [`cover`] settling
+//!   every point of a triangle from its corners and [`blocks`] as its cheap distance certificate;
 //! - [`fine`]: the full-resolution surface the bound is relative to;
 //! - [`marching`]: marching tetrahedra on the carrier leaves, points shared by edge.
 
@@ -52,6 +50,7 @@ mod blocks;
 mod bound;
 mod bricks;
 mod cache;
+mod cover;
 mod criterion;
 mod error;
 mod fine;

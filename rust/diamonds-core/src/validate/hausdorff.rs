@@ -3,13 +3,15 @@
 //! finest tetrahedra, what a query at tolerance 0 draws), with exact point–triangle distances
 //! ([`crate::geometry::closest_point_on_triangle`]) found through [`rstar`] R-trees of the triangles.
 //!
-//! - `F → S`: the largest distance from a vertex of `F` to `S`;
+//! - `F → S`: the largest distance to `S` from the vertices of `F` and from samples of its triangles
+//!   spaced at most one voxel (`h`, the smallest grid spacing, [`crate::geometry::triangle_samples`]);
 //! - `S → F`: the largest distance to `F` from the corners of the triangles of `S` and from samples
-//!   of them spaced at most one voxel (`h`, the smallest grid spacing, [`crate::geometry::triangle_samples`]).
-//!   Every point of `S` lies within `h / √3` of a sample, so every point of `S` is within this
-//!   distance plus `h / √3` of `F` (the *slack*).
+//!   of them spaced at most `h`.
 //!
-//! The isosurface bound ([`crate::isosurface`]) is that both are at most the tolerance.
+//! Every point of either surface lies within `h / √3` of a sample, so every point is within the
+//! measured distance plus `h / √3` of the other surface (the *slack*). The isosurface bound
+//! ([`crate::isosurface`]) is that every point of either surface is within the tolerance of the
+//! other, so both measured distances are at most the tolerance.
 
 use crate::geometry::{triangle_samples, triangle_tree, TriangleTree};
 use crate::isosurface::{full_resolution_triangles, full_resolution_vertices};
@@ -30,16 +32,16 @@ pub struct Farthest {
 /// What [`surface_distances`] measured.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SurfaceDistances {
-    /// The largest distance from a vertex of `F` to `S`.
+    /// The largest distance from a vertex or sample of `F` to `S`.
     pub fine_to_surface: Farthest,
     /// The largest distance from a vertex or sample of `S` to `F`.
     pub surface_to_fine: Farthest,
-    /// Vertices and triangles of `F`.
+    /// Vertices and samples of `F` measured, and triangles of `F`.
     pub fine_vertices: usize,
     pub fine_triangles: usize,
     /// Vertices and samples of `S` measured.
     pub surface_samples: usize,
-    /// Every point of `S` lies within this distance of a measured sample (`h / √3`).
+    /// Every point of either surface lies within this distance of a measured sample (`h / √3`).
     pub slack: f64,
     /// Rounding allowed by [`SurfaceDistances::check`]: a billionth of the volume's diagonal.
     pub rounding: f64,
@@ -60,7 +62,7 @@ impl SurfaceDistances {
             }
         };
         side(
-            "a vertex of the full-resolution surface lies",
+            "a point of the full-resolution surface lies",
             &self.fine_to_surface,
         )
         .and(side(
@@ -105,16 +107,26 @@ pub fn surface_distances<T: Sample>(
         .into_iter()
         .fold(f64::INFINITY, f64::min);
     let corners = |t: &[u32; 3]| t.map(|i| DVec3::from(points[i as usize]));
+    let fine_triangles: Vec<[DVec3; 3]> = full_resolution_triangles(volume, isovalues)
+        .into_iter()
+        .map(|t| t.map(DVec3::from))
+        .collect();
+    let n_fine = fine_triangles.len();
+    // Its vertices (each once) and the samples of its triangles other than their corners.
     let fine: Vec<DVec3> = full_resolution_vertices(volume, isovalues)
         .into_iter()
         .map(DVec3::from)
+        .chain(
+            fine_triangles
+                .par_iter()
+                .flat_map_iter(|&t| triangle_samples(t, h).filter(move |p| !t.contains(p)))
+                .collect::<Vec<_>>(),
+        )
         .collect();
     let surface = triangle_tree(triangles.iter().map(corners));
     let fine_to_surface = farthest(&fine, &surface);
     drop(surface);
-    let fine_triangles = full_resolution_triangles(volume, isovalues);
-    let n_fine = fine_triangles.len();
-    let fine_tree = triangle_tree(fine_triangles.into_iter().map(|t| t.map(DVec3::from)));
+    let fine_tree = triangle_tree(fine_triangles.into_iter());
     // The corners of the triangles among them (a point no triangle uses is no part of the surface).
     let samples: Vec<DVec3> = triangles
         .par_iter()
