@@ -48,6 +48,19 @@ enum Storage {
 }
 
 impl Blocks {
+    /// The smallest reach for which the blocks over the box `[lo, hi]` are a dense bitset (at
+    /// most `MAX_DENSE` blocks).
+    pub(super) fn dense_reach(lo: DVec3, hi: DVec3) -> f64 {
+        // n blocks along an axis of extent e with side s: ⌊e / s⌋ + 1 ≤ e / s + 1.
+        let e = (hi - lo).max(DVec3::splat(f64::MIN_POSITIVE));
+        let volume = (e.x + 1.0) * (e.y + 1.0) * (e.z + 1.0);
+        let mut side = (volume / MAX_DENSE as f64).cbrt();
+        while ((e / side).floor() + DVec3::ONE).element_product() > MAX_DENSE as f64 {
+            side *= 1.01;
+        }
+        side * 2.0 * 3f64.sqrt()
+    }
+
     /// The blocks of side `reach / (2√3)` within one block of `points`, over the box `[lo, hi]`
     /// (points outside it may be left out: the certificate then does not apply to them).
     pub(super) fn around(

@@ -71,12 +71,13 @@ struct Reach {
     full: f64,
     /// The reach of the blocks of F's vertices, which certify the samples of `S`, leaving room for
     /// the parts between samples (at most `h` long, so within `h / √3` of a sample); none when
-    /// that leaves less than a quarter of the reach (tolerances below about a voxel: every sample
-    /// is measured).
+    /// there is no such room or the blocks would be finer than a dense bitset allows
+    /// ([`Blocks::dense_reach`]; tolerances below about a voxel: every sample is measured).
     samples: Option<f64>,
-    /// The reach of the blocks of `S`'s samples, which certify whole grid cells by their centres
-    /// (every point of a cell lies within half its diagonal `D` of it) and the corners of F's
-    /// triangles (at most `D` long, so room for `D / √3`); none as above.
+    /// The reach of the blocks of `S`'s samples, which certify whole grid cells of F by their
+    /// centres, leaving room for half a cell's diagonal `D` (every point of a cell lies within
+    /// `D / 2` of its centre), and the corners of F's triangles (at most `D` long, so within
+    /// `D / √3` of a corner: [`Known::within`]); none as above.
     cells: Option<f64>,
 }
 
@@ -85,11 +86,13 @@ impl Reach {
         let full = tolerance - (1e-6 * grid.diagonal()).min(0.5 * tolerance);
         let h = grid.spacing.into_iter().fold(f64::INFINITY, f64::min);
         let diagonal = DVec3::from(grid.spacing).length();
-        let room = |margin: f64| Some(full - margin).filter(|&r| r >= 0.25 * full);
+        let (lo, hi) = bounding_box(grid);
+        let dense = Blocks::dense_reach(lo, hi);
+        let room = |margin: f64| Some(full - margin).filter(|&r| r > 0.0 && r >= dense);
         Self {
             full,
             samples: room(h / 3f64.sqrt()),
-            cells: room(diagonal / 3f64.sqrt()),
+            cells: room(diagonal / 2.0),
         }
     }
 }
