@@ -347,11 +347,13 @@ impl Surface for Drawn {
     fn nearest(&self, p: DVec3, enough: f64, reach: f64) -> (f64, Option<u32>) {
         let within = |r: f64| self.tree.locate_within_distance(p.to_array(), r * r);
         let measure = |t: &Triangle| (point_triangle_distance(p, t.corners), t.id);
-        let found = (within(enough).next().filter(|_| enough >= 0.0).map(measure)).or_else(|| {
-            within(reach)
-                .map(measure)
-                .min_by(|a, b| a.0.total_cmp(&b.0))
-        });
+        let found = (Some(enough).filter(|&e| e >= 0.0))
+            .and_then(|e| within(e).next().map(measure))
+            .or_else(|| {
+                within(reach)
+                    .map(measure)
+                    .min_by(|a, b| a.0.total_cmp(&b.0))
+            });
         found.map_or((f64::INFINITY, None), |(d, id)| (d, Some(id)))
     }
 
