@@ -5,13 +5,12 @@
 //! points is stored as the blocks that hold one of them *grown* by one block in every direction: a
 //! point in a grown block is then within `reach` of the set, with one lookup. The set is a dense
 //! bitset over the blocks of the grid's bounds (rows padded to 64-bit words, grown by three
-//! separable passes of word shifts and ORs), or a hash set of blocks when the dense one would be too
-//! large (tolerances far below the grid spacing).
+//! separable passes of word shifts and ORs); reaches below [`Blocks::dense_reach`] are not offered
+//! blocks (the callers measure exact distances instead).
 
 use crate::Result;
 use glam::DVec3;
 use rayon::prelude::*;
-use rustc_hash::FxHashSet;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Largest dense bitset, in blocks (32 MiB).
@@ -35,16 +34,12 @@ pub(super) struct Blocks {
     /// The reach the blocks were made for.
     reach: f64,
     side: f64,
-    /// Blocks along each axis (dense bitset) or none (hash set).
+    /// Blocks along each axis.
     dims: [usize; 3],
-    /// 64-bit words per row of the dense bitset.
+    /// 64-bit words per row of the bitset.
     row: usize,
-    storage: Storage,
-}
-
-enum Storage {
-    Dense(Vec<u64>),
-    Sparse(FxHashSet<[i64; 3]>),
+    /// The grown blocks, a bit each.
+    bits: Vec<u64>,
 }
 
 impl Blocks {
@@ -62,7 +57,8 @@ impl Blocks {
     }
 
     /// The blocks of side `reach / (2√3)` within one block of `points`, over the box `[lo, hi]`
-    /// (points outside it may be left out: the certificate then does not apply to them).
+    /// (points outside it may be left out: the certificate then does not apply to them). `reach`
+    /// is at least [`Self::dense_reach`] of the box.
     pub(super) fn around(
         lo: DVec3,
         hi: DVec3,
@@ -71,12 +67,9 @@ impl Blocks {
     ) -> Result<Self> {
         let side = reach / (2.0 * 3f64.sqrt());
         let n = ((hi - lo) / side).floor() + DVec3::ONE;
-        let dense = n.x * n.y * n.z <= MAX_DENSE as f64;
-        let dims = if dense {
-            [n.x as usize, n.y as usize, n.z as usize]
-        } else {
-            [0; 3]
-        };
+        // (At most a row more than `MAX_DENSE` when `reach` is `dense_reach`, by rounding.)
+        debug_assert!(n.element_product() <= 1.01 * MAX_DENSE as f64, "{n}");
+        let dims = [n.x as usize, n.y as usize, n.z as usize];
         let row = dims[0].div_ceil(64);
         let mut blocks = Self {
             origin: lo,
@@ -84,33 +77,16 @@ impl Blocks {
             side,
             dims,
             row,
-            storage: Storage::Sparse(FxHashSet::default()),
+            bits: Vec::new(),
         };
-        blocks.storage = if dense {
-            let marked = bits(row * 64 * dims[1] * dims[2]);
-            // (`bits` is small: at most MAX_DENSE bits.)
-            points.for_each(|p| {
-                if let Some(i) = blocks.dense_index(p) {
-                    set_bit(&marked, i);
-                }
-            });
-            let marked = marked.into_iter().map(AtomicU64::into_inner).collect();
-            Storage::Dense(blocks.grow(marked)?)
-        } else {
-            let marked: Vec<[i64; 3]> = points.map(|p| blocks.block(p)).collect();
-            let marked: FxHashSet<[i64; 3]> = marked.into_iter().collect();
-            let mut grown = FxHashSet::default();
-            for [x, y, z] in marked {
-                for dz in -1..=1 {
-                    for dy in -1..=1 {
-                        for dx in -1..=1 {
-                            grown.insert([x + dx, y + dy, z + dz]);
-                        }
-                    }
-                }
+        let marked = bits(row * 64 * dims[1] * dims[2]);
+        points.for_each(|p| {
+            if let Some(i) = blocks.index(p) {
+                set_bit(&marked, i);
             }
-            Storage::Sparse(grown)
-        };
+        });
+        let marked = marked.into_iter().map(AtomicU64::into_inner).collect();
+        blocks.bits = blocks.grow(marked)?;
         Ok(blocks)
     }
 
@@ -121,25 +97,13 @@ impl Blocks {
 
     /// Is `p` within one block of one of the points (so within `reach` of it)?
     pub(super) fn near(&self, p: DVec3) -> bool {
-        match &self.storage {
-            Storage::Dense(bits) => self
-                .dense_index(p)
-                .is_some_and(|i| bits[i / 64] & (1 << (i % 64)) != 0),
-            Storage::Sparse(set) => set.contains(&self.block(p)),
-        }
+        self.index(p)
+            .is_some_and(|i| self.bits[i / 64] & (1 << (i % 64)) != 0)
     }
 
-    /// The block holding `p`.
-    pub(super) fn block(&self, p: DVec3) -> [i64; 3] {
-        ((p - self.origin) / self.side)
-            .floor()
-            .as_i64vec3()
-            .to_array()
-    }
-
-    /// The bit of the block holding `p` in the dense bitset, none outside it.
-    fn dense_index(&self, p: DVec3) -> Option<usize> {
-        let b = self.block(p);
+    /// The bit of the block holding `p`, none outside the box.
+    fn index(&self, p: DVec3) -> Option<usize> {
+        let b = ((p - self.origin) / self.side).floor().as_i64vec3();
         let [x, y, z] = [0, 1, 2].map(|a| usize::try_from(b[a]).ok().filter(|&c| c < self.dims[a]));
         Some(((z? * self.dims[1] + y?) * self.row) * 64 + x?)
     }
@@ -190,7 +154,8 @@ mod tests {
 
     #[test]
     fn grown_blocks_are_exactly_the_neighbourhoods_of_the_points() {
-        // Dense and sparse storage agree with the definition at every block centre of the box.
+        // The blocks agree with the definition at every block centre of the box; a point outside
+        // the box is left out.
         let (lo, hi) = (DVec3::ZERO, DVec3::new(150.0, 9.0, 7.0));
         let points = [
             DVec3::new(0.1, 0.1, 0.1),
@@ -200,39 +165,46 @@ mod tests {
             DVec3::new(200.0, 1.0, 1.0),
         ];
         let reach = 2.0 * 3f64.sqrt(); // blocks of side 1
-        let dense = Blocks::around(lo, hi, reach, points.par_iter().copied()).unwrap();
-        assert!(matches!(dense.storage, Storage::Dense(_)));
-        let mut sparse = Blocks::around(lo, hi, reach, points.par_iter().copied()).unwrap();
-        sparse.storage = Storage::Sparse(
-            points
-                .iter()
-                .flat_map(|&p| {
-                    let [x, y, z] = sparse.block(p);
-                    (-1..=1).flat_map(move |dz| {
-                        (-1..=1)
-                            .flat_map(move |dy| (-1..=1).map(move |dx| [x + dx, y + dy, z + dz]))
-                    })
-                })
-                .filter(|&[x, y, z]| x < 151 && y < 10 && z < 8)
-                .collect(),
-        );
+        let blocks = Blocks::around(lo, hi, reach, points.par_iter().copied()).unwrap();
+        assert_eq!(blocks.dims, [151, 10, 8]);
         let mut near = 0;
         for z in 0..8 {
             for y in 0..10 {
                 for x in 0..151 {
                     let c = DVec3::new(x as f64 + 0.5, y as f64 + 0.5, z as f64 + 0.5);
                     let expected = points[..4].iter().any(|&p| {
-                        let b = sparse.block(p);
-                        (b[0] - x).abs() <= 1 && (b[1] - y).abs() <= 1 && (b[2] - z).abs() <= 1
+                        let b = p.floor();
+                        (b.x - c.x.floor()).abs() <= 1.0
+                            && (b.y - c.y.floor()).abs() <= 1.0
+                            && (b.z - c.z.floor()).abs() <= 1.0
                     });
-                    assert_eq!(dense.near(c), expected, "dense at {c}");
-                    assert_eq!(sparse.near(c), expected, "sparse at {c}");
+                    assert_eq!(blocks.near(c), expected, "at {c}");
                     near += usize::from(expected);
                 }
             }
         }
         assert!(near > 27, "blocks near the points: {near}");
         // Within one block means within `reach`.
-        assert!(!dense.near(DVec3::new(-0.5, 0.5, 0.5)));
+        assert!(!blocks.near(DVec3::new(-0.5, 0.5, 0.5)));
+    }
+
+    #[test]
+    fn the_dense_reach_keeps_the_bitset_within_its_size() {
+        for hi in [
+            DVec3::new(255.0, 255.0, 255.0),
+            DVec3::new(2047.0, 2047.0, 1.0),
+            DVec3::new(1e-9, 5.0, 1e6),
+        ] {
+            let reach = Blocks::dense_reach(DVec3::ZERO, hi);
+            let blocks = Blocks::around(DVec3::ZERO, hi, reach, rayon::iter::empty()).unwrap();
+            let n: usize = blocks.dims.iter().product();
+            assert!(n <= MAX_DENSE, "{hi}: {n} blocks");
+            if hi.x == hi.z {
+                assert!(
+                    n > MAX_DENSE / 2,
+                    "{hi}: {n} blocks, a reach larger than needed"
+                );
+            }
+        }
     }
 }
