@@ -33,7 +33,7 @@
 //! region of interest are not checked (the tolerance applies inside it).
 
 use super::blocks::{bits, set_bit, Blocks};
-use super::cover::{Cover, Known, Surface};
+use super::cover::{in_region, Cover, Known, Surface};
 use super::error::{child_coordinates, tet_size2, RootTets};
 use super::fine::{cell_pieces, cell_triangles, output_triangles, piece_triangles, vertices_from};
 use super::marching::carries;
@@ -60,7 +60,7 @@ struct Fine {
     /// The blocks around its vertices (inside the region of interest), of reach [`Reach::samples`].
     blocks: Option<Blocks>,
     /// The grid cells it crosses, a bit per lower corner (point index), and listed.
-    crossed: Vec<u64>,
+    crossed: Cells,
     cells: Vec<u32>,
 }
 
@@ -124,11 +124,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
         let mut carriers = self.carriers_of(isovalues, &split)?;
         let grid = &self.volume.grid;
         let reach = Reach::new(grid, tolerance);
-        let inside = |p: DVec3| {
-            query
-                .region_of_interest
-                .is_none_or(|r| (0..3).all(|a| r[2 * a] <= p[a] && p[a] <= r[2 * a + 1]))
-        };
+        let inside = |p: DVec3| in_region(query.region_of_interest, p);
         // F, per isovalue, once.
         let (lo, hi) = bounding_box(grid);
         let fine = isovalues
@@ -145,7 +141,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
                 cells.par_iter().for_each(|&c| {
                     set_bit(&crossed, c as usize);
                 });
-                let crossed = crossed.into_iter().map(AtomicU64::into_inner).collect();
+                let crossed = Cells::from(crossed);
                 Ok(Fine {
                     blocks,
                     crossed,
@@ -234,7 +230,7 @@ struct Far {
 struct FineSurface<'v, 'a, T: Sample> {
     volume: &'v Volume<'a, T>,
     v: f64,
-    crossed: &'v [u64],
+    crossed: &'v Cells,
 }
 
 impl<T: Sample> FineSurface<'_, '_, T> {
@@ -257,7 +253,7 @@ impl<T: Sample> FineSurface<'_, '_, T> {
                 for x in lo.x..=up.x {
                     let c = IVec3::new(x, y, z);
                     let i = grid.index(x as usize, y as usize, z as usize);
-                    if self.crossed[i / 64] & (1 << (i % 64)) == 0 {
+                    if !self.crossed.has(i) {
                         continue;
                     }
                     let low = origin + c.as_dvec3() * spacing;
@@ -379,6 +375,14 @@ struct Cells {
     bits: Vec<u64>,
 }
 
+impl From<Vec<AtomicU64>> for Cells {
+    fn from(marked: Vec<AtomicU64>) -> Self {
+        Self {
+            bits: marked.into_iter().map(AtomicU64::into_inner).collect(),
+        }
+    }
+}
+
 impl Cells {
     /// Is the cell with lower corner `i` (point index) marked?
     fn has(&self, i: usize) -> bool {
@@ -410,9 +414,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
                 }
             }
         });
-        Cells {
-            bits: marked.into_iter().map(AtomicU64::into_inner).collect(),
-        }
+        Cells::from(marked)
     }
 }
 

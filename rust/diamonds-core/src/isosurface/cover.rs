@@ -59,6 +59,11 @@ impl<P> Known<P> {
     }
 }
 
+/// Is `p` in `region` (a box, x, y and z ranges), if there is one?
+pub(super) fn in_region(region: Option<[f64; 6]>, p: DVec3) -> bool {
+    region.is_none_or(|r| (0..3).all(|a| r[2 * a] <= p[a] && p[a] <= r[2 * a + 1]))
+}
+
 /// The check of triangles against `surface`: every point within `reach` of it, cutting parts down
 /// to `floor` (longest edge), inside `region` (a box, x, y and z ranges) only when there is one.
 pub(super) struct Cover<'s, S: Surface> {
@@ -71,7 +76,7 @@ pub(super) struct Cover<'s, S: Surface> {
 impl<S: Surface> Cover<'_, S> {
     /// Is `p` in the region?
     fn counts(&self, p: DVec3) -> bool {
-        (self.region).is_none_or(|r| (0..3).all(|a| r[2 * a] <= p[a] && p[a] <= r[2 * a + 1]))
+        in_region(self.region, p)
     }
 
     /// May the triangle `t` have points in the region (does its bounding box meet it)?
@@ -82,8 +87,10 @@ impl<S: Surface> Cover<'_, S> {
 
     /// A point of the triangle `t` (a corner of it or of a part) where the bound is broken or not
     /// certified, or none when every point of it lies within the reach of the surface. `known` is
-    /// what is known at its corners and gets what this learns of them. Points outside the region
-    /// are not checked.
+    /// what is known at its corners and gets what this learns of them. Parts outside the region
+    /// are not checked; a part cut to the floor that meets the region and is still unsettled is
+    /// reported by its worst corner, outside the region when none is in it (then within `floor` of
+    /// it), so no sliver along the region's boundary goes unchecked.
     pub fn violation(&self, t: [DVec3; 3], known: &mut [Known<S::Piece>; 3]) -> Option<DVec3> {
         if !self.touches(&t) {
             return None;
@@ -121,9 +128,12 @@ impl<S: Surface> Cover<'_, S> {
                 hint = hint.or(piece);
             }
         }
-        let worst = (0..3)
-            .filter(|&i| self.counts(t[i]))
-            .max_by(|&i, &j| known[i].d.total_cmp(&known[j].d));
+        let worst_of = |counted: bool| {
+            (0..3)
+                .filter(|&i| !counted || self.counts(t[i]))
+                .max_by(|&i, &j| known[i].d.total_cmp(&known[j].d))
+        };
+        let worst = worst_of(true);
         if let Some(i) = worst.filter(|&i| known[i].d > self.reach) {
             return Some(t[i]);
         }
@@ -143,7 +153,7 @@ impl<S: Surface> Cover<'_, S> {
             return None;
         }
         if longest <= self.floor {
-            return worst.map(|i| t[i]);
+            return worst.or_else(|| worst_of(false)).map(|i| t[i]);
         }
         let [a, b, c] = t;
         let (ab, bc, ca) = ((a + b) / 2.0, (b + c) / 2.0, (c + a) / 2.0);
@@ -249,11 +259,13 @@ mod tests {
         let mut k = [Known::within(1.0); 3];
         assert_eq!(cover.violation(t, &mut k), None);
         assert!(k.iter().all(|k| !k.measured));
-        // Points outside the region are not checked; inside it they are.
+        // Points outside the region are not checked; inside it they are, also in a slab through the
+        // triangle thinner than its parts at the floor, with no corner of any part inside it.
         for (region, broken) in [
             ([5.0, 6.0, 0.0, 4.0, -1.0, 1.0], false),
             ([0.0, 4.0, 0.0, 4.0, 0.0, 0.2], false),
             ([1.0, 2.0, 1.0, 2.0, 0.0, 1.0], true),
+            ([2.0001, 2.0002, -1.0, 5.0, -1.0, 1.0], true),
         ] {
             let cover = Cover {
                 surface: &s,
@@ -263,7 +275,14 @@ mod tests {
             };
             let found = cover.violation(t, &mut [Known::UNKNOWN; 3]);
             assert_eq!(found.is_some(), broken, "{region:?}");
-            assert!(found.is_none_or(|p| cover.counts(p)), "{region:?}");
+            let (lo, hi) = (
+                DVec3::new(region[0], region[2], region[4]),
+                DVec3::new(region[1], region[3], region[5]),
+            );
+            assert!(
+                found.is_none_or(|p| p.clamp(lo, hi).distance(p) <= cover.floor),
+                "{region:?}: {found:?}"
+            );
         }
     }
 
