@@ -388,24 +388,41 @@ impl Cells {
     fn has(&self, i: usize) -> bool {
         self.bits[i / 64] & (1 << (i % 64)) != 0
     }
+
+    /// Is a cell holding points of the box `[lo, up]` (grid units) of `grid` marked?
+    fn meet(&self, grid: &Grid, lo: DVec3, up: DVec3) -> bool {
+        let (lo, up) = cell_range(grid, lo, up);
+        (lo.z..=up.z).any(|z| {
+            (lo.y..=up.y).any(|y| {
+                (lo.x..=up.x).any(|x| self.has(grid.index(x as usize, y as usize, z as usize)))
+            })
+        })
+    }
 }
 
 impl<T: Sample> Extraction<'_, '_, T> {
     /// The grid cells within `reach` (world) of the bounding box of one of `tets`.
     fn cells_near(&self, tets: &[Tet], reach: f64) -> Cells {
+        let boxes = (tets.par_iter()).map(|t| {
+            let lo = t[0].min(t[1]).min(t[2].min(t[3]));
+            let up = t[0].max(t[1]).max(t[2].max(t[3]));
+            (lo.as_dvec3(), up.as_dvec3())
+        });
+        self.cells_around(boxes, reach)
+    }
+
+    /// The grid cells within `reach` (world) of one of `boxes` (lower and upper corners, grid
+    /// units).
+    fn cells_around(
+        &self,
+        boxes: impl ParallelIterator<Item = (DVec3, DVec3)>,
+        reach: f64,
+    ) -> Cells {
         let grid = &self.volume.grid;
         let marked = bits(grid.len());
-        let (margin, hi) = (
-            reach / DVec3::from(grid.spacing),
-            IVec3::from(grid.dims.map(|d| d as i32 - 2)),
-        );
-        tets.par_iter().for_each(|t| {
-            let lo = t[0].min(t[1]).min(t[2].min(t[3])).as_dvec3() - margin;
-            let up = t[0].max(t[1]).max(t[2].max(t[3])).as_dvec3() + margin;
-            let (lo, up) = (
-                lo.floor().as_ivec3().max(IVec3::ZERO),
-                up.floor().as_ivec3().min(hi),
-            );
+        let margin = reach / DVec3::from(grid.spacing);
+        boxes.for_each(|(lo, up)| {
+            let (lo, up) = cell_range(grid, lo - margin, up + margin);
             for z in lo.z..=up.z {
                 for y in lo.y..=up.y {
                     for x in lo.x..=up.x {
@@ -416,6 +433,16 @@ impl<T: Sample> Extraction<'_, '_, T> {
         });
         Cells::from(marked)
     }
+}
+
+/// The grid cells (lower corners) holding points of the box `[lo, up]` (grid units), clamped to
+/// the grid: the lowest and the highest.
+fn cell_range(grid: &Grid, lo: DVec3, up: DVec3) -> (IVec3, IVec3) {
+    let hi = IVec3::from(grid.dims.map(|d| d as i32 - 2));
+    (
+        lo.floor().as_ivec3().max(IVec3::ZERO),
+        up.floor().as_ivec3().min(hi),
+    )
 }
 
 impl<T: Sample> Extraction<'_, '_, T> {
@@ -467,27 +494,36 @@ impl<T: Sample> Extraction<'_, '_, T> {
             Some(blocks) if blocks.near(p) => Known::within(blocks.reach()),
             _ => Known::UNKNOWN,
         };
-        let far_samples: Vec<(DVec3, u32)> = (checked_triangles.par_iter())
-            .flat_map_iter(|&(t, k)| {
-                // Most triangles lie well within the reach: their samples near the blocks settle
-                // every part.
-                if fine.blocks.is_some()
-                    && triangle_samples(t, h).all(|p| near_fine(p).d < f64::INFINITY)
-                {
-                    return Vec::new();
-                }
-                let samples: Vec<DVec3> = triangle_samples(t, h).collect();
-                let mut known: Vec<_> = samples.iter().map(|&p| near_fine(p)).collect();
-                let mut far = Vec::new();
-                for [a, b, c] in sample_triangles(samples.len()) {
-                    let mut k3 = [known[a], known[b], known[c]];
-                    let found = to_fine.violation([samples[a], samples[b], samples[c]], &mut k3);
-                    [known[a], known[b], known[c]] = k3;
-                    far.extend(found.map(|p| (p, k)));
-                }
-                far
-            })
-            .collect();
+        let s_to_f = || -> Vec<(DVec3, u32)> {
+            (checked_triangles.par_iter())
+                .flat_map_iter(|&(t, k)| {
+                    // Most triangles lie well within the reach: their samples near the blocks settle
+                    // every part.
+                    if fine.blocks.is_some()
+                        && triangle_samples(t, h).all(|p| near_fine(p).d < f64::INFINITY)
+                    {
+                        return Vec::new();
+                    }
+                    let samples: Vec<DVec3> = triangle_samples(t, h).collect();
+                    let mut known: Vec<_> = samples.iter().map(|&p| near_fine(p)).collect();
+                    let mut far = Vec::new();
+                    for [a, b, c] in sample_triangles(samples.len()) {
+                        let mut k3 = [known[a], known[b], known[c]];
+                        let found =
+                            to_fine.violation([samples[a], samples[b], samples[c]], &mut k3);
+                        [known[a], known[b], known[c]] = k3;
+                        far.extend(found.map(|p| (p, k)));
+                    }
+                    far
+                })
+                .collect()
+        };
+        // The first round without the cell certificate measures every crossed cell of F against
+        // the whole surface: its R-tree is built (sequentially) while S → F runs.
+        let whole_tree = matches!(pending, Pending::All) && reach.cells.is_none();
+        let (far_samples, tree) = rayon::join(s_to_f, || {
+            whole_tree.then(|| triangle_tree(checked_triangles.iter().map(|&(t, _)| t)))
+        });
         // F → S: the crossed cells pending whose centre lies near a block of the checked
         // surface's samples are within `reach` of it; each triangle of F in the others is covered
         // against the whole surface (an R-tree of its triangles).
@@ -521,12 +557,25 @@ impl<T: Sample> Extraction<'_, '_, T> {
         } else {
             let all = match pending {
                 Pending::All => checked_triangles,
-                Pending::Some { .. } => (carriers.par_iter().enumerate())
-                    .flat_map_iter(|(k, t)| surface_of(t).map(move |t| (t, k as u32)))
-                    .collect(),
+                // Later rounds: the triangles within the reach of the open cells, the only ones
+                // that can settle points of them.
+                Pending::Some { .. } => {
+                    let boxes = (open.par_iter()).map(|&c| {
+                        let lo = DVec3::from(grid.ijk(c as usize).map(|c| c as f64));
+                        (lo, lo + DVec3::ONE)
+                    });
+                    let near_open = self.cells_around(boxes, reach.full);
+                    (carriers.par_iter().enumerate())
+                        .flat_map_iter(|(k, t)| surface_of(t).map(move |t| (t, k as u32)))
+                        .filter(|(t, _)| {
+                            let [a, b, c] = t.map(|p| (p - origin) / spacing);
+                            near_open.meet(grid, a.min(b).min(c), a.max(b).max(c))
+                        })
+                        .collect()
+                }
             };
             let drawn = Drawn {
-                tree: triangle_tree(all.iter().map(|&(t, _)| t)),
+                tree: tree.unwrap_or_else(|| triangle_tree(all.iter().map(|&(t, _)| t))),
                 triangles: all,
             };
             let to_drawn = Cover {
