@@ -388,13 +388,53 @@ impl Cells {
     fn has(&self, i: usize) -> bool {
         self.bits[i / 64] & (1 << (i % 64)) != 0
     }
+}
 
-    /// Is a cell holding points of the box `[lo, up]` (grid units) of `grid` marked?
-    fn meet(&self, grid: &Grid, lo: DVec3, up: DVec3) -> bool {
+/// Blocks of grid cells, each longer than `reach` along every axis, marked around a set of
+/// cells: a block is marked when it holds one of the cells or neighbours a block that does, so
+/// every point within `reach` of one of the cells lies in a marked block (a superset, whatever the
+/// reach, at 27 blocks per cell).
+struct Around {
+    /// Grid cells per block along each axis.
+    per: IVec3,
+    /// Blocks along each axis.
+    dims: IVec3,
+    blocks: Cells,
+}
+
+impl Around {
+    fn new(grid: &Grid, cells: &[u32], reach: f64) -> Self {
+        // Longer than the reach, so that a point at exactly the reach is in a marked block too.
+        let per = (reach / DVec3::from(grid.spacing)).floor().as_ivec3() + IVec3::ONE;
+        let dims = (IVec3::from(grid.dims.map(|d| d as i32 - 1)) + per - IVec3::ONE) / per;
+        let marked = bits(dims.element_product() as usize);
+        cells.par_iter().for_each(|&c| {
+            let b = IVec3::from(grid.ijk(c as usize).map(|c| c as i32)) / per;
+            let lo = (b - IVec3::ONE).max(IVec3::ZERO);
+            let up = (b + IVec3::ONE).min(dims - IVec3::ONE);
+            for z in lo.z..=up.z {
+                for y in lo.y..=up.y {
+                    for x in lo.x..=up.x {
+                        set_bit(&marked, ((z * dims.y + y) * dims.x + x) as usize);
+                    }
+                }
+            }
+        });
+        Self {
+            per,
+            dims,
+            blocks: Cells::from(marked),
+        }
+    }
+
+    /// Does the box `[lo, up]` (grid units) meet a marked block?
+    fn meets(&self, grid: &Grid, lo: DVec3, up: DVec3) -> bool {
         let (lo, up) = cell_range(grid, lo, up);
+        let (lo, up) = (lo / self.per, up / self.per);
         (lo.z..=up.z).any(|z| {
             (lo.y..=up.y).any(|y| {
-                (lo.x..=up.x).any(|x| self.has(grid.index(x as usize, y as usize, z as usize)))
+                (lo.x..=up.x)
+                    .any(|x| (self.blocks).has(((z * self.dims.y + y) * self.dims.x + x) as usize))
             })
         })
     }
@@ -403,26 +443,13 @@ impl Cells {
 impl<T: Sample> Extraction<'_, '_, T> {
     /// The grid cells within `reach` (world) of the bounding box of one of `tets`.
     fn cells_near(&self, tets: &[Tet], reach: f64) -> Cells {
-        let boxes = (tets.par_iter()).map(|t| {
-            let lo = t[0].min(t[1]).min(t[2].min(t[3]));
-            let up = t[0].max(t[1]).max(t[2].max(t[3]));
-            (lo.as_dvec3(), up.as_dvec3())
-        });
-        self.cells_around(boxes, reach)
-    }
-
-    /// The grid cells within `reach` (world) of one of `boxes` (lower and upper corners, grid
-    /// units).
-    fn cells_around(
-        &self,
-        boxes: impl ParallelIterator<Item = (DVec3, DVec3)>,
-        reach: f64,
-    ) -> Cells {
         let grid = &self.volume.grid;
         let marked = bits(grid.len());
         let margin = reach / DVec3::from(grid.spacing);
-        boxes.for_each(|(lo, up)| {
-            let (lo, up) = cell_range(grid, lo - margin, up + margin);
+        tets.par_iter().for_each(|t| {
+            let lo = t[0].min(t[1]).min(t[2].min(t[3])).as_dvec3() - margin;
+            let up = t[0].max(t[1]).max(t[2].max(t[3])).as_dvec3() + margin;
+            let (lo, up) = cell_range(grid, lo, up);
             for z in lo.z..=up.z {
                 for y in lo.y..=up.y {
                     for x in lo.x..=up.x {
@@ -560,16 +587,12 @@ impl<T: Sample> Extraction<'_, '_, T> {
                 // Later rounds: the triangles within the reach of the open cells, the only ones
                 // that can settle points of them.
                 Pending::Some { .. } => {
-                    let boxes = (open.par_iter()).map(|&c| {
-                        let lo = DVec3::from(grid.ijk(c as usize).map(|c| c as f64));
-                        (lo, lo + DVec3::ONE)
-                    });
-                    let near_open = self.cells_around(boxes, reach.full);
+                    let near_open = Around::new(grid, &open, reach.full);
                     (carriers.par_iter().enumerate())
                         .flat_map_iter(|(k, t)| surface_of(t).map(move |t| (t, k as u32)))
                         .filter(|(t, _)| {
                             let [a, b, c] = t.map(|p| (p - origin) / spacing);
-                            near_open.meet(grid, a.min(b).min(c), a.max(b).max(c))
+                            near_open.meets(grid, a.min(b).min(c), a.max(b).max(c))
                         })
                         .collect()
                 }
