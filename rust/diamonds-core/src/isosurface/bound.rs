@@ -18,7 +18,7 @@
 //! of `F` beyond the tolerance (the reaches leave room for the parts' size, [`Reach`]). The rest
 //! are measured exactly: points of `F` against the triangles of `S` near them, from an [`rstar`]
 //! R-tree of them; points of `S` against the triangles of `F` in the grid cells around them that
-//! `F` crosses ([`super::fine::piece_triangles`]). Every point that fails is a *violation*: the
+//! `F` crosses ([`super::fine::cell_pieces`], the last cells' kept per rayon job). Every point that fails is a *violation*: the
 //! leaf holding it is split — the diamonds on the path from the root down to the tetrahedra around
 //! the point no larger than the tolerance, or, when the leaf already is, down to the finest
 //! tetrahedra — with closure, refinement continues from that mesh, and the check runs again. On
@@ -35,7 +35,7 @@
 use super::blocks::{bits, set_bit, Blocks};
 use super::cover::{in_region, Cover, Known, Surface};
 use super::error::{child_coordinates, tet_size2, RootTets};
-use super::fine::{cell_pieces, cell_triangles, output_triangles, piece_triangles, vertices_from};
+use super::fine::{cell_pieces, cell_triangles, output_triangles, vertices_from};
 use super::marching::carries;
 use super::{value, world};
 use super::{Extraction, IsoQuery};
@@ -53,6 +53,7 @@ use arrayvec::ArrayVec;
 use glam::{DVec3, IVec3};
 use rayon::prelude::*;
 use rustc_hash::FxHashSet;
+use std::cell::RefCell;
 use std::sync::atomic::AtomicU64;
 
 /// The full-resolution surface F of one isovalue as the check reads it.
@@ -231,9 +232,42 @@ struct FineSurface<'v, 'a, T: Sample> {
     volume: &'v Volume<'a, T>,
     v: f64,
     crossed: &'v Cells,
+    /// The pieces of the cells visited last (one surface per rayon job: see [`Recent`]).
+    recent: RefCell<Recent>,
 }
 
+/// The pieces of F in one grid cell ([`cell_pieces`]).
+type Pieces = ArrayVec<(u8, [DVec3; 3]), 12>;
+
+/// The pieces of the grid cells visited last, by cell (direct-mapped, `RECENT` slots): the samples
+/// of a triangle of `S` and of its neighbours look at the same cells of F, which would otherwise be
+/// cut by marching tetrahedra again at every look.
+#[derive(Default)]
+struct Recent {
+    /// (cell, its pieces), `u32::MAX` for none; allocated at the first look.
+    slots: Vec<(u32, Pieces)>,
+}
+
+/// Slots of [`Recent`] (a power of two).
+const RECENT: usize = 64;
+
 impl<T: Sample> FineSurface<'_, '_, T> {
+    /// `read` applied to the pieces of F in the crossed grid cell `i` (lower corner's point index;
+    /// coordinates `c`); `read` must not look at the surface again.
+    fn with_pieces<R>(&self, i: u32, c: IVec3, read: impl FnOnce(&Pieces) -> R) -> R {
+        let mut recent = self.recent.borrow_mut();
+        if recent.slots.is_empty() {
+            recent.slots = vec![(u32::MAX, Pieces::new()); RECENT];
+        }
+        // Fibonacci hashing: cells one row or one slice apart get different slots.
+        let slot = (i.wrapping_mul(0x9E37_79B9) >> (32 - RECENT.trailing_zeros())) as usize;
+        let entry = &mut recent.slots[slot];
+        if entry.0 != i {
+            *entry = (i, cell_pieces(self.volume, c, self.v));
+        }
+        read(&entry.1)
+    }
+
     /// Calls `visit` with each crossed grid cell (lower corner's point index and coordinates) of
     /// the box of cells `lo..=up` (clamped to the grid) within `reach` of `p`, and the distance
     /// from `p` to the cell, while it returns true.
@@ -285,12 +319,14 @@ impl<T: Sample> Surface for FineSurface<'_, '_, T> {
         let best = std::cell::Cell::new((f64::INFINITY, None));
         let visit = |i: u32, c: IVec3, gap: f64| {
             if gap < best.get().0 {
-                for (k, t) in cell_pieces(self.volume, c, self.v) {
-                    let d = point_triangle_distance(p, t);
-                    if d < best.get().0 {
-                        best.set((d, Some((i, k))));
+                self.with_pieces(i, c, |pieces| {
+                    for &(k, t) in pieces {
+                        let d = point_triangle_distance(p, t);
+                        if d < best.get().0 {
+                            best.set((d, Some((i, k))));
+                        }
                     }
-                }
+                });
             }
             best.get().0 > enough
         };
@@ -305,14 +341,19 @@ impl<T: Sample> Surface for FineSurface<'_, '_, T> {
 
     fn distance_to(&self, (cell, k): (u32, u8), p: DVec3) -> f64 {
         let c = IVec3::from(self.volume.grid.ijk(cell as usize).map(|c| c as i32));
-        piece_triangles(self.volume, c, k as usize, self.v)
-            .map(|t| point_triangle_distance(p, t))
-            .fold(f64::INFINITY, f64::min)
+        self.with_pieces(cell, c, |pieces| {
+            (pieces.iter())
+                .filter(|&&(piece, _)| piece == k)
+                .map(|&(_, t)| point_triangle_distance(p, t))
+                .fold(f64::INFINITY, f64::min)
+        })
     }
 
     fn any_piece(&self, p: DVec3, reach: f64, test: &mut dyn FnMut((u32, u8)) -> bool) -> bool {
         !self.cells(p, self.around(p, reach), reach, |i, c, _| {
-            let mut pieces = cell_pieces(self.volume, c, self.v).into_iter().peekable();
+            // (A copy: `test` measures pieces again.)
+            let pieces = self.with_pieces(i, c, Pieces::clone);
+            let mut pieces = pieces.into_iter().peekable();
             while let Some((k, t)) = pieces.next() {
                 // A piece's triangles are consecutive: the piece is near when one of them is.
                 let mut near = point_triangle_distance(p, t) <= reach;
@@ -507,15 +548,11 @@ impl<T: Sample> Extraction<'_, '_, T> {
             .collect();
         // S → F: each triangle's samples spaced at most `h` (the cheap certificate from the blocks
         // of F's vertices), then the parts of the triangles between them covered.
-        let to_fine = Cover {
-            surface: &FineSurface {
-                volume,
-                v,
-                crossed: &fine.crossed,
-            },
-            reach: reach.full,
-            floor: h / FLOOR,
-            region,
+        let fine_surface = || FineSurface {
+            volume,
+            v,
+            crossed: &fine.crossed,
+            recent: RefCell::default(),
         };
         let near_fine = |p: DVec3| match &fine.blocks {
             Some(blocks) if blocks.near(p) => Known::within(blocks.reach()),
@@ -523,7 +560,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
         };
         let s_to_f = || -> Vec<(DVec3, u32)> {
             (checked_triangles.par_iter())
-                .flat_map_iter(|&(t, k)| {
+                .map_init(fine_surface, |surface, &(t, k)| {
                     // Most triangles lie well within the reach: their samples near the blocks settle
                     // every part.
                     if fine.blocks.is_some()
@@ -533,6 +570,12 @@ impl<T: Sample> Extraction<'_, '_, T> {
                     }
                     let samples: Vec<DVec3> = triangle_samples(t, h).collect();
                     let mut known: Vec<_> = samples.iter().map(|&p| near_fine(p)).collect();
+                    let to_fine = Cover {
+                        surface: &*surface,
+                        reach: reach.full,
+                        floor: h / FLOOR,
+                        region,
+                    };
                     let mut far = Vec::new();
                     for [a, b, c] in sample_triangles(samples.len()) {
                         let mut k3 = [known[a], known[b], known[c]];
@@ -543,6 +586,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
                     }
                     far
                 })
+                .flatten_iter()
                 .collect()
         };
         // The first round without the cell certificate measures every crossed cell of F against

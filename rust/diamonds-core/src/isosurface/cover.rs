@@ -15,7 +15,7 @@
 use glam::DVec3;
 
 /// The surface whose distance is measured: its exact distances, and its convex pieces.
-pub(super) trait Surface: Sync {
+pub(super) trait Surface {
     /// A convex piece of the surface.
     type Piece: Copy + PartialEq;
     /// The distance from `p` to a piece of the surface at most `enough` away, if one is found

@@ -206,17 +206,6 @@ pub(crate) fn cell_pieces<T: Sample>(
     out
 }
 
-/// The triangles of the piece of `F` in the `k`-th of the [`cell_tets`] of the grid cell with lower
-/// corner `c` ([`cell_pieces`]).
-pub(crate) fn piece_triangles<T: Sample>(
-    volume: &Volume<'_, T>,
-    c: IVec3,
-    k: usize,
-    v: f64,
-) -> impl Iterator<Item = [DVec3; 3]> {
-    tet_piece(volume, cell_tets(c)[k], v)
-}
-
 /// The triangles of positive area of `F` for isovalue `v` in the finest tetrahedron `t`.
 fn tet_piece<T: Sample>(
     volume: &Volume<'_, T>,
