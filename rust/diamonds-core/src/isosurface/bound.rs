@@ -18,15 +18,16 @@
 //! of `F` beyond the tolerance (the reaches leave room for the parts' size, [`Reach`]). The rest
 //! are measured exactly: points of `F` against the triangles of `S` near them, from an [`rstar`]
 //! R-tree of them; points of `S` against the triangles of `F` in the grid cells around them that
-//! `F` crosses ([`super::fine::cell_pieces`], the last cells' kept per rayon job). Every point that fails is a *violation*: the
-//! leaf holding it is split — the diamonds on the path from the root down to the tetrahedra around
-//! the point no larger than the tolerance, or, when the leaf already is, down to the finest
-//! tetrahedra — with closure, refinement continues from that mesh, and the check runs again. On
-//! the finest tetrahedra `S` is `F`, so this ends; every round splits at least one more diamond. A
-//! round after the first checks only what the splits may have changed: the surface of the new
-//! carriers and of the carriers that held a violation, and the cells of F within the tolerance of
-//! a carrier that was split (the surface that certified them may be gone) or that held violations;
-//! everything else was certified by surface that is still there, against the same `F`.
+//! `F` crosses ([`super::fine::cell_pieces`]; each rayon job keeps the last cells' in a
+//! [`Recent`]). Every point that fails is a *violation*: the leaf holding it is split — the
+//! diamonds on the path from the root down to the tetrahedra around the point no larger than the
+//! tolerance, or, when the leaf already is, down to the finest tetrahedra — with closure,
+//! refinement continues from that mesh, and the check runs again. On the finest tetrahedra `S`
+//! is `F`, so this ends; every round splits at least one more diamond. A round after the first
+//! checks only what the splits may have changed: the surface of the new carriers and of the
+//! carriers that held a violation, and the cells of F within the tolerance of a carrier that was
+//! split (the surface that certified them may be gone) or that held violations; everything else
+//! was certified by surface that is still there, against the same `F`.
 //!
 //! Both directions are checked against the tolerance less a millionth of the volume's diagonal (at
 //! most half the tolerance), for rounding (points written in single precision). Points outside the
