@@ -514,6 +514,24 @@ fn cell_range(grid: &Grid, lo: DVec3, up: DVec3) -> (IVec3, IVec3) {
     )
 }
 
+/// The surface of the carriers `tets` for isovalue `v` as the output draws it (the fan of each
+/// polygon from its first corner), each triangle with its carrier's position in `tets`, each
+/// carrier's together. Any triangulation of a polygon covers the same points; the samples of the
+/// check's first cheap pass are those of the output's triangles.
+fn drawn_triangles<'t, T: Sample>(
+    volume: &'t Volume<'_, T>,
+    v: f64,
+    tets: &'t [Tet],
+) -> impl ParallelIterator<Item = ([DVec3; 3], u32)> + 't {
+    (tets.par_iter().enumerate()).flat_map_iter(move |(k, t)| {
+        let corners = t.map(|q| world(volume, q));
+        output_triangles(t, corners, t.map(|q| value(volume, q)), v)
+            .into_iter()
+            .filter(|t| (t[1] - t[0]).cross(t[2] - t[0]) != DVec3::ZERO)
+            .map(move |t| (t, k as u32))
+    })
+}
+
 impl<T: Sample> Extraction<'_, '_, T> {
     /// The points that break the bound for isovalue `v` on the surface of `carriers`, among those
     /// `pending` names: points of F's triangles in the pending cells of `fine` farther than `reach`
@@ -529,24 +547,13 @@ impl<T: Sample> Extraction<'_, '_, T> {
     ) -> Result<Far> {
         let volume = self.volume;
         let grid = &volume.grid;
-        // The surface of a carrier as the output draws it (the fan of its polygon from its first
-        // corner). Any triangulation of the polygon covers the same points; the samples of the
-        // first cheap pass are those of the output's triangles.
-        let surface_of = |t: &Tet| {
-            let corners = t.map(|q| world(volume, q));
-            output_triangles(t, corners, t.map(|q| value(volume, q)), v)
-                .into_iter()
-                .filter(|t| (t[1] - t[0]).cross(t[2] - t[0]) != DVec3::ZERO)
-        };
         let h = grid.spacing.into_iter().fold(f64::INFINITY, f64::min);
         let checked = match pending {
             Pending::All => carriers,
             Pending::Some { carriers, .. } => carriers,
         };
-        // The checked surface's triangles with their carriers (each carrier's together).
-        let checked_triangles: Vec<([DVec3; 3], u32)> = (checked.par_iter().enumerate())
-            .flat_map_iter(|(k, t)| surface_of(t).map(move |t| (t, k as u32)))
-            .collect();
+        let checked_triangles: Vec<([DVec3; 3], u32)> =
+            drawn_triangles(volume, v, checked).collect();
         // S → F: each triangle's samples spaced at most `h` (the cheap certificate from the blocks
         // of F's vertices), then the parts of the triangles between them covered.
         let fine_surface = || FineSurface {
@@ -633,8 +640,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
                 // that can settle points of them.
                 Pending::Some { .. } => {
                     let near_open = Around::new(grid, &open, reach.full);
-                    (carriers.par_iter().enumerate())
-                        .flat_map_iter(|(k, t)| surface_of(t).map(move |t| (t, k as u32)))
+                    drawn_triangles(volume, v, carriers)
                         .filter(|(t, _)| {
                             let [a, b, c] = t.map(|p| (p - origin) / spacing);
                             near_open.meets(grid, a.min(b).min(c), a.max(b).max(c))

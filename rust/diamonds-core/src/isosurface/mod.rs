@@ -15,11 +15,12 @@
 //! tetrahedra of the grid, [`fine`]: what tolerance 0 draws), for every isovalue, a query's surface `S`
 //! satisfies: every point of `F` is within the tolerance of `S`, and every point of `S` within the
 //! tolerance of `F` (exact point–triangle distances; checked against the tolerance less a millionth
-//! of the diagonal for rounding; inside the region of interest only). Gregorski's error estimates but does not guarantee this, so [`bound`]
-//! checks the refined surface and splits where it fails until it holds. `F` is not the trilinear
-//! surface of marching cubes or Flying Edges: both interpolate the same samples linearly along the
-//! cell edges, but inside a cell they differ by less than one voxel diagonal. A query's result depends
-//! only on the query, never on the queries before it.
+//! of the diagonal for rounding; inside the region of interest only). Gregorski's error estimates
+//! but does not guarantee this, so [`bound`] checks the refined surface and splits where it fails
+//! until it holds. `F` is not the trilinear surface of marching cubes or Flying Edges: both
+//! interpolate the same samples linearly along the cell edges, but inside a cell they differ by less
+//! than one voxel diagonal. A query's result depends only on the query, never on the queries before
+//! it.
 //!
 //! The surface is extracted from the leaves of the adaptive, conforming mesh by marching tetrahedra; a
 //! point is shared by every triangle through its mesh edge, so the surface is crack-free wherever the
