@@ -181,14 +181,16 @@ impl<T: Sample> Extraction<'_, '_, T> {
             let (removed, kept);
             (split, carriers, removed, kept) =
                 self.force(isovalues, split, carriers, &forced, &criterion, tolerance);
-            let near_removed = self.cells_near(&removed, reach.full);
+            let near_removed = NearBoxes::new(grid, &removed, reach.full);
             let gone: FxHashSet<Tet> = removed.into_iter().collect();
             pending = (far.into_iter().zip(&fine))
                 .map(|(far, fine)| {
                     let mut again = carriers[kept..].to_vec();
                     again.extend(far.carriers.into_iter().filter(|t| !gone.contains(t)));
                     let mut cells: Vec<u32> = (fine.cells.par_iter().copied())
-                        .filter(|&c| near_removed.has(c as usize))
+                        .filter(|&c| {
+                            near_removed.has(IVec3::from(grid.ijk(c as usize).map(|c| c as i32)))
+                        })
                         .collect();
                     cells.extend(far.cells);
                     cells.sort_unstable();
@@ -482,25 +484,72 @@ impl Around {
     }
 }
 
-impl<T: Sample> Extraction<'_, '_, T> {
-    /// The grid cells within `reach` (world) of the bounding box of one of `tets`.
-    fn cells_near(&self, tets: &[Tet], reach: f64) -> Cells {
-        let grid = &self.volume.grid;
-        let marked = bits(grid.len());
+/// The grid cells within a distance of the bounding box of one of a set of tetrahedra: each box,
+/// grown by the distance, as its range of cells, listed in the blocks of cells (longer than the
+/// distance, as [`Around`]'s) that the range meets. A cell is tested against the ranges of its
+/// block only, so building and asking cost the blocks a range meets and the ranges per block, not
+/// the cells of every range (a reach³ per tetrahedron at tolerances of tens of cells).
+struct NearBoxes {
+    /// Grid cells per block along each axis.
+    per: IVec3,
+    /// Blocks along each axis.
+    dims: IVec3,
+    /// The ranges (lowest and highest cell) meeting block `b`: `ranges[starts[b]..starts[b + 1]]`.
+    starts: Vec<u32>,
+    ranges: Vec<(IVec3, IVec3)>,
+}
+
+impl NearBoxes {
+    fn new(grid: &Grid, tets: &[Tet], reach: f64) -> Self {
+        let per = (reach / DVec3::from(grid.spacing)).floor().as_ivec3() + IVec3::ONE;
+        let dims = (IVec3::from(grid.dims.map(|d| d as i32 - 1)) + per - IVec3::ONE) / per;
         let margin = reach / DVec3::from(grid.spacing);
-        tets.par_iter().for_each(|t| {
-            let lo = t[0].min(t[1]).min(t[2].min(t[3])).as_dvec3() - margin;
-            let up = t[0].max(t[1]).max(t[2].max(t[3])).as_dvec3() + margin;
-            let (lo, up) = cell_range(grid, lo, up);
-            for z in lo.z..=up.z {
-                for y in lo.y..=up.y {
-                    for x in lo.x..=up.x {
-                        set_bit(&marked, grid.index(x as usize, y as usize, z as usize));
-                    }
-                }
+        let boxes: Vec<(IVec3, IVec3)> = (tets.iter())
+            .map(|t| {
+                let lo = t[0].min(t[1]).min(t[2].min(t[3])).as_dvec3() - margin;
+                let up = t[0].max(t[1]).max(t[2].max(t[3])).as_dvec3() + margin;
+                cell_range(grid, lo, up)
+            })
+            .collect();
+        let blocks_of = |&(lo, up): &(IVec3, IVec3)| {
+            let (lo, up) = (lo / per, up / per);
+            (lo.z..=up.z).flat_map(move |z| {
+                (lo.y..=up.y)
+                    .flat_map(move |y| (lo.x..=up.x).map(move |x| (z * dims.y + y) * dims.x + x))
+            })
+        };
+        // Counting sort of (block, range) by block.
+        let mut starts = vec![0u32; dims.element_product() as usize + 1];
+        for b in boxes.iter().flat_map(blocks_of) {
+            starts[b as usize + 1] += 1;
+        }
+        for b in 1..starts.len() {
+            starts[b] += starts[b - 1];
+        }
+        let mut next = starts.clone();
+        let mut ranges = vec![(IVec3::ZERO, IVec3::ZERO); starts[starts.len() - 1] as usize];
+        for range in &boxes {
+            for b in blocks_of(range) {
+                ranges[next[b as usize] as usize] = *range;
+                next[b as usize] += 1;
             }
-        });
-        Cells::from(marked)
+        }
+        Self {
+            per,
+            dims,
+            starts,
+            ranges,
+        }
+    }
+
+    /// Is the grid cell `c` (lower corner) in one of the grown boxes?
+    fn has(&self, c: IVec3) -> bool {
+        let b = c / self.per;
+        let b = ((b.z * self.dims.y + b.y) * self.dims.x + b.x) as usize;
+        let (from, to) = (self.starts[b] as usize, self.starts[b + 1] as usize);
+        (self.ranges[from..to])
+            .iter()
+            .any(|&(lo, up)| c.cmpge(lo).all() && c.cmple(up).all())
     }
 }
 
@@ -815,6 +864,46 @@ mod tests {
     use crate::isosurface::cache::IsoCache;
     use crate::isosurface::refine_query;
     use crate::volume::{Grid, ScalarSlice, Volume};
+
+    #[test]
+    fn near_boxes_hold_the_cells_of_the_grown_boxes() {
+        // The definition: a cell is near when it lies in the cell range of a tetrahedron's box
+        // grown by the reach. Spacing differs per axis; reaches below a cell, of a few cells and
+        // beyond the grid; tetrahedra at the grid's faces and inside.
+        let mut grid = Grid::new([23, 17, 30]);
+        grid.spacing = [0.5, 1.25, 0.8];
+        let tets: Vec<Tet> = (0..40)
+            .map(|k: i32| {
+                let p = IVec3::new((k * 7) % 23, (k * 5) % 17, (k * 11) % 30);
+                let q = (p + IVec3::new(k % 3, 1 + k % 2, k % 4)).min(IVec3::new(22, 16, 29));
+                [p, q, IVec3::new(p.x, q.y, p.z), IVec3::new(q.x, p.y, q.z)]
+            })
+            .collect();
+        for reach in [0.3, 2.0, 4.1, 40.0] {
+            for n in [0, 1, 7, tets.len()] {
+                let near = NearBoxes::new(&grid, &tets[..n], reach);
+                let margin = reach / DVec3::from(grid.spacing);
+                for i in 0..grid.len() {
+                    let [x, y, z] = grid.ijk(i);
+                    if x + 1 == grid.dims[0] || y + 1 == grid.dims[1] || z + 1 == grid.dims[2] {
+                        continue;
+                    }
+                    let c = IVec3::new(x as i32, y as i32, z as i32);
+                    let expected = tets[..n].iter().any(|t| {
+                        let lo = t[0].min(t[1]).min(t[2].min(t[3])).as_dvec3() - margin;
+                        let up = t[0].max(t[1]).max(t[2].max(t[3])).as_dvec3() + margin;
+                        let (lo, up) = cell_range(&grid, lo, up);
+                        c.cmpge(lo).all() && c.cmple(up).all()
+                    });
+                    assert_eq!(
+                        near.has(c),
+                        expected,
+                        "cell {c}, reach {reach}, {n} tetrahedra"
+                    );
+                }
+            }
+        }
+    }
 
     #[test]
     fn carriers_after_forcing_are_the_leaves_that_carry() {
