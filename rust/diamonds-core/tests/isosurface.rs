@@ -5,10 +5,10 @@
 
 use diamonds::diamond::{bisect, Diamond};
 use diamonds::fields::{sample, sphere_distance, torus_distance, unit_grid};
-use diamonds::geometry::{point_triangle_distance, triangle_samples, triangle_tree};
+use diamonds::geometry::{triangle_samples, triangle_tree};
 use diamonds::isosurface::{extract, full_resolution_triangles, marching_tetrahedra};
 use diamonds::lattice::{Lattice, Placement, Tet};
-use diamonds::validate::{check_surface, check_unit_normals, surface_distances};
+use diamonds::validate::{check_surface, check_unit_normals, farthest, surface_distances};
 use diamonds::{Grid, Hierarchy, IsoQuery, IsoState, IsoSurface, ScalarSlice, Volume};
 use glam::DVec3;
 use rayon::prelude::*;
@@ -446,12 +446,8 @@ fn every_point_of_both_surfaces_is_within_tolerances_below_a_voxel_on_anisotropi
 /// The largest distance from samples of the triangles `from` spaced at most `spacing` to the
 /// triangles `to`.
 fn farthest_sample(from: &[[DVec3; 3]], to: &[[DVec3; 3]], spacing: f64) -> f64 {
-    let tree = triangle_tree(to.iter().copied());
-    from.par_iter()
+    let samples: Vec<DVec3> = (from.par_iter())
         .flat_map_iter(|&t| triangle_samples(t, spacing))
-        .map(|p| {
-            let t = tree.nearest_neighbor(&p.to_array()).unwrap();
-            point_triangle_distance(p, t.corners)
-        })
-        .reduce(|| 0.0, f64::max)
+        .collect();
+    farthest(&samples, &triangle_tree(to.iter().copied())).distance
 }

@@ -74,7 +74,7 @@ impl SurfaceDistances {
 
 /// The largest distance from `points` to the triangles of `tree` (infinite if it is empty while
 /// `points` is not).
-fn farthest(points: &[DVec3], tree: &TriangleTree) -> Farthest {
+pub fn farthest(points: &[DVec3], tree: &TriangleTree) -> Farthest {
     points
         .par_iter()
         .map(|p| {
