@@ -19,11 +19,14 @@
 //! are measured exactly: points of `F` against the triangles of `S` near them, from an [`rstar`]
 //! R-tree of them; points of `S` against the triangles of `F` in the grid cells around them that
 //! `F` crosses ([`super::fine::cell_pieces`]; each rayon job keeps the last cells' in a
-//! [`Recent`]). Every point that fails is a *violation*: the leaf holding it is split — the
-//! diamonds on the path from the root down to the tetrahedra around the point no larger than the
+//! [`Recent`]). Every point that fails is a *violation*: the leaf holding it (found as the mesh's
+//! walk finds it, through the tetrahedra straddling a far face of the domain, whose diamonds the
+//! split set does not hold; a point on a far face is taken just inside it) is split — the
+//! diamonds on the path from the leaf down to the tetrahedra around the point no larger than the
 //! tolerance, or, when the leaf already is, down to the finest tetrahedra — with closure,
 //! refinement continues from that mesh, and the check runs again. On the finest tetrahedra `S`
-//! is `F`, so this ends; every round splits at least one more diamond. A round after the first
+//! is `F`, so this ends; every round splits at least one more diamond (the check fails with
+//! [`crate::Error::Uncertified`] if it has not ended after [`MAX_ROUNDS`]). A round after the first
 //! checks only what the splits may have changed: the surface of the new carriers and of the
 //! carriers that held a violation, and the cells of F within the tolerance of a carrier that was
 //! split (the surface that certified them may be gone) or that held violations; everything else
@@ -45,11 +48,11 @@ use crate::geometry::{
     point_triangle_distance, sample_triangles, triangle_samples, triangle_tree, Triangle,
     TriangleTree,
 };
-use crate::lattice::Tet;
+use crate::lattice::{Placement, Tet};
 use crate::mesh;
 use crate::refine::{Refiner, SplitSet};
 use crate::volume::{Grid, Sample, Volume};
-use crate::Result;
+use crate::{Error, Result};
 use arrayvec::ArrayVec;
 use glam::{DVec3, IVec3};
 use rayon::prelude::*;
@@ -108,6 +111,9 @@ fn bounding_box(grid: &Grid) -> (DVec3, DVec3) {
 /// Parts of triangles are cut down to `h / FLOOR` (`h` the smallest grid spacing) before a part
 /// near the tolerance counts as a violation.
 const FLOOR: f64 = 16.0;
+
+/// How far (lattice units) a violation on a far face of the domain is moved inside to find its leaf.
+const INSIDE: f64 = 1e-6;
 
 /// Rounds of checking and splitting at most (each splits at least one diamond; in practice a few).
 const MAX_ROUNDS: usize = 64;
@@ -172,11 +178,13 @@ impl<T: Sample> Extraction<'_, '_, T> {
                 far.push(found);
             }
             if violations.is_empty() {
-                break;
+                return Ok((split, carriers));
             }
             let forced = self.forced(&split, &violations, tolerance);
             if forced.is_empty() {
-                break;
+                // Every violation lies in a leaf of the finest tetrahedra, where the surface is F's
+                // but for degenerate pieces (an isovalue equal to a sample's), which neither draws.
+                return Ok((split, carriers));
             }
             let (removed, kept);
             (split, carriers, removed, kept) =
@@ -202,7 +210,9 @@ impl<T: Sample> Extraction<'_, '_, T> {
                 })
                 .collect();
         }
-        Ok((split, carriers))
+        Err(Error::Uncertified(format!(
+            "still failing after {MAX_ROUNDS} rounds of splits"
+        )))
     }
 }
 
@@ -766,15 +776,21 @@ impl<T: Sample> Extraction<'_, '_, T> {
         let paths: Vec<Vec<Diamond>> = violations
             .par_iter()
             .map(|&p| {
-                let u = ((p - origin) / spacing).clamp(DVec3::ZERO, top);
+                // Just inside a far face of the domain: a tetrahedron holding a point there holds
+                // some of the domain around it, so the descent below ends in the mesh's leaf.
+                let u = ((p - origin) / spacing).clamp(DVec3::ZERO, top - INSIDE);
                 let (k, mut l) = roots.containing(u);
                 let mut t = roots.tets[k].0;
                 let step = |t: &Tet, l: [f64; 4], m: IVec3| {
                     let (first, nl) = child_coordinates(t, l);
                     (child_of(t, first, *t, t[usize::from(!first)], m), nl)
                 };
-                // Down to the leaf.
-                while let Some(d) = Diamond::of_tet(&t).filter(|&d| split.contains(d)) {
+                // Down to the leaf, as the mesh's walk goes (`mesh::walk_pruned`): through the split
+                // diamonds, and through every tetrahedron straddling a far face, split wherever the
+                // surface may pass though its diamond is not in the split set.
+                while let Some(d) = Diamond::of_tet(&t)
+                    .filter(|&d| lattice.place(&t) != Placement::Inside || split.contains(d))
+                {
                     (t, l) = step(&t, l, d.center);
                 }
                 // Below it, to no larger than the tolerance; to the finest if it already is.
