@@ -28,7 +28,9 @@
 //!   faces as in Adaptive Tetrahedra ([`crate::lattice`]; the same tetrahedra for every `s`). Every
 //!   sample is a vertex, so the field error can reach 0 at the finest tetrahedra on any grid; `s` is 1
 //!   (tetrahedra down to half a cell where interfaces need them) or more while `2^-s` of the widest
-//!   spacing exceeds the interface tolerance (as far as the split sets' memory allows); vertex
+//!   spacing exceeds the interface tolerance, and one more at a time while the finest tetrahedra
+//!   still miss it (near junctions, where the signed distances vary slowly; as far as the split
+//!   sets' memory allows); vertex
 //!   values between samples are resampled from the data (§5.1: "the input datasets are resampled at
 //!   the vertices of the tetrahedral mesh"). Errors are measured at the data samples (the "native data
 //!   elements" of §5.4), exactly, not with the nested bound of Eq. (1)–(2). Refinement evaluates the

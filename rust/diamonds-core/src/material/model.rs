@@ -736,7 +736,30 @@ impl MaterialModel {
                 )));
             }
         }
-        let shift = self.levels(query);
+        // The interface error of a tetrahedron is a distance, but near a junction of materials the
+        // signed distances can vary slowly enough inside it to exceed its width: where the finest
+        // tetrahedra of the lattice still miss the interface tolerance, a lattice one level finer
+        // is tried, as far as memory allows (the field error reaches 0 on any lattice).
+        let mut shift = self.levels(query);
+        loop {
+            let mesh = self.refine_on(query, shift, progress)?;
+            if !query.ghost_values
+                || mesh.max_interface_error <= query.interface_tolerance
+                || lattice_points(&self.grid, shift + 1) > MAX_LATTICE_POINTS
+            {
+                return Ok(mesh);
+            }
+            shift += 1;
+        }
+    }
+
+    /// [`Self::refine`] on the lattice `shift` levels finer than the data.
+    fn refine_on(
+        &self,
+        query: &MaterialQuery,
+        shift: u32,
+        progress: Progress<'_>,
+    ) -> Result<MaterialMesh> {
         let (lattice, base) = self.base(shift)?;
         let infos: Memo<usize, Arc<VertexInfo>> = Memo::default();
         let evals: Memo<Diamond, DiamondEval> = Memo::default();
