@@ -496,7 +496,7 @@ impl Around {
 
 /// The grid cells within a distance of the bounding box of one of a set of tetrahedra: each box,
 /// grown by the distance, as its range of cells, listed in the blocks of cells (longer than the
-/// distance, as [`Around`]'s) that the range meets. A cell is tested against the ranges of its
+/// distance, as [`Around`]'s, and at least 8 cells) that the range meets. A cell is tested against the ranges of its
 /// block only, so building and asking cost the blocks a range meets and the ranges per block, not
 /// the cells of every range (a reach³ per tetrahedron at tolerances of tens of cells).
 struct NearBoxes {
@@ -511,7 +511,10 @@ struct NearBoxes {
 
 impl NearBoxes {
     fn new(grid: &Grid, tets: &[Tet], reach: f64) -> Self {
-        let per = (reach / DVec3::from(grid.spacing)).floor().as_ivec3() + IVec3::ONE;
+        // At least 8 cells per axis: below a voxel of reach, blocks of single cells would make
+        // `starts` 4 bytes per cell of the grid.
+        let per = ((reach / DVec3::from(grid.spacing)).floor().as_ivec3() + IVec3::ONE)
+            .max(IVec3::splat(8));
         let dims = (IVec3::from(grid.dims.map(|d| d as i32 - 1)) + per - IVec3::ONE) / per;
         let margin = reach / DVec3::from(grid.spacing);
         let boxes: Vec<(IVec3, IVec3)> = (tets.iter())
