@@ -124,11 +124,11 @@ pub enum Error {
     /// Isodiamond hierarchy bytes that cannot be read ([`isodiamond`]).
     #[error("invalid isodiamond hierarchy: {0}")]
     Isodiamonds(String),
-    /// The caller asked to stop.
     /// The two-sided bound of an isosurface could not be established (a defect: the check splits
     /// until it holds, and on the finest tetrahedra it holds by construction).
     #[error("the isosurface could not be certified within its tolerance: {0}; please report this with the data and parameters")]
     Uncertified(String),
+    /// The caller asked to stop.
     #[error("aborted")]
     Aborted,
 }
