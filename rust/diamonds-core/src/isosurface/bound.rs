@@ -21,7 +21,8 @@
 //! `F` crosses ([`super::fine::cell_pieces`]; each rayon job keeps the last cells' in a
 //! [`Recent`]). Every point that fails is a *violation*: the leaf holding it (found as the mesh's
 //! walk finds it, through the tetrahedra straddling a far face of the domain, whose diamonds the
-//! split set does not hold; a point on a far face is taken just inside it) is split — the
+//! split set does not hold; a point on a far face is taken just inside it; the point is first
+//! moved just inside the triangle it lies on, [`Violation::probes`]) is split — the
 //! diamonds on the path from the leaf down to the tetrahedra around the point no larger than the
 //! tolerance, or, when the leaf already is, down to the finest tetrahedra — with closure,
 //! refinement continues from that mesh, and the check runs again. On the finest tetrahedra `S`
@@ -115,6 +116,35 @@ const FLOOR: f64 = 16.0;
 /// How far (lattice units) a violation on a far face of the domain is moved inside to find its leaf.
 const INSIDE: f64 = 1e-6;
 
+/// How far (a fraction of the way) a violation is moved towards the centroid of its triangle to find
+/// its leaf ([`Violation::probes`]).
+const INTO_TRIANGLE: f64 = 1e-3;
+
+/// A point that breaks the bound and the triangle it lies on: of F (in one finest tetrahedron) or
+/// of the drawn surface (in one carrier leaf).
+#[derive(Clone, Copy, Debug)]
+struct Violation {
+    point: DVec3,
+    triangle: [DVec3; 3],
+}
+
+impl Violation {
+    /// Where to look for the leaf to split, in order: the point moved [`INTO_TRIANGLE`] of the way
+    /// to its triangle's centroid, then that point just off either side of the triangle's plane
+    /// ([`INSIDE`] lattice units of the smallest spacing). The point itself may be a vertex, edge or
+    /// face of several leaves — a point of F at a sample equal to the isovalue is a vertex of the
+    /// finest tetrahedra — and the first leaf found holding it may hide nothing (a finest leaf
+    /// beside the coarse one that hides the samples below the isovalue); inside its triangle it is
+    /// inside the tetrahedron that draws the triangle, unless the triangle lies in a face of two
+    /// tetrahedra (a plateau of samples at the isovalue), which the sides tell apart.
+    fn probes(&self, h: f64) -> [DVec3; 3] {
+        let [a, b, c] = self.triangle;
+        let inside = self.point + INTO_TRIANGLE * ((a + b + c) / 3.0 - self.point);
+        let off = (b - a).cross(c - a).normalize_or_zero() * (INSIDE * h);
+        [inside, inside + off, inside - off]
+    }
+}
+
 /// Rounds of checking and splitting at most (each splits at least one diamond; in practice a few).
 const MAX_ROUNDS: usize = 64;
 
@@ -170,11 +200,9 @@ impl<T: Sample> Extraction<'_, '_, T> {
                 // neighbours in the cube.
                 let mut seen = FxHashSet::default();
                 let side = reach.full / (2.0 * 3f64.sqrt());
-                violations.extend(
-                    (found.points.iter().copied()).filter(|&p| {
-                        seen.insert(((p - lo) / side).floor().as_i64vec3().to_array())
-                    }),
-                );
+                violations.extend((found.points.iter().copied()).filter(|v| {
+                    seen.insert(((v.point - lo) / side).floor().as_i64vec3().to_array())
+                }));
                 far.push(found);
             }
             if violations.is_empty() {
@@ -232,7 +260,7 @@ enum Pending {
 /// The violations of one round for one isovalue.
 struct Far {
     /// Every violating point (world).
-    points: Vec<DVec3>,
+    points: Vec<Violation>,
     /// The carriers whose surface holds a violating point.
     carriers: Vec<Tet>,
     /// The crossed cells whose part of F holds a violating point.
@@ -628,7 +656,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
             Some(blocks) if blocks.near(p) => Known::within(blocks.reach()),
             _ => Known::UNKNOWN,
         };
-        let s_to_f = || -> Vec<(DVec3, u32)> {
+        let s_to_f = || -> Vec<(Violation, u32)> {
             (checked_triangles.par_iter())
                 .map_init(fine_surface, |surface, &(t, k)| {
                     // Most triangles lie well within the reach: their samples near the blocks settle
@@ -652,7 +680,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
                         let found =
                             to_fine.violation([samples[a], samples[b], samples[c]], &mut k3);
                         [known[a], known[b], known[c]] = k3;
-                        far.extend(found.map(|p| (p, k)));
+                        far.extend(found.map(|point| (Violation { point, triangle: t }, k)));
                     }
                     far
                 })
@@ -693,7 +721,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
             near_drawn(centre).d == f64::INFINITY
         })
         .collect();
-        let far_cells: Vec<(DVec3, u32)> = if open.is_empty() {
+        let far_cells: Vec<(Violation, u32)> = if open.is_empty() {
             Vec::new()
         } else {
             let all = match pending {
@@ -731,7 +759,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
                     let triangles = cell_triangles(volume, cell, v);
                     let mut points = ArrayVec::<(DVec3, Known<u32>), 36>::new();
                     let same = h * 1e-9;
-                    let mut found = ArrayVec::<(DVec3, u32), 12>::new();
+                    let mut found = ArrayVec::<(Violation, u32), 12>::new();
                     for t in triangles {
                         let at = t.map(|p| {
                             points
@@ -743,7 +771,10 @@ impl<T: Sample> Extraction<'_, '_, T> {
                                 })
                         });
                         let mut known = at.map(|i| points[i].1);
-                        found.extend(to_drawn.violation(t, &mut known).map(|p| (p, c)));
+                        found.extend(
+                            (to_drawn.violation(t, &mut known))
+                                .map(|point| (Violation { point, triangle: t }, c)),
+                        );
                         for (i, k) in at.into_iter().zip(known) {
                             points[i].1 = k;
                         }
@@ -765,52 +796,60 @@ impl<T: Sample> Extraction<'_, '_, T> {
         })
     }
 
-    /// The diamonds to split for `violations` (world points): for each, the diamonds on the path from
-    /// the root to the tetrahedron holding it below its leaf in `split` that is no larger than
-    /// `tolerance` — or, when the leaf already is, to the finest tetrahedron holding it. In order,
-    /// each once; none when every point lies in a finest leaf.
-    fn forced(&self, split: &SplitSet, violations: &[DVec3], tolerance: f64) -> Vec<Diamond> {
+    /// The diamonds to split for `violations`: for each, the diamonds on the path from the root to
+    /// the tetrahedron holding it below its leaf in `split` that is no larger than `tolerance` — or,
+    /// when the leaf already is, to the finest tetrahedron holding it — found at the first of its
+    /// [`Violation::probes`] whose leaf is not a finest tetrahedron. In order, each once; none when
+    /// every probe of every violation lies in a finest leaf.
+    fn forced(&self, split: &SplitSet, violations: &[Violation], tolerance: f64) -> Vec<Diamond> {
         let lattice = *self.lattice();
         let grid = &self.volume.grid;
         let (origin, spacing) = (DVec3::from(grid.origin), DVec3::from(grid.spacing));
+        let h = grid.spacing.into_iter().fold(f64::INFINITY, f64::min);
         let top = lattice.hi.as_dvec3();
         let roots = RootTets::new(&lattice);
         let tolerance2 = tolerance * tolerance;
+        let path_at = |p: DVec3| {
+            // Just inside a far face of the domain: a tetrahedron holding a point there holds
+            // some of the domain around it, so the descent below ends in the mesh's leaf.
+            let u = ((p - origin) / spacing).clamp(DVec3::ZERO, top - INSIDE);
+            let (k, mut l) = roots.containing(u);
+            let mut t = roots.tets[k].0;
+            let step = |t: &Tet, l: [f64; 4], m: IVec3| {
+                let (first, nl) = child_coordinates(t, l);
+                (child_of(t, first, *t, t[usize::from(!first)], m), nl)
+            };
+            // Down to the leaf, as the mesh's walk goes (`mesh::walk_pruned`): through the split
+            // diamonds, and through every tetrahedron straddling a far face, split wherever the
+            // surface may pass though its diamond is not in the split set.
+            while let Some(d) = Diamond::of_tet(&t)
+                .filter(|&d| lattice.place(&t) != Placement::Inside || split.contains(d))
+            {
+                (t, l) = step(&t, l, d.center);
+            }
+            // Below it, to no larger than the tolerance; to the finest if it already is.
+            let to_finest = tet_size2(&grid.spacing, &t) <= tolerance2;
+            let mut path = Vec::new();
+            let mut below = false;
+            while let Some(d) = Diamond::of_tet(&t) {
+                if below && !to_finest && tet_size2(&grid.spacing, &t) <= tolerance2 {
+                    break;
+                }
+                below = true;
+                if lattice.in_domain(d.center) {
+                    path.push(d);
+                }
+                (t, l) = step(&t, l, d.center);
+            }
+            path
+        };
         let paths: Vec<Vec<Diamond>> = violations
             .par_iter()
-            .map(|&p| {
-                // Just inside a far face of the domain: a tetrahedron holding a point there holds
-                // some of the domain around it, so the descent below ends in the mesh's leaf.
-                let u = ((p - origin) / spacing).clamp(DVec3::ZERO, top - INSIDE);
-                let (k, mut l) = roots.containing(u);
-                let mut t = roots.tets[k].0;
-                let step = |t: &Tet, l: [f64; 4], m: IVec3| {
-                    let (first, nl) = child_coordinates(t, l);
-                    (child_of(t, first, *t, t[usize::from(!first)], m), nl)
-                };
-                // Down to the leaf, as the mesh's walk goes (`mesh::walk_pruned`): through the split
-                // diamonds, and through every tetrahedron straddling a far face, split wherever the
-                // surface may pass though its diamond is not in the split set.
-                while let Some(d) = Diamond::of_tet(&t)
-                    .filter(|&d| lattice.place(&t) != Placement::Inside || split.contains(d))
-                {
-                    (t, l) = step(&t, l, d.center);
-                }
-                // Below it, to no larger than the tolerance; to the finest if it already is.
-                let to_finest = tet_size2(&grid.spacing, &t) <= tolerance2;
-                let mut path = Vec::new();
-                let mut below = false;
-                while let Some(d) = Diamond::of_tet(&t) {
-                    if below && !to_finest && tet_size2(&grid.spacing, &t) <= tolerance2 {
-                        break;
-                    }
-                    below = true;
-                    if lattice.in_domain(d.center) {
-                        path.push(d);
-                    }
-                    (t, l) = step(&t, l, d.center);
-                }
-                path
+            .map(|v| {
+                (v.probes(h).into_iter())
+                    .map(path_at)
+                    .find(|path| !path.is_empty())
+                    .unwrap_or_default()
             })
             .collect();
         let mut seen = FxHashSet::default();
