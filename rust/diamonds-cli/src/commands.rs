@@ -544,7 +544,11 @@ pub struct VerifyReport {
 }
 
 impl VerifyReport {
-    fn check(&mut self, what: &str, outcome: std::result::Result<String, String>) -> bool {
+    pub(crate) fn check(
+        &mut self,
+        what: &str,
+        outcome: std::result::Result<String, String>,
+    ) -> bool {
         match outcome {
             Ok(detail) => {
                 self.lines.push(format!("  {what}: OK ({detail})"));
@@ -728,7 +732,7 @@ fn finish(report: VerifyReport) -> VerifyReport {
 }
 
 /// Appends `<command>: PASSED` or `<command>: FAILED`.
-fn finish_as(mut report: VerifyReport, command: &str) -> VerifyReport {
+pub(crate) fn finish_as(mut report: VerifyReport, command: &str) -> VerifyReport {
     let outcome = if report.passed { "PASSED" } else { "FAILED" };
     report.lines.push(format!("{command}: {outcome}"));
     report

@@ -1,11 +1,13 @@
 //! `diamonds interval`: the multiresolution interval volume `{α ≤ f ≤ β}` of a volume as tetrahedra
 //! (`.vtu`), as the ParaView filter Adaptive Interval Volume extracts it.
 
-use crate::commands::{read_input, IsoTolerance};
+use crate::commands::{finish_as, read_input, IsoTolerance, VerifyReport};
+use crate::read::{read_unstructured, tetrahedra};
 use crate::write::{checked_extension, write_tets, TetGrid};
-use crate::{Array, AsScalarSlice, Result, Values};
+use crate::{bail, Array, AsScalarSlice, Result, Values};
 use diamonds::interval::{self, IntervalQuery, IntervalVolume};
-use diamonds::Hierarchy;
+use diamonds::validate::{check_interval_volume, interval_bounding_faces, interval_distances};
+use diamonds::{with_volume, Hierarchy};
 use std::fmt;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -162,4 +164,118 @@ fn interpolated(a: &Array, volume: &IntervalVolume) -> Array {
         components: c,
         data: Values::from_f64(type_name, out).expect("a numeric type"),
     }
+}
+
+/// Options of `diamonds verify-interval`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct VerifyIntervalOptions {
+    /// The image the interval volume was extracted from.
+    pub image: PathBuf,
+    /// The interval volume (`.vtu`).
+    pub mesh: PathBuf,
+    /// `[α, β]`, data units.
+    pub range: [f64; 2],
+    /// Point-data array of the image (default: as for `interval`); the mesh holds it under the same
+    /// name.
+    pub array: Option<String>,
+    /// Fail when a one-sided Hausdorff distance exceeds it; `None`: report them only.
+    pub tolerance: Option<f64>,
+}
+
+/// `diamonds verify-interval`: checks an interval volume written by `interval` (or by the filter
+/// Adaptive Interval Volume) against its image, independently of the hierarchy: tetrahedra with
+/// positive volumes forming a conforming mesh (every face in two tetrahedra, or in one on the
+/// image's bounds or on a bounding isosurface: [`check_interval_volume`]), the array within
+/// `[α, β]` at every point, and both one-sided Hausdorff distances between its bounding surfaces
+/// ([`interval_bounding_faces`]) and the full-resolution boundary of `{α ≤ f ≤ β}`
+/// ([`interval_distances`]), failed above the tolerance. Unreadable input is an error; a failed check is reported in [`VerifyReport`].
+pub fn verify_interval(opts: &VerifyIntervalOptions) -> Result<VerifyReport> {
+    let [alpha, beta] = opts.range;
+    if !(alpha.is_finite() && beta.is_finite() && alpha < beta) {
+        bail!("the range must be two finite numbers A < B (got {alpha} {beta})");
+    }
+    if let Some(t) = opts.tolerance.filter(|t| !t.is_finite() || *t < 0.0) {
+        bail!("the tolerance must be a finite number >= 0 in world units (got {t})");
+    }
+    let (image, _) = read_input(&opts.image, opts.array.as_deref())?;
+    let array = image.scalars(opts.array.as_deref())?;
+    let grid = image.grid;
+    grid.validate()?;
+    let mesh = read_unstructured(&opts.mesh)?;
+    let mut report = VerifyReport {
+        lines: vec![format!(
+            "verify-interval '{}' against '{}' (array '{}', range {alpha} {beta})",
+            opts.mesh.display(),
+            opts.image.display(),
+            array.name
+        )],
+        passed: true,
+    };
+    let checked = (|| {
+        let tets = tetrahedra(&mesh)?;
+        let values = mesh
+            .point_data
+            .iter()
+            .find(|a| a.name == array.name && a.components == 1)
+            .ok_or_else(|| format!("no point-data array '{}' in the mesh", array.name))?;
+        let values: Vec<f64> = (0..mesh.points.len()).map(|k| values.value(k)).collect();
+        Ok::<_, String>((tets, values))
+    })();
+    let described = checked.as_ref().map_err(Clone::clone);
+    report.check(
+        "cells",
+        described
+            .map(|(tets, _)| format!("{} tetrahedra, {} points", tets.len(), mesh.points.len())),
+    );
+    let Ok((tets, values)) = checked else {
+        return Ok(finish_as(report, "verify-interval"));
+    };
+    report.check(
+        "conformity",
+        check_interval_volume(&mesh.points, &values, &tets, grid.bounds(), opts.range).map(|r| {
+            format!(
+                "positive volumes, {} interior faces shared by two, {} faces in one on the bounds or a bounding isosurface",
+                r.interior_faces, r.boundary_faces
+            )
+        }),
+    );
+    report.check(
+        "values",
+        match values.iter().position(|v| !(alpha..=beta).contains(v)) {
+            None => Ok(format!("all {} points within the range", values.len())),
+            Some(k) => Err(format!(
+                "point {k} at {:?} has the value {}, outside the range",
+                mesh.points[k], values[k]
+            )),
+        },
+    );
+    let bounding = interval_bounding_faces(&mesh.points, &values, &tets, grid.bounds(), opts.range);
+    let d = with_volume!(grid, array.scalar_slice()?, |v| interval_distances(
+        &v,
+        opts.range,
+        &mesh.points,
+        &bounding
+    ));
+    let measured = format!(
+        "full-resolution surfaces at {alpha} and {beta} ({} triangles): from their {} vertices and samples to the bounding surfaces' {} triangles {}, from the bounding surfaces' {} vertices and samples to them {} (every point of either within {:.4} more)",
+        d.fine_triangles,
+        d.fine_vertices,
+        bounding.len(),
+        d.fine_to_surface.distance,
+        d.surface_samples,
+        d.surface_to_fine.distance,
+        d.slack
+    );
+    match opts.tolerance {
+        Some(t) => {
+            report.check(
+                "distance",
+                d.check(t)
+                    .map(|()| format!("{measured}; both within the tolerance {t}"))
+                    .map_err(|e| format!("{e}; {measured}")),
+            );
+        }
+        None => report.lines.push(format!("  distance: {measured}")),
+    }
+    Ok(finish_as(report, "verify-interval"))
 }

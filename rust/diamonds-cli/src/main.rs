@@ -350,6 +350,38 @@ enum Command {
         #[arg(long, value_name = "NAME", requires = "isovalue")]
         array: Option<String>,
     },
+    /// Check an interval volume (.vtu) written by `interval` against its image: conforming, values in
+    /// the range and, with --tolerance, its bounding surfaces within it of the full-resolution ones.
+    ///
+    /// Checks that the cells are tetrahedra with positive volumes, every face shared by two or lying
+    /// on the image's bounds or on a bounding isosurface (its three values all A or all B), the
+    /// array within [A, B] at every point, and reports both one-sided Hausdorff distances between
+    /// the bounding surfaces (faces in one tetrahedron at A or at B, off the image's bounds) and
+    /// the full-resolution boundary of {A <= f <= B} off the bounds: the marching-tetrahedra
+    /// surfaces of A and B (the surfaces `iso --tolerance 0` writes), samples equal to B counted
+    /// inside; with --tolerance, fails when either exceeds it (a volume extracted with a region of
+    /// interest meets its tolerance only inside the region). Exit code 1 when a check fails.
+    VerifyInterval {
+        /// The image (.vti or .vtk) the interval volume was extracted from.
+        image: PathBuf,
+        /// Interval volume (.vtu) to check.
+        mesh: PathBuf,
+        /// The range A B it was extracted for.
+        #[arg(
+            long,
+            num_args = 2,
+            required = true,
+            allow_negative_numbers = true,
+            value_names = ["A", "B"]
+        )]
+        range: Vec<f64>,
+        /// Fail when either distance exceeds this bound (world units).
+        #[arg(long, value_name = "T", allow_negative_numbers = true)]
+        tolerance: Option<f64>,
+        /// Point-data array of the image, also the mesh's [default: as for interval].
+        #[arg(long, value_name = "NAME")]
+        array: Option<String>,
+    },
 }
 
 /// `diamonds view --metric`.
@@ -727,6 +759,27 @@ fn run(cli: Cli) -> diamonds_cli::Result<ExitCode> {
                 tolerance,
             });
             let report = commands::verify_surface(&mesh, image.as_deref(), bound.as_ref())?;
+            for line in &report.lines {
+                println!("{line}");
+            }
+            if !report.passed {
+                return Ok(ExitCode::from(1));
+            }
+        }
+        Command::VerifyInterval {
+            image,
+            mesh,
+            range,
+            tolerance,
+            array,
+        } => {
+            let report = interval::verify_interval(&interval::VerifyIntervalOptions {
+                image,
+                mesh,
+                range: [range[0], range[1]],
+                array,
+                tolerance,
+            })?;
             for line in &report.lines {
                 println!("{line}");
             }

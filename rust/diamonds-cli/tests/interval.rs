@@ -113,3 +113,58 @@ fn bad_ranges_are_clear_errors() {
     assert!(run.stderr.contains("misses the data range"), "{run:?}");
     assert!(run.ok().contains(" 0 tetrahedra"));
 }
+
+#[test]
+fn verify_interval_measures_the_bounding_surfaces_against_the_full_resolution_ones() {
+    let dir = TempDir::new("verify-interval");
+    let input = dir.join("ml.vti");
+    // Bytes: samples equal to both ends of an integer range.
+    diamonds([
+        "generate",
+        s(&input),
+        "--dims",
+        "33",
+        "31",
+        "29",
+        "--type",
+        "u8",
+    ])
+    .ok();
+    let range = [100.0, 160.0];
+    let verify = |mesh: &Path, range: [&str; 2], tolerance: &str| {
+        diamonds([
+            "verify-interval",
+            s(&input),
+            s(mesh),
+            "--range",
+            range[0],
+            range[1],
+            "--tolerance",
+            tolerance,
+        ])
+    };
+    let mut coarse = None;
+    for tolerance in ["0", "0.02", "0.08"] {
+        let out = dir.join(&format!("ml-{tolerance}.vtu"));
+        interval(&input, &out, range, &["--tolerance", tolerance]);
+        let report = verify(&out, ["100", "160"], tolerance).ok();
+        for check in ["cells: OK", "conformity: OK", "values: OK", "distance: OK"] {
+            assert!(report.contains(check), "{tolerance}: {report}");
+        }
+        assert!(report.ends_with("verify-interval: PASSED\n"), "{report}");
+        coarse = Some(out);
+    }
+    // The coarse volume misses a smaller tolerance, and another range's checks.
+    let coarse = coarse.unwrap();
+    let run = verify(&coarse, ["100", "160"], "0.001");
+    assert_eq!(run.code, 1, "{run:?}");
+    assert!(run.stdout.contains("distance: FAILED"), "{run:?}");
+    let run = verify(&coarse, ["101", "160"], "0.08");
+    assert_eq!(run.code, 1, "{run:?}");
+    assert!(run.stdout.contains("values: FAILED"), "{run:?}");
+    // Bad arguments are user errors.
+    let e = verify(&coarse, ["160", "100"], "0.08").user_error();
+    assert!(e.contains("A < B"), "{e}");
+    let e = verify(&coarse, ["100", "160"], "-1").user_error();
+    assert!(e.contains("tolerance"), "{e}");
+}

@@ -5,7 +5,9 @@
 use super::*;
 use crate::fields::{marschner_lobb, marschner_lobb_u8, sample, sphere_distance, unit_grid};
 use crate::isosurface::{self, cell_tets, full_resolution_triangles};
-use crate::validate::check_interval_volume;
+use crate::validate::{
+    check_interval_volume, interval_bounding_faces, interval_distances, surface_distances,
+};
 use crate::volume::Grid;
 use glam::IVec3;
 
@@ -356,4 +358,62 @@ fn bad_ranges_are_refused_and_empty_ones_warned() {
     let box_volume = (b[1] - b[0]) * (b[3] - b[2]) * (b[5] - b[4]);
     assert!((total_volume(&v) - box_volume).abs() <= 1e-9 * box_volume);
     assert!(v.tets.len() < 1000, "{}", v.tets.len());
+}
+
+#[test]
+fn bounding_surfaces_are_within_the_tolerance_of_the_full_resolution_boundary() {
+    // Integer samples rising from 0 to a plateau at 40 around a core at 100, and the range [20, 40]:
+    // the set {20 <= f <= 40} goes on across the plateau and ends at the core, so its boundary at
+    // β is the core's surface, not the plateau's edge where marching tetrahedra put the surface of
+    // 40 (samples at the isovalue count as above).
+    let grid = Grid::new([30, 27, 25]);
+    let centre = DVec3::new(14.0, 13.5, 12.0);
+    let values: Vec<f32> = (0..grid.len())
+        .map(|i| {
+            let [x, y, z] = grid.ijk(i);
+            let r2 = DVec3::new(x as f64, y as f64, z as f64).distance_squared(centre);
+            let g = 80.0 * (-r2 / 60.0).exp();
+            if g > 70.0 {
+                100.0
+            } else {
+                g.round().min(40.0) as f32
+            }
+        })
+        .collect();
+    let range = [20.0, 40.0];
+    let volume = Volume::new(grid, &values[..]).unwrap();
+    let h = hierarchy(grid, &values);
+    let cases = cases();
+    let all = cases
+        .iter()
+        .map(|(name, g, v, r)| (*name, *g, &v[..], *r))
+        .chain([("plateau at β around a core", grid, &values[..], range)]);
+    for (name, grid, values, range) in all {
+        let volume = Volume::new(grid, values).unwrap();
+        let h = hierarchy(grid, values);
+        for fraction in [0.0, 0.005, 0.01, 0.02, 0.04] {
+            let tolerance = fraction * grid.diagonal();
+            let query = IntervalQuery::new(range, tolerance);
+            let v = extract(&h, ScalarSlice::F32(values), &query).unwrap();
+            let faces = bounding_triangles(&v, &grid, range);
+            let d = interval_distances(&volume, range, &v.points, &faces);
+            assert_eq!(d.check(tolerance), Ok(()), "{name} at {fraction}: {d:?}");
+        }
+    }
+    // At full resolution the plateau's edge (the surface of 40 as marching tetrahedra draw it)
+    // lies inside the interval volume, far from its boundary.
+    let v = extract(
+        &h,
+        ScalarSlice::F32(&values),
+        &IntervalQuery::new(range, 0.0),
+    )
+    .unwrap();
+    let faces = bounding_triangles(&v, &grid, range);
+    let d = surface_distances(&volume, &range, &v.points, &faces);
+    assert!(d.fine_to_surface.distance > 1.0, "{d:?}");
+}
+
+/// The bounding surfaces of `v` ([`interval_bounding_faces`]).
+fn bounding_triangles(v: &IntervalVolume, grid: &Grid, range: [f64; 2]) -> Vec<[u32; 3]> {
+    interval_bounding_faces(&v.points, &v.values, &v.tets, grid.bounds(), range)
 }

@@ -101,19 +101,91 @@ pub fn surface_distances<T: Sample>(
     points: &[[f64; 3]],
     triangles: &[[u32; 3]],
 ) -> SurfaceDistances {
-    let h = volume
-        .grid
-        .spacing
+    distances(
+        full_resolution_triangles(volume, isovalues),
+        full_resolution_vertices(volume, isovalues),
+        &volume.grid,
+        points,
+        triangles,
+    )
+}
+
+/// The bounding surfaces of an interval volume of `[α, β]` (`tets`, corners indexing `points`,
+/// `values` the field at each point) in the box `bounds`: its faces in one tetrahedron whose three
+/// values are all α or all β, but those on a face of the box (within a millionth of its diagonal),
+/// where the volume ends at the box, not at a level ([`interval_distances`] leaves them out of the
+/// full-resolution surface too).
+pub fn interval_bounding_faces(
+    points: &[[f64; 3]],
+    values: &[f64],
+    tets: &[[u32; 4]],
+    bounds: [f64; 6],
+    [alpha, beta]: [f64; 2],
+) -> Vec<[u32; 3]> {
+    let eps = super::bounds_eps(&bounds);
+    let at = |f: &[u32; 3], level: f64| f.iter().all(|&v| values[v as usize] == level);
+    super::boundary_faces(tets)
         .into_iter()
-        .fold(f64::INFINITY, f64::min);
+        .filter(|f| {
+            (at(f, alpha) || at(f, beta))
+                && !on_the_box(&f.map(|v| points[v as usize]), &bounds, eps)
+        })
+        .collect()
+}
+
+/// Do the corners of a triangle all lie on one face of `bounds` (within `eps`)?
+fn on_the_box(corners: &[[f64; 3]; 3], bounds: &[f64; 6], eps: f64) -> bool {
+    corners
+        .iter()
+        .fold(0x3f, |m, p| m & super::faces_of_point(p, bounds, eps))
+        != 0
+}
+
+/// Both one-sided distances between the bounding surfaces of an interval volume `{α ≤ f ≤ β}`
+/// (`triangles`, corners indexing `points`: its faces at α and at β off the image's bounds,
+/// [`interval_bounding_faces`]) and the full-resolution boundary of that set off the bounds: the
+/// surface of α, and the surface of β with samples at β counted as *below* (the full-resolution
+/// surface of `−f` at `−β`; marching tetrahedra count vertices at the isovalue as above, which
+/// draws a plateau of samples at exactly β on its low side, where `{f ≤ β}` goes on, instead of
+/// its high side, where it ends). Triangles of those surfaces lying on a face of the bounds (the
+/// faces of tetrahedra whose fourth corner is beyond the level, which the volume does not hold)
+/// are left out.
+pub fn interval_distances<T: Sample>(
+    volume: &Volume<'_, T>,
+    [alpha, beta]: [f64; 2],
+    points: &[[f64; 3]],
+    triangles: &[[u32; 3]],
+) -> SurfaceDistances {
+    let negated: Vec<f64> = volume.samples.iter().map(|s| -s.to_f64()).collect();
+    let below = Volume {
+        grid: volume.grid,
+        samples: &negated[..],
+    };
+    let mut fine = full_resolution_triangles(volume, &[alpha]);
+    fine.extend(full_resolution_triangles(&below, &[-beta]));
+    let bounds = volume.grid.bounds();
+    let eps = super::bounds_eps(&bounds);
+    fine.retain(|t| !on_the_box(t, &bounds, eps));
+    let mut vertices = full_resolution_vertices(volume, &[alpha]);
+    vertices.extend(full_resolution_vertices(&below, &[-beta]));
+    distances(fine, vertices, &volume.grid, points, triangles)
+}
+
+/// [`surface_distances`] against the full-resolution triangles `fine` with the vertices
+/// `fine_vertices` (each once), on `grid`.
+fn distances(
+    fine: Vec<[[f64; 3]; 3]>,
+    fine_vertices: Vec<[f64; 3]>,
+    grid: &crate::Grid,
+    points: &[[f64; 3]],
+    triangles: &[[u32; 3]],
+) -> SurfaceDistances {
+    let h = grid.spacing.into_iter().fold(f64::INFINITY, f64::min);
     let corners = |t: &[u32; 3]| t.map(|i| DVec3::from(points[i as usize]));
-    let fine_triangles: Vec<[DVec3; 3]> = full_resolution_triangles(volume, isovalues)
-        .into_iter()
-        .map(|t| t.map(DVec3::from))
-        .collect();
+    let fine_triangles: Vec<[DVec3; 3]> = fine.into_iter().map(|t| t.map(DVec3::from)).collect();
     let n_fine = fine_triangles.len();
     // Its vertices (each once) and the samples of its triangles other than their corners.
-    let fine: Vec<DVec3> = full_resolution_vertices(volume, isovalues)
+    let fine: Vec<DVec3> = fine_vertices
         .into_iter()
         .map(DVec3::from)
         .chain(
@@ -139,7 +211,7 @@ pub fn surface_distances<T: Sample>(
         fine_triangles: n_fine,
         surface_samples: samples.len(),
         slack: h / 3f64.sqrt(),
-        rounding: 1e-9 * volume.grid.diagonal(),
+        rounding: 1e-9 * grid.diagonal(),
     }
 }
 

@@ -25,7 +25,10 @@ pub mod surfaces;
 pub mod tetrahedra;
 pub mod visibility;
 
-pub use hausdorff::{farthest, surface_distances, Farthest, SurfaceDistances};
+pub use hausdorff::{
+    farthest, interval_bounding_faces, interval_distances, surface_distances, Farthest,
+    SurfaceDistances,
+};
 pub use polygons::{check_crack_free, check_polygon_arrays};
 pub use surfaces::{
     canonical_triangles, check_isosurface_arrays, check_surface, check_unit_normals, SurfaceReport,
@@ -59,12 +62,15 @@ fn check_corners<const N: usize>(
 fn faces_of_bounds(points: &[[f64; 3]], bounds: &[f64; 6], eps: f64) -> Vec<u8> {
     points
         .par_iter()
-        .map(|p| {
-            (0..6)
-                .filter(|&f| (p[f / 2] - bounds[f]).abs() <= eps)
-                .fold(0, |m, f| m | 1 << f)
-        })
+        .map(|p| faces_of_point(p, bounds, eps))
         .collect()
+}
+
+/// The faces of `bounds` (bit `f` for bound `f`, as [`faces_of_bounds`]) within `eps` of `p`.
+fn faces_of_point(p: &[f64; 3], bounds: &[f64; 6], eps: f64) -> u8 {
+    (0..6)
+        .filter(|&f| (p[f / 2] - bounds[f]).abs() <= eps)
+        .fold(0, |m, f| m | 1 << f)
 }
 
 /// A tolerance for "on a face of `bounds`": a millionth of its diagonal.
