@@ -6,7 +6,7 @@ use crate::read::{read_unstructured, tetrahedra};
 use crate::write::{checked_extension, write_tets, TetGrid};
 use crate::{bail, Array, AsScalarSlice, Result, Values};
 use diamonds::interval::{self, IntervalQuery, IntervalVolume};
-use diamonds::validate::{check_interval_volume, interval_bounding_faces, interval_distances};
+use diamonds::validate::{check_interval_volume, interval_distances};
 use diamonds::{with_volume, Hierarchy};
 use std::fmt;
 use std::path::PathBuf;
@@ -187,8 +187,8 @@ pub struct VerifyIntervalOptions {
 /// positive volumes forming a conforming mesh (every face in two tetrahedra, or in one on the
 /// image's bounds or on a bounding isosurface: [`check_interval_volume`]), the array within
 /// `[α, β]` at every point, and both one-sided Hausdorff distances between its bounding surfaces
-/// ([`interval_bounding_faces`]) and the full-resolution boundary of `{α ≤ f ≤ β}`
-/// ([`interval_distances`]), failed above the tolerance. Unreadable input is an error; a failed check is reported in [`VerifyReport`].
+/// and the full-resolution boundary of `{α ≤ f ≤ β}` ([`interval_distances`]), failed above the
+/// tolerance. Unreadable input is an error; a failed check is reported in [`VerifyReport`].
 pub fn verify_interval(opts: &VerifyIntervalOptions) -> Result<VerifyReport> {
     let [alpha, beta] = opts.range;
     if !(alpha.is_finite() && beta.is_finite() && alpha < beta) {
@@ -249,18 +249,17 @@ pub fn verify_interval(opts: &VerifyIntervalOptions) -> Result<VerifyReport> {
             )),
         },
     );
-    let bounding = interval_bounding_faces(&mesh.points, &values, &tets, grid.bounds(), opts.range);
     let d = with_volume!(grid, array.scalar_slice()?, |v| interval_distances(
         &v,
         opts.range,
         &mesh.points,
-        &bounding
+        &values,
+        &tets
     ));
     let measured = format!(
-        "full-resolution surfaces at {alpha} and {beta} ({} triangles): from their {} vertices and samples to the bounding surfaces' {} triangles {}, from the bounding surfaces' {} vertices and samples to them {} (every point of either within {:.4} more)",
+        "full-resolution boundary at {alpha} and {beta} ({} triangles off the bounds): from their {} vertices and samples to the bounding surfaces {}, from the bounding surfaces' {} vertices and samples to it {} (every point of either within {:.4} more)",
         d.fine_triangles,
         d.fine_vertices,
-        bounding.len(),
         d.fine_to_surface.distance,
         d.surface_samples,
         d.surface_to_fine.distance,

@@ -6,7 +6,7 @@ use super::*;
 use crate::fields::{marschner_lobb, marschner_lobb_u8, sample, sphere_distance, unit_grid};
 use crate::isosurface::{self, cell_tets, full_resolution_triangles};
 use crate::validate::{
-    check_interval_volume, interval_bounding_faces, interval_distances, surface_distances,
+    boundary_faces, check_interval_volume, interval_distances, surface_distances,
 };
 use crate::volume::Grid;
 use glam::IVec3;
@@ -395,8 +395,7 @@ fn bounding_surfaces_are_within_the_tolerance_of_the_full_resolution_boundary() 
             let tolerance = fraction * grid.diagonal();
             let query = IntervalQuery::new(range, tolerance);
             let v = extract(&h, ScalarSlice::F32(values), &query).unwrap();
-            let faces = bounding_triangles(&v, &grid, range);
-            let d = interval_distances(&volume, range, &v.points, &faces);
+            let d = interval_distances(&volume, range, &v.points, &v.values, &v.tets);
             assert_eq!(d.check(tolerance), Ok(()), "{name} at {fraction}: {d:?}");
         }
     }
@@ -408,12 +407,16 @@ fn bounding_surfaces_are_within_the_tolerance_of_the_full_resolution_boundary() 
         &IntervalQuery::new(range, 0.0),
     )
     .unwrap();
-    let faces = bounding_triangles(&v, &grid, range);
+    let faces = bounding_triangles(&v, range);
     let d = surface_distances(&volume, &range, &v.points, &faces);
     assert!(d.fine_to_surface.distance > 1.0, "{d:?}");
 }
 
-/// The bounding surfaces of `v` ([`interval_bounding_faces`]).
-fn bounding_triangles(v: &IntervalVolume, grid: &Grid, range: [f64; 2]) -> Vec<[u32; 3]> {
-    interval_bounding_faces(&v.points, &v.values, &v.tets, grid.bounds(), range)
+/// The faces of `v` in one tetrahedron whose values are all α or all β.
+fn bounding_triangles(v: &IntervalVolume, [alpha, beta]: [f64; 2]) -> Vec<[u32; 3]> {
+    let at = |f: &[u32; 3], level: f64| f.iter().all(|&k| v.values[k as usize] == level);
+    boundary_faces(&v.tets)
+        .into_iter()
+        .filter(|f| at(f, alpha) || at(f, beta))
+        .collect()
 }

@@ -19,6 +19,7 @@ use crate::volume::{Sample, Volume};
 use glam::DVec3;
 use rayon::prelude::*;
 use rstar::PointDistance;
+use rustc_hash::FxHashSet;
 
 /// The largest distance found in one direction and the point it was found at.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -101,60 +102,42 @@ pub fn surface_distances<T: Sample>(
     points: &[[f64; 3]],
     triangles: &[[u32; 3]],
 ) -> SurfaceDistances {
+    let fine = full_resolution_triangles(volume, isovalues);
+    let vertices = full_resolution_vertices(volume, isovalues);
     distances(
-        full_resolution_triangles(volume, isovalues),
-        full_resolution_vertices(volume, isovalues),
+        FineSides {
+            from: &fine,
+            vertices,
+            to: &fine,
+        },
         &volume.grid,
         points,
-        triangles,
+        (triangles, triangles),
     )
 }
 
-/// The bounding surfaces of an interval volume of `[α, β]` (`tets`, corners indexing `points`,
-/// `values` the field at each point) in the box `bounds`: its faces in one tetrahedron whose three
-/// values are all α or all β, but those on a face of the box (within a millionth of its diagonal),
-/// where the volume ends at the box, not at a level ([`interval_distances`] leaves them out of the
-/// full-resolution surface too).
-pub fn interval_bounding_faces(
-    points: &[[f64; 3]],
-    values: &[f64],
-    tets: &[[u32; 4]],
-    bounds: [f64; 6],
-    [alpha, beta]: [f64; 2],
-) -> Vec<[u32; 3]> {
-    let eps = super::bounds_eps(&bounds);
-    let at = |f: &[u32; 3], level: f64| f.iter().all(|&v| values[v as usize] == level);
-    super::boundary_faces(tets)
-        .into_iter()
-        .filter(|f| {
-            (at(f, alpha) || at(f, beta))
-                && !on_the_box(&f.map(|v| points[v as usize]), &bounds, eps)
-        })
-        .collect()
-}
-
-/// Do the corners of a triangle all lie on one face of `bounds` (within `eps`)?
-fn on_the_box(corners: &[[f64; 3]; 3], bounds: &[f64; 6], eps: f64) -> bool {
-    corners
-        .iter()
-        .fold(0x3f, |m, p| m & super::faces_of_point(p, bounds, eps))
-        != 0
-}
-
-/// Both one-sided distances between the bounding surfaces of an interval volume `{α ≤ f ≤ β}`
-/// (`triangles`, corners indexing `points`: its faces at α and at β off the image's bounds,
-/// [`interval_bounding_faces`]) and the full-resolution boundary of that set off the bounds: the
-/// surface of α, and the surface of β with samples at β counted as *below* (the full-resolution
-/// surface of `−f` at `−β`; marching tetrahedra count vertices at the isovalue as above, which
-/// draws a plateau of samples at exactly β on its low side, where `{f ≤ β}` goes on, instead of
-/// its high side, where it ends). Triangles of those surfaces lying on a face of the bounds (the
-/// faces of tetrahedra whose fourth corner is beyond the level, which the volume does not hold)
-/// are left out.
+/// Both one-sided distances between the bounding surfaces of an interval volume of `[α, β]`
+/// (`tets`, corners indexing `points`, `values` the field at each point) and the full-resolution
+/// boundary of `{α ≤ f ≤ β}` in `volume`:
+/// - the bounding surfaces are the volume's faces in one tetrahedron whose three values are all α,
+///   or all β;
+/// - the full-resolution boundary is the surface of α and the surface of β with samples at β
+///   counted as *below* (the full-resolution surface of `−f` at `−β`; marching tetrahedra count
+///   vertices at the isovalue as above, which draws a plateau of samples at exactly β on its low
+///   side, where `{f ≤ β}` goes on, instead of its high side, where it ends).
+///
+/// Each side is measured *from* its proper part only, to the whole of the other: parts that need
+/// no counterpart are measured against but not from. They are the faces lying on the image's
+/// bounds (where the volume ends at the box, or a plateau at a level lies on it), and, of the
+/// full-resolution boundary, sheets: triangles drawn twice, from both sides of samples at a level
+/// with the other side of it all around (a part of the set without thickness, which no
+/// tetrahedron holds).
 pub fn interval_distances<T: Sample>(
     volume: &Volume<'_, T>,
     [alpha, beta]: [f64; 2],
     points: &[[f64; 3]],
-    triangles: &[[u32; 3]],
+    values: &[f64],
+    tets: &[[u32; 4]],
 ) -> SurfaceDistances {
     let negated: Vec<f64> = volume.samples.iter().map(|s| -s.to_f64()).collect();
     let below = Volume {
@@ -165,42 +148,97 @@ pub fn interval_distances<T: Sample>(
     fine.extend(full_resolution_triangles(&below, &[-beta]));
     let bounds = volume.grid.bounds();
     let eps = super::bounds_eps(&bounds);
-    fine.retain(|t| !on_the_box(t, &bounds, eps));
-    let mut vertices = full_resolution_vertices(volume, &[alpha]);
-    vertices.extend(full_resolution_vertices(&below, &[-beta]));
-    distances(fine, vertices, &volume.grid, points, triangles)
+    let key = |t: &[[f64; 3]; 3]| {
+        let mut k = t.map(|p| p.map(f64::to_bits));
+        k.sort_unstable();
+        k
+    };
+    let mut keys: Vec<[[u64; 3]; 3]> = fine.par_iter().map(key).collect();
+    keys.par_sort_unstable();
+    let twice: FxHashSet<[[u64; 3]; 3]> = (keys.windows(2))
+        .filter(|w| w[0] == w[1])
+        .map(|w| w[0])
+        .collect();
+    let proper: Vec<[[f64; 3]; 3]> = (fine.par_iter())
+        .filter(|t| !on_the_box(t, &bounds, eps) && !twice.contains(&key(t)))
+        .copied()
+        .collect();
+    // Its corners, each once.
+    let mut vertices: Vec<[f64; 3]> = proper.iter().flatten().copied().collect();
+    vertices.sort_unstable_by_key(|p| p.map(f64::to_bits));
+    vertices.dedup();
+    let at = |f: &[u32; 3], level: f64| f.iter().all(|&v| values[v as usize] == level);
+    let faces: Vec<[u32; 3]> = (super::boundary_faces(tets).into_iter())
+        .filter(|f| at(f, alpha) || at(f, beta))
+        .collect();
+    let off_the_box: Vec<[u32; 3]> = (faces.iter())
+        .filter(|f| !on_the_box(&f.map(|v| points[v as usize]), &bounds, eps))
+        .copied()
+        .collect();
+    distances(
+        FineSides {
+            from: &proper,
+            vertices,
+            to: &fine,
+        },
+        &volume.grid,
+        points,
+        (&off_the_box, &faces),
+    )
 }
 
-/// [`surface_distances`] against the full-resolution triangles `fine` with the vertices
-/// `fine_vertices` (each once), on `grid`.
+/// Do the corners of a triangle all lie on one face of `bounds` (within `eps`)?
+fn on_the_box(corners: &[[f64; 3]; 3], bounds: &[f64; 6], eps: f64) -> bool {
+    corners
+        .iter()
+        .fold(0x3f, |m, p| m & super::faces_of_point(p, bounds, eps))
+        != 0
+}
+
+/// The full-resolution side of [`distances`]: measured from the triangles `from` and the
+/// `vertices` (each once), against the triangles `to`.
+struct FineSides<'a> {
+    from: &'a [[[f64; 3]; 3]],
+    vertices: Vec<[f64; 3]>,
+    to: &'a [[[f64; 3]; 3]],
+}
+
+/// Both one-sided distances on `grid`: from `fine.from` and `fine.vertices` to the triangles
+/// `surface.1` (corners indexing `points`), and from the triangles `surface.0` to `fine.to`.
 fn distances(
-    fine: Vec<[[f64; 3]; 3]>,
-    fine_vertices: Vec<[f64; 3]>,
+    fine: FineSides<'_>,
     grid: &crate::Grid,
     points: &[[f64; 3]],
-    triangles: &[[u32; 3]],
+    surface: (&[[u32; 3]], &[[u32; 3]]),
 ) -> SurfaceDistances {
+    let FineSides {
+        from: fine_from,
+        vertices: fine_vertices,
+        to: fine_to,
+    } = fine;
+    let (from, to) = surface;
     let h = grid.spacing.into_iter().fold(f64::INFINITY, f64::min);
     let corners = |t: &[u32; 3]| t.map(|i| DVec3::from(points[i as usize]));
-    let fine_triangles: Vec<[DVec3; 3]> = fine.into_iter().map(|t| t.map(DVec3::from)).collect();
-    let n_fine = fine_triangles.len();
-    // Its vertices (each once) and the samples of its triangles other than their corners.
+    // The vertices and the samples of the triangles other than their corners.
     let fine: Vec<DVec3> = fine_vertices
         .into_iter()
         .map(DVec3::from)
         .chain(
-            fine_triangles
+            fine_from
                 .par_iter()
-                .flat_map_iter(|&t| triangle_samples(t, h).filter(move |p| !t.contains(p)))
+                .flat_map_iter(|t| {
+                    let t = t.map(DVec3::from);
+                    triangle_samples(t, h).filter(move |p| !t.contains(p))
+                })
                 .collect::<Vec<_>>(),
         )
         .collect();
-    let surface = triangle_tree(triangles.iter().map(corners));
+    let surface = triangle_tree(to.iter().map(corners));
     let fine_to_surface = farthest(&fine, &surface);
     drop(surface);
-    let fine_tree = triangle_tree(fine_triangles.into_iter());
+    let fine_tree = triangle_tree(fine_to.iter().map(|t| t.map(DVec3::from)));
     // The corners of the triangles among them (a point no triangle uses is no part of the surface).
-    let samples: Vec<DVec3> = triangles
+    let samples: Vec<DVec3> = from
         .par_iter()
         .flat_map_iter(|t| triangle_samples(corners(t), h))
         .collect();
@@ -208,7 +246,7 @@ fn distances(
         fine_to_surface,
         surface_to_fine: farthest(&samples, &fine_tree),
         fine_vertices: fine.len(),
-        fine_triangles: n_fine,
+        fine_triangles: fine_from.len(),
         surface_samples: samples.len(),
         slack: h / 3f64.sqrt(),
         rounding: 1e-9 * grid.diagonal(),

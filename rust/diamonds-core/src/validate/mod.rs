@@ -25,10 +25,7 @@ pub mod surfaces;
 pub mod tetrahedra;
 pub mod visibility;
 
-pub use hausdorff::{
-    farthest, interval_bounding_faces, interval_distances, surface_distances, Farthest,
-    SurfaceDistances,
-};
+pub use hausdorff::{farthest, interval_distances, surface_distances, Farthest, SurfaceDistances};
 pub use polygons::{check_crack_free, check_polygon_arrays};
 pub use surfaces::{
     canonical_triangles, check_isosurface_arrays, check_surface, check_unit_normals, SurfaceReport,
