@@ -150,13 +150,16 @@ const MAX_ROUNDS: usize = 64;
 
 impl<T: Sample> Extraction<'_, '_, T> {
     /// `split` (refined for `query` at `tolerance` > 0 with `criterion`) refined further until its
-    /// surface meets the two-sided bound, and its leaves that carry the surface.
+    /// surface meets the two-sided bound, and its leaves that carry the surface. With `solid` the
+    /// surfaces are those of a solid (an interval volume's bounding surfaces): faces two carriers
+    /// draw from both sides ([`sheets`]) are no part of them.
     pub(super) fn certify(
         &self,
         query: &IsoQuery,
         tolerance: f64,
         mut split: SplitSet,
         criterion: impl Fn(Diamond) -> f64,
+        solid: bool,
     ) -> Result<(SplitSet, Vec<Tet>)> {
         let isovalues = &query.isovalues;
         let mut carriers = self.carriers_of(isovalues, &split)?;
@@ -194,8 +197,19 @@ impl<T: Sample> Extraction<'_, '_, T> {
             let mut violations = Vec::new();
             let mut far = Vec::with_capacity(isovalues.len());
             for ((&v, fine), pending) in isovalues.iter().zip(&fine).zip(&pending) {
-                let found =
-                    self.violations(v, &carriers, fine, pending, reach, query.region_of_interest)?;
+                let sheets = if solid {
+                    sheets(self.volume, &carriers, v)
+                } else {
+                    Sheets::default()
+                };
+                let found = self.violations(
+                    v,
+                    (&carriers, &sheets),
+                    fine,
+                    pending,
+                    reach,
+                    query.region_of_interest,
+                )?;
                 // One per cube of side `reach / (2√3)`: the splits a violation causes cover its
                 // neighbours in the cube.
                 let mut seen = FxHashSet::default();
@@ -612,14 +626,52 @@ fn drawn_triangles<'t, T: Sample>(
     volume: &'t Volume<'_, T>,
     v: f64,
     tets: &'t [Tet],
+    sheets: &'t Sheets,
 ) -> impl ParallelIterator<Item = ([DVec3; 3], u32)> + 't {
     (tets.par_iter().enumerate()).flat_map_iter(move |(k, t)| {
+        if !sheets.is_empty() && face_at(volume, t, v).is_some_and(|f| sheets.contains(&f)) {
+            return Vec::new();
+        }
         let corners = t.map(|q| world(volume, q));
         output_triangles(t, corners, t.map(|q| value(volume, q)), v)
             .into_iter()
             .filter(|t| (t[1] - t[0]).cross(t[2] - t[0]) != DVec3::ZERO)
-            .map(move |t| (t, k as u32))
+            .map(|t| (t, k as u32))
+            .collect()
     })
+}
+
+/// A face of the lattice: its corners, sorted.
+type Face = [[i32; 3]; 3];
+
+/// The faces of carriers drawn from both sides (*sheets*), for a surface that bounds a solid.
+type Sheets = FxHashSet<Face>;
+
+/// The face of `t` whose three corners are at `v`, the fourth not: the one triangle marching
+/// tetrahedra draw in `t` when the fourth is below `v`.
+fn face_at<T: Sample>(volume: &Volume<'_, T>, t: &Tet, v: f64) -> Option<Face> {
+    let at = t.map(|q| value(volume, q) == v);
+    (at.iter().filter(|&&a| a).count() == 3).then(|| {
+        let mut face: Vec<[i32; 3]> = (0..4).filter(|&i| at[i]).map(|i| t[i].to_array()).collect();
+        face.sort_unstable();
+        [face[0], face[1], face[2]]
+    })
+}
+
+/// The faces at `v` that two of `carriers` draw, one from each side: a sheet of the surface,
+/// which bounds no volume (the solid `{f ≥ v}` is only that face there, and an interval volume's
+/// tetrahedra hold none of it). Where the surfaces bound a solid, they are no part of it: the
+/// full-resolution surface near them must be drawn by carriers with volume.
+fn sheets<T: Sample>(volume: &Volume<'_, T>, carriers: &[Tet], v: f64) -> Sheets {
+    let mut faces: Vec<Face> = (carriers.par_iter())
+        .filter_map(|t| face_at(volume, t, v))
+        .collect();
+    faces.par_sort_unstable();
+    faces
+        .windows(2)
+        .filter(|w| w[0] == w[1])
+        .map(|w| w[0])
+        .collect()
 }
 
 impl<T: Sample> Extraction<'_, '_, T> {
@@ -629,7 +681,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
     fn violations(
         &self,
         v: f64,
-        carriers: &[Tet],
+        (carriers, sheets): (&[Tet], &Sheets),
         fine: &Fine,
         pending: &Pending,
         reach: Reach,
@@ -643,7 +695,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
             Pending::Some { carriers, .. } => carriers,
         };
         let checked_triangles: Vec<([DVec3; 3], u32)> =
-            drawn_triangles(volume, v, checked).collect();
+            drawn_triangles(volume, v, checked, sheets).collect();
         // S → F: each triangle's samples spaced at most `h` (the cheap certificate from the blocks
         // of F's vertices), then the parts of the triangles between them covered.
         let fine_surface = || FineSurface {
@@ -730,7 +782,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
                 // that can settle points of them.
                 Pending::Some { .. } => {
                     let near_open = Around::new(grid, &open, reach.full);
-                    drawn_triangles(volume, v, carriers)
+                    drawn_triangles(volume, v, carriers, sheets)
                         .filter(|(t, _)| {
                             let [a, b, c] = t.map(|p| (p - origin) / spacing);
                             near_open.meets(grid, a.min(b).min(c), a.max(b).max(c))

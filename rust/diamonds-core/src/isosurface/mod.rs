@@ -305,17 +305,19 @@ impl<T: Sample> Extraction<'_, '_, T> {
         refine: &mut RefineWith<'_>,
     ) -> Result<(SplitSet, Vec<Tet>)> {
         let criterion = self.iso_criterion(&query.isovalues, tolerance);
-        self.refine_with(query, tolerance, refine, &criterion)
+        self.refine_with(query, tolerance, refine, &criterion, false)
     }
 
     /// [`Extraction::refine_iso`] with the diamond error `criterion` (the isosurface criterion, or
-    /// one that splits at least what it splits).
+    /// one that splits at least what it splits); with `solid`, for surfaces bounding a solid
+    /// (see [`Extraction::certify`]).
     fn refine_with(
         &self,
         query: &IsoQuery,
         tolerance: f64,
         refine: &mut RefineWith<'_>,
         criterion: &dyn Fn(Diamond) -> f64,
+        solid: bool,
     ) -> Result<(SplitSet, Vec<Tet>)> {
         let split = refine(criterion)?;
         if tolerance == 0.0 {
@@ -323,7 +325,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
             let carriers = self.carriers_of(&query.isovalues, &split)?;
             return Ok((split, carriers));
         }
-        self.certify(query, tolerance, split, criterion)
+        self.certify(query, tolerance, split, criterion, solid)
     }
 }
 

@@ -255,7 +255,9 @@ impl IsoState {
     /// samples. Here every straddling diamond whose samples may meet `range` is split too, so that
     /// the leaves meeting `range` are inside the grid (their closure may refine the surfaces near
     /// the far faces beyond what [`IsoState::extract`] draws there; grids of `2^k + 1` points per
-    /// axis have no far faces inside the lattice).
+    /// axis have no far faces inside the lattice). The surfaces bound the leaves kept, so a face
+    /// drawn from both sides bounds nothing and is no part of them in the bound's check
+    /// ([`Extraction::certify`]'s `solid`).
     pub(crate) fn refined_leaves<T: Sample, X: Send>(
         &mut self,
         hierarchy: &Hierarchy,
@@ -300,6 +302,7 @@ impl IsoState {
             query.tolerance,
             &mut |criterion| Refiner::run(grid, base, &refine, criterion),
             &criterion,
+            true,
         )?;
         let error_bound = (carriers.iter())
             .map(x.carrier_error(&query.isovalues, query.tolerance))
