@@ -6,11 +6,15 @@
 //! ([`crate::isosurface`]): the isosurface error of Gregorski §6.2 per diamond, empty-diamond culling
 //! (a diamond whose samples all lie on one side of both levels is never split, so the inside of the
 //! interval volume stays as coarse as the base mesh allows), and the checked two-sided bound: both
-//! bounding surfaces are within the tolerance of the full-resolution boundary of `{α ≤ f ≤ β}`, as
-//! Adaptive Isosurface's are of its surfaces for the same isovalues and tolerance (they *are* its
-//! surfaces, triangulated; where samples equal β, the upper one is refined for a level just above
-//! β, [`bounding_levels`], since marching tetrahedra draw the surface of β around `{f ≥ β}`, not
-//! `{f ≤ β}`; [`crate::validate::interval_distances`] measures the bound). Then every leaf
+//! bounding surfaces are within the tolerance of the full-resolution ones, as Adaptive Isosurface's
+//! are for the same isovalues and tolerance (they *are* its surfaces, triangulated, but for faces
+//! drawn from both sides, which bound nothing here: [`crate::validate::interval_distances`]
+//! measures the bound). Open: marching tetrahedra count samples at the isovalue as above, so where
+//! samples equal β the surface of β bounds `{f ≥ β}`; at a plateau of samples at β next to
+//! samples above it, that surface runs along the plateau's low side, inside the interval volume,
+//! and the refinement there is for it rather than for the plateau's high side, where `{f ≤ β}`
+//! ends (a level just above β fixes this but draws specks around single samples at β that the
+//! volume does not hold). Then every leaf
 //! of the adaptive mesh that meets `[α, β]` is clipped to it, the field being linear on the leaf, and
 //! its patch tetrahedralised by a rule that depends only on global point names ([`clip`]), so that
 //! patches of face-adjacent leaves conform; the adaptive mesh itself conforms (no hanging faces), so
@@ -64,11 +68,10 @@ impl IntervalQuery {
         }
     }
 
-    /// The isosurface query of its two bounding surfaces at `tolerance`, `levels` their isovalues
-    /// ([`bounding_levels`]).
-    fn iso_query(&self, levels: [f64; 2], tolerance: f64) -> IsoQuery {
+    /// The isosurface query of its two bounding surfaces at `tolerance`.
+    fn iso_query(&self, tolerance: f64) -> IsoQuery {
         IsoQuery {
-            isovalues: levels.to_vec(),
+            isovalues: self.range.to_vec(),
             tolerance,
             max_triangles: 0,
             region_of_interest: self.region_of_interest,
@@ -165,36 +168,6 @@ fn check(hierarchy: &Hierarchy, scalars: ScalarSlice<'_>, query: &IntervalQuery)
     Ok(())
 }
 
-/// The isovalues whose surfaces bound `{α ≤ f ≤ β}` (`range`) at full resolution. Marching
-/// tetrahedra count samples at the isovalue as above, so the surface of α bounds `{f ≥ α}`, but
-/// the surface of β bounds `{f ≥ β}`, not `{f ≤ β}`: where samples equal β they differ (a plateau
-/// of samples at β next to samples above it lies inside the interval volume, yet the surface of β
-/// runs along its low side). With samples equal to β the upper level is therefore just above β,
-/// below every sample above it (a millionth of the smallest gap, or the next double), so that
-/// those samples count as below: its surface is the boundary of `{f ≤ β}` up to a millionth of
-/// each edge it crosses (the edge's values differ by at least the gap). Without such samples both
-/// sets have the same boundary and β stays.
-fn bounding_levels<T: Sample>(volume: &Volume<'_, T>, [alpha, beta]: [f64; 2]) -> [f64; 2] {
-    let (at_beta, gap) = (volume.samples.par_iter())
-        .map(|s| {
-            let d = s.to_f64() - beta;
-            (d == 0.0, if d > 0.0 { d } else { f64::INFINITY })
-        })
-        .reduce(|| (false, f64::INFINITY), |a, b| (a.0 || b.0, a.1.min(b.1)));
-    if !at_beta {
-        return [alpha, beta];
-    }
-    let up = beta + 1e-6 * gap;
-    [
-        alpha,
-        if up > beta && up.is_finite() {
-            up
-        } else {
-            beta.next_up()
-        },
-    ]
-}
-
 /// The split set [`extract`] refines `query` to (no budget), for the isodiamond hierarchies
 /// ([`crate::isodiamond`]) that store it.
 pub(crate) fn split_set<T: Sample>(
@@ -202,7 +175,7 @@ pub(crate) fn split_set<T: Sample>(
     volume: &Volume<'_, T>,
     query: &IntervalQuery,
 ) -> Result<crate::refine::SplitSet> {
-    let iso = query.iso_query(bounding_levels(volume, query.range), query.tolerance);
+    let iso = query.iso_query(query.tolerance);
     let keep = |_: &Tet| None::<()>;
     let (_, _, split) =
         IsoState::new().refined_leaves(hierarchy, volume, &iso, query.range, keep)?;
@@ -235,14 +208,8 @@ fn extract_volume<T: Sample>(
         (!out.is_empty()).then(|| (out, depth(&lattice, t)))
     };
     let mut tolerance = query.tolerance;
-    let levels = bounding_levels(volume, range);
-    let (mut patches, mut error_bound, _) = state.refined_leaves(
-        hierarchy,
-        volume,
-        &query.iso_query(levels, tolerance),
-        range,
-        patch,
-    )?;
+    let (mut patches, mut error_bound, _) =
+        state.refined_leaves(hierarchy, volume, &query.iso_query(tolerance), range, patch)?;
     let count = |patches: &[Patch]| patches.iter().map(|p| p.0.len()).sum::<usize>();
     let mut warnings = Vec::new();
     if query.max_tetrahedra > 0 && count(&patches) > query.max_tetrahedra {
@@ -253,7 +220,7 @@ fn extract_volume<T: Sample>(
             let (counts, ..) = state.refined_leaves(
                 hierarchy,
                 volume,
-                &query.iso_query(levels, tolerance),
+                &query.iso_query(tolerance),
                 range,
                 |t| Some(patch(t).map_or(0, |p| p.0.len())),
             )?;
@@ -273,13 +240,8 @@ fn extract_volume<T: Sample>(
             }
         }
         tolerance = hi;
-        (patches, error_bound, _) = state.refined_leaves(
-            hierarchy,
-            volume,
-            &query.iso_query(levels, tolerance),
-            range,
-            patch,
-        )?;
+        (patches, error_bound, _) =
+            state.refined_leaves(hierarchy, volume, &query.iso_query(tolerance), range, patch)?;
         let n = count(&patches);
         if n > query.max_tetrahedra {
             warnings.push(format!(
