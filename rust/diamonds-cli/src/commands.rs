@@ -8,6 +8,7 @@ use crate::write::{
 use crate::{bail, Array, AsScalarSlice, Result};
 use diamonds::validate::{
     check_mesh, check_surface, check_tolerance, check_unit_normals, surface_distances,
+    SurfaceDistances,
 };
 use diamonds::{fields, with_volume, Grid, Hierarchy, IsoQuery, Query, TetMesh};
 use std::fmt;
@@ -544,6 +545,36 @@ pub struct VerifyReport {
 }
 
 impl VerifyReport {
+    /// The line of both one-sided distances `d` between `surface` and the full-resolution one
+    /// (`fine`, whose triangles are counted): a check when there is a `tolerance`, else a report.
+    pub(crate) fn distances(
+        &mut self,
+        d: &SurfaceDistances,
+        (fine, surface): (&str, &str),
+        tolerance: Option<f64>,
+    ) {
+        let measured = format!(
+            "{fine} ({} triangles): from its {} vertices and samples to {surface} {}, from {surface}'s {} vertices and samples to it {} (every point of either within {:.4} more)",
+            d.fine_triangles,
+            d.fine_vertices,
+            d.fine_to_surface.distance,
+            d.surface_samples,
+            d.surface_to_fine.distance,
+            d.slack
+        );
+        match tolerance {
+            Some(t) => {
+                self.check(
+                    "distance",
+                    d.check(t)
+                        .map(|()| format!("{measured}; both within the tolerance {t}"))
+                        .map_err(|e| format!("{e}; {measured}")),
+                );
+            }
+            None => self.lines.push(format!("  distance: {measured}")),
+        }
+    }
+
     pub(crate) fn check(
         &mut self,
         what: &str,
@@ -873,28 +904,11 @@ pub fn verify_surface(
             &surface.points,
             &triangles
         ));
-        let measured = format!(
-            "full-resolution surface of '{}' at {} ({} triangles): from its {} vertices and samples to the surface {}, from the surface's {} vertices and samples to it {} (every point of either surface within {:.4} more)",
-            array.name,
-            b.isovalue,
-            d.fine_triangles,
-            d.fine_vertices,
-            d.fine_to_surface.distance,
-            d.surface_samples,
-            d.surface_to_fine.distance,
-            d.slack
+        let fine = format!(
+            "full-resolution surface of '{}' at {}",
+            array.name, b.isovalue
         );
-        match b.tolerance {
-            Some(t) => {
-                report.check(
-                    "distance",
-                    d.check(t)
-                        .map(|()| format!("{measured}; both within the tolerance {t}"))
-                        .map_err(|e| format!("{e}; {measured}")),
-                );
-            }
-            None => report.lines.push(format!("  distance: {measured}")),
-        }
+        report.distances(&d, (&fine, "the surface"), b.tolerance);
     }
     Ok(finish_as(report, "verify-surface"))
 }

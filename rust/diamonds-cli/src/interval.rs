@@ -256,25 +256,7 @@ pub fn verify_interval(opts: &VerifyIntervalOptions) -> Result<VerifyReport> {
         &values,
         &tets
     ));
-    let measured = format!(
-        "full-resolution boundary at {alpha} and {beta} ({} triangles off the bounds): from their {} vertices and samples to the bounding surfaces {}, from the bounding surfaces' {} vertices and samples to it {} (every point of either within {:.4} more)",
-        d.fine_triangles,
-        d.fine_vertices,
-        d.fine_to_surface.distance,
-        d.surface_samples,
-        d.surface_to_fine.distance,
-        d.slack
-    );
-    match opts.tolerance {
-        Some(t) => {
-            report.check(
-                "distance",
-                d.check(t)
-                    .map(|()| format!("{measured}; both within the tolerance {t}"))
-                    .map_err(|e| format!("{e}; {measured}")),
-            );
-        }
-        None => report.lines.push(format!("  distance: {measured}")),
-    }
+    let fine = format!("full-resolution boundary at {alpha} and {beta}, off the bounds");
+    report.distances(&d, (&fine, "the bounding surfaces"), opts.tolerance);
     Ok(finish_as(report, "verify-interval"))
 }

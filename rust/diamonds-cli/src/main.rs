@@ -118,15 +118,8 @@ enum Command {
         input: PathBuf,
         /// Output tetrahedra (.vtu).
         output: PathBuf,
-        /// The range A B in data units, A < B.
-        #[arg(
-            long,
-            num_args = 2,
-            required = true,
-            allow_negative_numbers = true,
-            value_names = ["A", "B"]
-        )]
-        range: Vec<f64>,
+        #[command(flatten)]
+        range: ValueRange,
         /// Point-data array [default: the active scalars, else the first single-component array].
         #[arg(long, value_name = "NAME")]
         array: Option<String>,
@@ -366,15 +359,8 @@ enum Command {
         image: PathBuf,
         /// Interval volume (.vtu) to check.
         mesh: PathBuf,
-        /// The range A B it was extracted for.
-        #[arg(
-            long,
-            num_args = 2,
-            required = true,
-            allow_negative_numbers = true,
-            value_names = ["A", "B"]
-        )]
-        range: Vec<f64>,
+        #[command(flatten)]
+        range: ValueRange,
         /// Fail when either distance exceeds this bound (world units).
         #[arg(long, value_name = "T", allow_negative_numbers = true)]
         tolerance: Option<f64>,
@@ -394,6 +380,26 @@ enum ViewMetric {
 }
 
 /// `diamonds view --sort`.
+/// The range of `interval` and `verify-interval`.
+#[derive(clap::Args, Debug)]
+struct ValueRange {
+    /// The range A B in data units, A < B.
+    #[arg(
+        long,
+        num_args = 2,
+        required = true,
+        allow_negative_numbers = true,
+        value_names = ["A", "B"]
+    )]
+    range: Vec<f64>,
+}
+
+impl ValueRange {
+    fn get(&self) -> [f64; 2] {
+        [self.range[0], self.range[1]]
+    }
+}
+
 /// The isosurface tolerance of `iso` and `interval`: absolute, relative or the default.
 #[derive(clap::Args, Debug)]
 struct SurfaceTolerance {
@@ -523,7 +529,7 @@ fn run(cli: Cli) -> diamonds_cli::Result<ExitCode> {
                 input,
                 output: output.clone(),
                 array,
-                range: [range[0], range[1]],
+                range: range.get(),
                 tolerance: tolerance.get(),
                 max_tets,
                 roi: roi.get(),
@@ -739,12 +745,7 @@ fn run(cli: Cli) -> diamonds_cli::Result<ExitCode> {
             tolerance,
         } => {
             let report = commands::verify(&input, &mesh, array.as_deref(), tolerance)?;
-            for line in &report.lines {
-                println!("{line}");
-            }
-            if !report.passed {
-                return Ok(ExitCode::from(1));
-            }
+            return Ok(printed(&report));
         }
         Command::VerifySurface {
             mesh,
@@ -759,12 +760,7 @@ fn run(cli: Cli) -> diamonds_cli::Result<ExitCode> {
                 tolerance,
             });
             let report = commands::verify_surface(&mesh, image.as_deref(), bound.as_ref())?;
-            for line in &report.lines {
-                println!("{line}");
-            }
-            if !report.passed {
-                return Ok(ExitCode::from(1));
-            }
+            return Ok(printed(&report));
         }
         Command::VerifyInterval {
             image,
@@ -776,19 +772,26 @@ fn run(cli: Cli) -> diamonds_cli::Result<ExitCode> {
             let report = interval::verify_interval(&interval::VerifyIntervalOptions {
                 image,
                 mesh,
-                range: [range[0], range[1]],
+                range: range.get(),
                 array,
                 tolerance,
             })?;
-            for line in &report.lines {
-                println!("{line}");
-            }
-            if !report.passed {
-                return Ok(ExitCode::from(1));
-            }
+            return Ok(printed(&report));
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Prints a check's report; exit code 1 when a check failed.
+fn printed(report: &commands::VerifyReport) -> ExitCode {
+    for line in &report.lines {
+        println!("{line}");
+    }
+    if report.passed {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    }
 }
 
 #[derive(Subcommand, Debug)]
