@@ -131,17 +131,18 @@ struct Violation {
 impl Violation {
     /// Where to look for the leaf to split, in order: the point moved [`INTO_TRIANGLE`] of the way
     /// to its triangle's centroid, then that point just off either side of the triangle's plane
-    /// ([`INSIDE`] lattice units of the smallest spacing). The point itself may be a vertex, edge or
+    /// ([`INSIDE`] lattice units of the smallest spacing), then the point itself (whose first leaf
+    /// found may be the only one not yet finest). The point itself may be a vertex, edge or
     /// face of several leaves — a point of F at a sample equal to the isovalue is a vertex of the
     /// finest tetrahedra — and the first leaf found holding it may hide nothing (a finest leaf
     /// beside the coarse one that hides the samples below the isovalue); inside its triangle it is
     /// inside the tetrahedron that draws the triangle, unless the triangle lies in a face of two
     /// tetrahedra (a plateau of samples at the isovalue), which the sides tell apart.
-    fn probes(&self, h: f64) -> [DVec3; 3] {
+    fn probes(&self, h: f64) -> [DVec3; 4] {
         let [a, b, c] = self.triangle;
         let inside = self.point + INTO_TRIANGLE * ((a + b + c) / 3.0 - self.point);
         let off = (b - a).cross(c - a).normalize_or_zero() * (INSIDE * h);
-        [inside, inside + off, inside - off]
+        [inside, inside + off, inside - off, self.point]
     }
 }
 
