@@ -630,15 +630,18 @@ fn drawn_triangles<'t, T: Sample>(
     sheets: &'t Sheets,
 ) -> impl ParallelIterator<Item = ([DVec3; 3], u32)> + 't {
     (tets.par_iter().enumerate()).flat_map_iter(move |(k, t)| {
-        if !sheets.is_empty() && face_at(volume, t, v).is_some_and(|f| sheets.contains(&f)) {
-            return Vec::new();
-        }
-        let corners = t.map(|q| world(volume, q));
-        output_triangles(t, corners, t.map(|q| value(volume, q)), v)
+        let sheet =
+            !sheets.is_empty() && face_at(volume, t, v).is_some_and(|f| sheets.contains(&f));
+        let drawn = if sheet {
+            ArrayVec::new()
+        } else {
+            let corners = t.map(|q| world(volume, q));
+            output_triangles(t, corners, t.map(|q| value(volume, q)), v)
+        };
+        drawn
             .into_iter()
             .filter(|t| (t[1] - t[0]).cross(t[2] - t[0]) != DVec3::ZERO)
-            .map(|t| (t, k as u32))
-            .collect()
+            .map(move |t| (t, k as u32))
     })
 }
 
