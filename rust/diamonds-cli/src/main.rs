@@ -50,7 +50,7 @@ enum Command {
             long,
             default_value_t = 0.0,
             value_name = "T",
-            allow_negative_numbers = true
+            allow_hyphen_values = true
         )]
         tolerance: f64,
         /// Largest number of tetrahedra (0 = no limit); refinement stops before exceeding it.
@@ -77,7 +77,7 @@ enum Command {
             long = "isovalue",
             required = true,
             value_name = "V",
-            allow_negative_numbers = true
+            allow_hyphen_values = true
         )]
         isovalues: Vec<f64>,
         /// Point-data array to contour [default: the active scalars, else the first single-component array].
@@ -153,19 +153,19 @@ enum Command {
         #[arg(long, value_name = "NAME")]
         array: Option<String>,
         /// Camera position (world).
-        #[arg(long, num_args = 3, required = true, allow_negative_numbers = true, value_names = ["X", "Y", "Z"])]
+        #[arg(long, num_args = 3, required = true, allow_hyphen_values = true, value_names = ["X", "Y", "Z"])]
         position: Vec<f64>,
         /// The point the camera looks at (world).
-        #[arg(long, num_args = 3, required = true, allow_negative_numbers = true, value_names = ["X", "Y", "Z"])]
+        #[arg(long, num_args = 3, required = true, allow_hyphen_values = true, value_names = ["X", "Y", "Z"])]
         focal_point: Vec<f64>,
         /// Camera up direction.
-        #[arg(long, num_args = 3, default_values_t = [0.0, 0.0, 1.0], allow_negative_numbers = true, value_names = ["X", "Y", "Z"])]
+        #[arg(long, num_args = 3, default_values_t = [0.0, 0.0, 1.0], allow_hyphen_values = true, value_names = ["X", "Y", "Z"])]
         view_up: Vec<f64>,
         /// Vertical view angle in degrees.
         #[arg(
             long,
             default_value_t = 30.0,
-            allow_negative_numbers = true,
+            allow_hyphen_values = true,
             value_name = "DEGREES"
         )]
         view_angle: f64,
@@ -176,7 +176,7 @@ enum Command {
         #[arg(
             long,
             default_value_t = 1.0,
-            allow_negative_numbers = true,
+            allow_hyphen_values = true,
             value_name = "T"
         )]
         tolerance: f64,
@@ -190,7 +190,7 @@ enum Command {
         #[arg(long, value_enum, default_value_t = Sort::None)]
         sort: Sort,
         /// Frames of an orbit before the written frame, and the degrees the camera turns per frame.
-        #[arg(long, num_args = 2, allow_negative_numbers = true, value_names = ["FRAMES", "DEGREES"])]
+        #[arg(long, num_args = 2, allow_hyphen_values = true, value_names = ["FRAMES", "DEGREES"])]
         orbit: Option<Vec<f64>>,
     },
     /// Write a generated volume (.vti) for demos and tests.
@@ -254,10 +254,10 @@ enum Command {
         material_fields: Vec<String>,
         /// Interface tolerance in world units [default: about one cell diagonal: the diagonal of the
         /// bounds over the cube root of the number of cells, as the ParaView filter].
-        #[arg(long, value_name = "T", allow_negative_numbers = true)]
+        #[arg(long, value_name = "T", allow_hyphen_values = true)]
         interface_tolerance: Option<f64>,
         /// Field tolerance in data units (required with --fields or --material-fields).
-        #[arg(long, value_name = "T", allow_negative_numbers = true)]
+        #[arg(long, value_name = "T", allow_hyphen_values = true)]
         field_tolerance: Option<f64>,
         /// Plain linear interpolation of the mixed fields instead of one field per material.
         #[arg(long)]
@@ -267,7 +267,7 @@ enum Command {
             long,
             value_delimiter = ',',
             num_args = 1,
-            allow_negative_numbers = true,
+            allow_hyphen_values = true,
             value_name = "OX,OY,OZ,NX,NY,NZ"
         )]
         slice: Option<Vec<f64>>,
@@ -300,7 +300,7 @@ enum Command {
         #[arg(long, value_name = "NAME")]
         array: Option<String>,
         /// Tolerance to check, in data units.
-        #[arg(long, value_name = "T", allow_negative_numbers = true)]
+        #[arg(long, value_name = "T", allow_hyphen_values = true)]
         tolerance: f64,
     },
     /// Check a surface (.vtp) written by `iso`: watertight, consistently oriented, unit normals and,
@@ -324,19 +324,14 @@ enum Command {
         /// every vertex of that surface and samples of its triangles spaced at most one voxel to
         /// ours, and from every vertex of ours and samples of its triangles spaced at most one voxel
         /// to it.
-        #[arg(
-            long,
-            value_name = "V",
-            requires = "image",
-            allow_negative_numbers = true
-        )]
+        #[arg(long, value_name = "V", requires = "image", allow_hyphen_values = true)]
         isovalue: Option<f64>,
         /// Fail when either distance exceeds this bound (world units).
         #[arg(
             long,
             value_name = "T",
             requires = "isovalue",
-            allow_negative_numbers = true
+            allow_hyphen_values = true
         )]
         tolerance: Option<f64>,
         /// Point-data array of the image [default: as for iso].
@@ -362,7 +357,7 @@ enum Command {
         #[command(flatten)]
         range: ValueRange,
         /// Fail when either distance exceeds this bound (world units).
-        #[arg(long, value_name = "T", allow_negative_numbers = true)]
+        #[arg(long, value_name = "T", allow_hyphen_values = true)]
         tolerance: Option<f64>,
         /// Point-data array of the image, also the mesh's [default: as for interval].
         #[arg(long, value_name = "NAME")]
@@ -388,7 +383,7 @@ struct ValueRange {
         long,
         num_args = 2,
         required = true,
-        allow_negative_numbers = true,
+        allow_hyphen_values = true,
         value_names = ["A", "B"]
     )]
     range: Vec<f64>,
@@ -410,13 +405,13 @@ struct SurfaceTolerance {
     #[arg(
         long,
         value_name = "T",
-        allow_negative_numbers = true,
+        allow_hyphen_values = true,
         conflicts_with = "relative_tolerance"
     )]
     tolerance: Option<f64>,
     /// The tolerance as a fraction of the diagonal of the image's bounds (0.01 = 1 %; exclusive with
     /// --tolerance).
-    #[arg(long, value_name = "R", allow_negative_numbers = true)]
+    #[arg(long, value_name = "R", allow_hyphen_values = true)]
     relative_tolerance: Option<f64>,
 }
 
@@ -438,7 +433,7 @@ struct RegionOfInterest {
     #[arg(
         long,
         num_args = 6,
-        allow_negative_numbers = true,
+        allow_hyphen_values = true,
         value_names = ["XMIN", "XMAX", "YMIN", "YMAX", "ZMIN", "ZMAX"]
     )]
     roi: Option<Vec<f64>>,
@@ -812,7 +807,7 @@ enum IsodiamondsCommand {
         #[arg(
             long,
             value_name = "V",
-            allow_negative_numbers = true,
+            allow_hyphen_values = true,
             conflicts_with = "range",
             required_unless_present = "range"
         )]
@@ -821,7 +816,7 @@ enum IsodiamondsCommand {
         #[arg(
             long,
             num_args = 2,
-            allow_negative_numbers = true,
+            allow_hyphen_values = true,
             value_names = ["A", "B"]
         )]
         range: Option<Vec<f64>>,
@@ -868,7 +863,7 @@ enum ProgressiveCommand {
             long,
             default_value_t = 0.9,
             value_name = "R",
-            allow_negative_numbers = true
+            allow_hyphen_values = true
         )]
         target_reduction: f64,
         /// Largest field error at a removed vertex, data units (0 = no limit).
@@ -876,7 +871,7 @@ enum ProgressiveCommand {
             long,
             default_value_t = 0.0,
             value_name = "E",
-            allow_negative_numbers = true
+            allow_hyphen_values = true
         )]
         max_field_error: f64,
         /// Weight of the geometric (boundary quadric) error.
@@ -884,7 +879,7 @@ enum ProgressiveCommand {
             long,
             default_value_t = 1.0,
             value_name = "W",
-            allow_negative_numbers = true
+            allow_hyphen_values = true
         )]
         geometry_weight: f64,
         /// Weight of the field error.
@@ -892,7 +887,7 @@ enum ProgressiveCommand {
             long,
             default_value_t = 1.0,
             value_name = "W",
-            allow_negative_numbers = true
+            allow_hyphen_values = true
         )]
         field_weight: f64,
         /// Weight of the shape error (condition number; 0 = only the validity tests keep shapes).
@@ -900,7 +895,7 @@ enum ProgressiveCommand {
             long,
             default_value_t = 0.0,
             value_name = "W",
-            allow_negative_numbers = true
+            allow_hyphen_values = true
         )]
         shape_weight: f64,
         /// Let the boundary move (only the quadric error limits it) instead of keeping corners, feature
@@ -913,7 +908,7 @@ enum ProgressiveCommand {
             long,
             default_value_t = 1e-3,
             value_name = "F",
-            allow_negative_numbers = true
+            allow_hyphen_values = true
         )]
         boundary_tolerance: f64,
     },

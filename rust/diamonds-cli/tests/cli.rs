@@ -356,13 +356,14 @@ fn budget_region_of_interest_and_threads() {
         "tetra",
         s(&input),
         s(&roi),
+        // Negative values in any float syntax, exponents included.
         "--roi",
         "-1",
         "0",
-        "-1",
+        "-1e0",
         "0",
         "-1",
-        "-0.5",
+        "-5e-1",
     ])
     .ok();
     let in_roi = count(&roi);
