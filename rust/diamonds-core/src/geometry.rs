@@ -92,6 +92,11 @@ pub fn point_triangle_distance(p: DVec3, [a, b, c]: [DVec3; 3]) -> f64 {
     closest_point_on_triangle(p, a, b, c).0.distance(p)
 }
 
+/// Is the triangle `t` of positive area (its corners not collinear)?
+pub fn has_area(t: &[DVec3; 3]) -> bool {
+    (t[1] - t[0]).cross(t[2] - t[0]) != DVec3::ZERO
+}
+
 /// A triangle in an [`rstar::RTree`]: an id (its index in its mesh) and its corners; the tree's
 /// distance is the exact point–triangle distance.
 #[derive(Clone, Debug)]

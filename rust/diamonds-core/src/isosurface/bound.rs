@@ -46,7 +46,7 @@ use super::{value, world};
 use super::{Extraction, IsoQuery};
 use crate::diamond::{child_of, Diamond};
 use crate::geometry::{
-    point_triangle_distance, sample_triangles, triangle_samples, triangle_tree, Triangle,
+    has_area, point_triangle_distance, sample_triangles, triangle_samples, triangle_tree, Triangle,
     TriangleTree,
 };
 use crate::lattice::{Placement, Tet};
@@ -226,7 +226,8 @@ impl<T: Sample> Extraction<'_, '_, T> {
             let forced = self.forced(&split, &violations, tolerance);
             if forced.is_empty() {
                 // Every violation lies in a leaf of the finest tetrahedra, where the surface is F's
-                // but for degenerate pieces (an isovalue equal to a sample's), which neither draws.
+                // but for pieces of zero area (an isovalue equal to a sample's: points and edges of
+                // {f = v}, which the surface draws only where it keeps coinciding points).
                 return Ok((split, carriers));
             }
             let (removed, kept);
@@ -640,7 +641,7 @@ fn drawn_triangles<'t, T: Sample>(
         };
         drawn
             .into_iter()
-            .filter(|t| (t[1] - t[0]).cross(t[2] - t[0]) != DVec3::ZERO)
+            .filter(has_area)
             .map(move |t| (t, k as u32))
     })
 }

@@ -18,6 +18,7 @@
 //! (one voxel diagonal).
 
 use super::marching::{crosses, polygon_edges};
+use crate::geometry::has_area;
 use crate::lattice::Tet;
 use crate::volume::{Sample, Volume};
 use arrayvec::ArrayVec;
@@ -212,10 +213,18 @@ fn tet_piece<T: Sample>(
     t: Tet,
     v: f64,
 ) -> impl Iterator<Item = [DVec3; 3]> {
+    tet_polygon(volume, t, v).filter(has_area)
+}
+
+/// The triangles marching tetrahedra makes of the finest tetrahedron `t` for isovalue `v`, those of
+/// zero area included.
+fn tet_polygon<T: Sample>(
+    volume: &Volume<'_, T>,
+    t: Tet,
+    v: f64,
+) -> impl Iterator<Item = [DVec3; 3]> {
     let f = t.map(|q| super::value(volume, q));
-    tet_triangles(t.map(|q| super::world(volume, q)), f, v)
-        .into_iter()
-        .filter(|t| (t[1] - t[0]).cross(t[2] - t[0]) != DVec3::ZERO)
+    tet_triangles(t.map(|q| super::world(volume, q)), f, v).into_iter()
 }
 
 /// The full-resolution surface `F` of `isovalues` as a triangle soup (world coordinates, unoriented):
@@ -223,6 +232,35 @@ fn tet_piece<T: Sample>(
 pub fn full_resolution_triangles<T: Sample>(
     volume: &Volume<'_, T>,
     isovalues: &[f64],
+) -> Vec<[[f64; 3]; 3]> {
+    fine_soup(volume, isovalues, |c, v| cell_triangles(volume, c, v))
+}
+
+/// The parts of the full-resolution level sets of `isovalues` that [`full_resolution_triangles`]
+/// leaves out: marching tetrahedra's triangles of zero area, points and segments where samples hold
+/// the isovalue and the values around them lie on one side of it (a sample at a local maximum equal
+/// to the isovalue; an edge of two such samples). They are part of `{f = v}`, and a surface at
+/// tolerance 0 draws the segments where it keeps coinciding points to stay watertight
+/// ([`super::marching_tetrahedra`]), so a distance *to* the full-resolution surface is measured to
+/// them too.
+pub fn full_resolution_degenerate_pieces<T: Sample>(
+    volume: &Volume<'_, T>,
+    isovalues: &[f64],
+) -> Vec<[[f64; 3]; 3]> {
+    fine_soup(volume, isovalues, |c, v| {
+        let mut out = ArrayVec::<[DVec3; 3], 12>::new();
+        for t in cell_tets(c) {
+            out.extend(tet_polygon(volume, t, v).filter(|t| !has_area(t)));
+        }
+        out
+    })
+}
+
+/// The triangles `cell(c, v)` of every grid cell crossed by an isovalue, for every isovalue.
+fn fine_soup<T: Sample>(
+    volume: &Volume<'_, T>,
+    isovalues: &[f64],
+    cell: impl Fn(IVec3, f64) -> ArrayVec<[DVec3; 3], 12> + Sync,
 ) -> Vec<[[f64; 3]; 3]> {
     let bricks = super::bricks::Bricks::new(volume);
     let grid = &volume.grid;
@@ -234,9 +272,7 @@ pub fn full_resolution_triangles<T: Sample>(
                 .par_iter()
                 .flat_map_iter(|&i| {
                     let c = IVec3::from(grid.ijk(i as usize).map(|c| c as i32));
-                    cell_triangles(volume, c, v)
-                        .into_iter()
-                        .map(|t| t.map(|p| p.to_array()))
+                    cell(c, v).into_iter().map(|t| t.map(|p| p.to_array()))
                 })
                 .collect::<Vec<_>>()
         })
@@ -332,10 +368,7 @@ mod tests {
                     .triangles
                     .iter()
                     .map(|t| t.map(|i| s.points[i as usize]))
-                    .filter(|t| {
-                        let t = t.map(DVec3::from);
-                        (t[1] - t[0]).cross(t[2] - t[0]) != DVec3::ZERO
-                    })
+                    .filter(|t| has_area(&t.map(DVec3::from)))
                     .collect();
                 let soup = full_resolution_triangles(&volume, &isovalues);
                 assert_eq!(soup.len(), positive.len(), "{dims:?} {isovalues:?}");

@@ -60,7 +60,9 @@ mod state;
 
 #[cfg(test)]
 pub(crate) use fine::cell_tets;
-pub use fine::{full_resolution_triangles, full_resolution_vertices};
+pub use fine::{
+    full_resolution_degenerate_pieces, full_resolution_triangles, full_resolution_vertices,
+};
 pub use marching::marching_tetrahedra;
 pub use state::{IsoStart, IsoState, IsoStats};
 

@@ -6,7 +6,9 @@
 //! - `F → S`: the largest distance to `S` from the vertices of `F` and from samples of its triangles
 //!   spaced at most one voxel (`h`, the smallest grid spacing, [`crate::geometry::triangle_samples`]);
 //! - `S → F`: the largest distance to `F` from the corners of the triangles of `S` and from samples
-//!   of them spaced at most `h`.
+//!   of them spaced at most `h`. Here `F` includes the parts of the level set that marching
+//!   tetrahedra draws with zero area ([`crate::isosurface::full_resolution_degenerate_pieces`]):
+//!   points of `S` on them lie on `{f = v}`, and a surface at tolerance 0 keeps some of them.
 //!
 //! Every point of either surface lies within `h / √3` of a sample, so every point is within the
 //! measured distance plus `h / √3` of the other surface (the *slack*). The isosurface bound
@@ -14,7 +16,9 @@
 //! other, so both measured distances are at most the tolerance.
 
 use crate::geometry::{triangle_samples, triangle_tree, TriangleTree};
-use crate::isosurface::{full_resolution_triangles, full_resolution_vertices};
+use crate::isosurface::{
+    full_resolution_degenerate_pieces, full_resolution_triangles, full_resolution_vertices,
+};
 use crate::volume::{Sample, Volume};
 use glam::DVec3;
 use rayon::prelude::*;
@@ -104,11 +108,13 @@ pub fn surface_distances<T: Sample>(
 ) -> SurfaceDistances {
     let fine = full_resolution_triangles(volume, isovalues);
     let vertices = full_resolution_vertices(volume, isovalues);
+    let mut level_set = fine.clone();
+    level_set.extend(full_resolution_degenerate_pieces(volume, isovalues));
     distances(
         FineSides {
             from: &fine,
             vertices,
-            to: &fine,
+            to: &level_set,
         },
         &volume.grid,
         points,
@@ -146,6 +152,9 @@ pub fn interval_distances<T: Sample>(
     };
     let mut fine = full_resolution_triangles(volume, &[alpha]);
     fine.extend(full_resolution_triangles(&below, &[-beta]));
+    let mut level_sets = fine.clone();
+    level_sets.extend(full_resolution_degenerate_pieces(volume, &[alpha]));
+    level_sets.extend(full_resolution_degenerate_pieces(&below, &[-beta]));
     let bounds = volume.grid.bounds();
     let eps = super::bounds_eps(&bounds);
     let key = |t: &[[f64; 3]; 3]| {
@@ -179,7 +188,7 @@ pub fn interval_distances<T: Sample>(
         FineSides {
             from: &proper,
             vertices,
-            to: &fine,
+            to: &level_sets,
         },
         &volume.grid,
         points,
@@ -289,5 +298,73 @@ mod tests {
         let d = surface_distances(&volume, &[0.0], &[], &[]);
         assert_eq!(d.fine_to_surface.distance, f64::INFINITY);
         assert_eq!(d.surface_to_fine.distance, 0.0);
+    }
+
+    /// A block of a fuzzed volume (classes of samples: −1 below the isovalue, 0 at it, 1 above)
+    /// where two samples at the isovalue, joined by an edge of the finest tetrahedra, meet sheets of
+    /// the surface on both sides: marching tetrahedra draw that edge with triangles of zero area, and
+    /// the surface at tolerance 0 keeps coinciding points there to stay watertight. Those points lie
+    /// on `{f = v}`: at distance 0 from the full-resolution level set, not from its triangles of
+    /// positive area (1.49, a grid step, in the fuzzed volume).
+    #[test]
+    fn a_surface_at_tolerance_0_is_at_distance_0_where_it_draws_an_edge_of_samples_at_the_isovalue()
+    {
+        use crate::geometry::has_area;
+        use crate::hierarchy::Hierarchy;
+        use crate::isosurface::{extract, IsoQuery};
+        use crate::volume::ScalarSlice;
+        #[rustfmt::skip]
+        let block: [i8; 125] = [
+            -1, -1, -1, -1, -1,
+            -1, -1, -1, -1, 1,
+            1, 1, -1, -1, -1,
+            -1, -1, -1, 1, 0,
+            -1, 1, -1, -1, 1,
+            -1, -1, -1, 1, -1,
+            1, -1, 0, -1, -1,
+            -1, -1, -1, -1, -1,
+            1, -1, -1, -1, -1,
+            -1, 0, 1, -1, -1,
+            -1, -1, -1, -1, -1,
+            -1, -1, -1, -1, -1,
+            -1, -1, -1, 0, -1,
+            -1, 1, -1, 0, -1,
+            -1, -1, -1, 1, -1,
+            -1, -1, -1, 1, -1,
+            -1, -1, 0, -1, -1,
+            -1, -1, -1, -1, -1,
+            -1, -1, -1, -1, -1,
+            -1, 1, -1, -1, 0,
+            -1, -1, -1, -1, -1,
+            -1, -1, 0, 0, -1,
+            0, 1, -1, 1, -1,
+            -1, 0, -1, 0, -1,
+            -1, 1, -1, -1, -1,
+        ];
+        let grid = unit_grid([9, 9, 9]);
+        let mut v = vec![80f32; 9 * 9 * 9];
+        // At an offset of the same parity as in the fuzzed volume (the finest tetrahedra depend on it).
+        for (k, c) in block.iter().enumerate() {
+            let (x, y, z) = (1 + k % 5, 2 + k / 5 % 5, 2 + k / 25);
+            v[x + 9 * (y + 9 * z)] = 90.0 + 10.0 * f32::from(*c);
+        }
+        let volume = Volume::new(grid, &v[..]).unwrap();
+        let h = Hierarchy::build_for_isosurfaces(grid, ScalarSlice::F32(&v)).unwrap();
+        let s = extract(
+            &h,
+            ScalarSlice::F32(&v),
+            &IsoQuery {
+                isovalues: vec![90.0],
+                ..IsoQuery::new(0.0, 0.0)
+            },
+        )
+        .unwrap();
+        let corners = |t: &[u32; 3]| t.map(|i| DVec3::from(s.points[i as usize]));
+        assert!(
+            s.triangles.iter().any(|t| !has_area(&corners(t))),
+            "the case: triangles of zero area"
+        );
+        let d = surface_distances(&volume, &[90.0], &s.points, &s.triangles);
+        assert_eq!(d.check(0.0), Ok(()), "{d:?}");
     }
 }
