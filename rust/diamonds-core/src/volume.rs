@@ -123,6 +123,21 @@ pub trait Sample: Copy + Send + Sync + 'static {
     fn to_f64(self) -> f64;
 }
 
+/// A sample read negated: a volume of `−f` without a copy ([`Volume::negated`]).
+#[derive(Clone, Copy, Debug)]
+#[repr(transparent)]
+pub struct Negated<T>(T);
+
+impl<T: Sample> Sample for Negated<T> {
+    #[inline(always)]
+    fn to_f64(self) -> f64 {
+        -self.0.to_f64()
+    }
+}
+
+// SAFETY: `Negated<T>` is `repr(transparent)` over `T`, its only field.
+unsafe impl<T> bytemuck::TransparentWrapper<T> for Negated<T> {}
+
 macro_rules! impl_sample {
     ($($t:ty),*) => {$(
         impl Sample for $t {
@@ -251,6 +266,16 @@ pub struct Volume<'a, T> {
 }
 
 impl<'a, T: Sample> Volume<'a, T> {
+    /// The same samples read as `−f` (no copy): marching tetrahedra on it at `−v` count samples
+    /// at `v` as below `v`.
+    pub fn negated(&self) -> Volume<'a, Negated<T>> {
+        use bytemuck::TransparentWrapper;
+        Volume {
+            grid: self.grid,
+            samples: Negated::wrap_slice(self.samples),
+        }
+    }
+
     /// Checks dimensions, geometry and length, and refuses NaN/Inf samples and samples beyond
     /// [`MAX_MAGNITUDE`].
     pub fn new(grid: Grid, samples: &'a [T]) -> Result<Self> {

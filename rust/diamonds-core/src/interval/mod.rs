@@ -9,12 +9,9 @@
 //! bounding surfaces are within the tolerance of the full-resolution ones, as Adaptive Isosurface's
 //! are for the same isovalues and tolerance (they *are* its surfaces, triangulated, but for faces
 //! drawn from both sides, which bound nothing here: [`crate::validate::interval_distances`]
-//! measures the bound). Open: marching tetrahedra count samples at the isovalue as above, so where
-//! samples equal β the surface of β bounds `{f ≥ β}`; at a plateau of samples at β next to
-//! samples above it, that surface runs along the plateau's low side, inside the interval volume,
-//! and the refinement there is for it rather than for the plateau's high side, where `{f ≤ β}`
-//! ends (a level just above β fixes this but draws specks around single samples at β that the
-//! volume does not hold). Then every leaf
+//! measures the bound; where samples equal β, the upper surface checked is that of `−f` at `−β`,
+//! the boundary of `{f ≤ β}`, rather than marching tetrahedra's surface of β, which bounds
+//! `{f ≥ β}`: [`crate::isosurface`]'s `Extraction::certify_solid`). Then every leaf
 //! of the adaptive mesh that meets `[α, β]` is clipped to it, the field being linear on the leaf, and
 //! its patch tetrahedralised by a rule that depends only on global point names ([`clip`]), so that
 //! patches of face-adjacent leaves conform; the adaptive mesh itself conforms (no hanging faces), so

@@ -260,6 +260,62 @@ impl<T: Sample> Extraction<'_, '_, T> {
     }
 }
 
+impl<T: Sample> Extraction<'_, '_, T> {
+    /// [`Extraction::certify`] for the bounding surfaces of the solid `{α ≤ f ≤ β}` (`range`, the
+    /// isovalues of `query`). The surface of α bounds `{f ≥ α}` as marching tetrahedra draw it,
+    /// but the surface of β must bound `{f ≤ β}`: the surface of `−f` at `−β`
+    /// ([`Volume::negated`]). The two differ where samples equal β, since marching tetrahedra count
+    /// samples at the isovalue as above: at a plateau of samples at β next to samples above it,
+    /// the surface of β runs along the plateau's low side, inside the solid, while the solid ends
+    /// at its high side (a level just above β instead would draw specks around single samples at
+    /// β that the solid does not hold). Without samples at β both surfaces are checked together;
+    /// with them each is checked on its own in turn, until a check splits nothing: every check
+    /// ends on a split set where its surface meets the bound, so then both do.
+    pub(super) fn certify_solid(
+        &self,
+        query: &IsoQuery,
+        [alpha, beta]: [f64; 2],
+        tolerance: f64,
+        mut split: SplitSet,
+        criterion: &dyn Fn(Diamond) -> f64,
+    ) -> Result<(SplitSet, Vec<Tet>)> {
+        let ties = (self.volume.samples.par_iter()).any(|s| s.to_f64() == beta);
+        if !ties {
+            return self.certify(query, tolerance, split, criterion, true);
+        }
+        let negated = self.volume.negated();
+        let cache = self.cache.negated();
+        let below = Extraction {
+            hierarchy: self.hierarchy,
+            volume: &negated,
+            cache: &cache,
+        };
+        let level = |v: f64| IsoQuery {
+            isovalues: vec![v],
+            ..query.clone()
+        };
+        let (upper, lower) = (level(alpha), level(-beta));
+        for round in 0..MAX_ROUNDS {
+            let before = split.len();
+            split = if round % 2 == 0 {
+                self.certify(&upper, tolerance, split, criterion, true)?.0
+            } else {
+                below.certify(&lower, tolerance, split, criterion, true)?.0
+            };
+            if round > 0 && split.len() == before {
+                let mut carriers = self.carriers_of(&upper.isovalues, &split)?;
+                carriers.extend(below.carriers_of(&lower.isovalues, &split)?);
+                carriers.par_sort_unstable_by_key(|t| t.map(|p| p.to_array()));
+                carriers.dedup();
+                return Ok((split, carriers));
+            }
+        }
+        Err(Error::Uncertified(format!(
+            "the two bounding surfaces still failing in turn after {MAX_ROUNDS} checks"
+        )))
+    }
+}
+
 /// What a round of the check looks at for one isovalue. A point certified in a round stays
 /// certified while the surface that certified it is there: splits remove the surface of the
 /// carriers they split only, and F does not change.

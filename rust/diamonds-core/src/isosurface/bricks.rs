@@ -31,6 +31,16 @@ impl Bricks {
         Self { dims, min, max }
     }
 
+    /// The bricks of the negated samples ([`Volume::negated`]): each range negated.
+    pub(super) fn negated(&self) -> Self {
+        let negate = |v: &[f64]| v.par_iter().map(|x| -x).collect();
+        Self {
+            dims: self.dims,
+            min: negate(&self.max),
+            max: negate(&self.min),
+        }
+    }
+
     /// Bytes held: two values per brick.
     pub(super) fn bytes(&self) -> usize {
         (self.min.capacity() + self.max.capacity()) * std::mem::size_of::<f64>()

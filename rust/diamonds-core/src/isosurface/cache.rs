@@ -48,6 +48,19 @@ impl IsoCache {
         }
     }
 
+    /// A cache for the negated samples ([`Volume::negated`]): its bricks from these ones'; gradients
+    /// unknown, no errors kept.
+    pub(super) fn negated(&self) -> Self {
+        Self {
+            grid: self.grid,
+            bricks: self.bricks.negated(),
+            gradients: (0..self.gradients.len())
+                .map(|_| AtomicU16::new(UNKNOWN))
+                .collect(),
+            errors: Mutex::new(None),
+        }
+    }
+
     /// Bytes held: the bricks, the gradients and the kept errors.
     pub(super) fn bytes(&self) -> usize {
         let errors = self.errors.lock().unwrap_or_else(|e| e.into_inner());

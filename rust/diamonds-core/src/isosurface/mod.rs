@@ -307,19 +307,19 @@ impl<T: Sample> Extraction<'_, '_, T> {
         refine: &mut RefineWith<'_>,
     ) -> Result<(SplitSet, Vec<Tet>)> {
         let criterion = self.iso_criterion(&query.isovalues, tolerance);
-        self.refine_with(query, tolerance, refine, &criterion, false)
+        self.refine_with(query, tolerance, refine, &criterion, None)
     }
 
     /// [`Extraction::refine_iso`] with the diamond error `criterion` (the isosurface criterion, or
-    /// one that splits at least what it splits); with `solid`, for surfaces bounding a solid
-    /// (see [`Extraction::certify`]).
+    /// one that splits at least what it splits); with `solid`, `query`'s isovalues are the range
+    /// `[α, β]` of the solid `{α ≤ f ≤ β}` that the surfaces bound ([`Extraction::certify_solid`]).
     fn refine_with(
         &self,
         query: &IsoQuery,
         tolerance: f64,
         refine: &mut RefineWith<'_>,
         criterion: &dyn Fn(Diamond) -> f64,
-        solid: bool,
+        solid: Option<[f64; 2]>,
     ) -> Result<(SplitSet, Vec<Tet>)> {
         let split = refine(criterion)?;
         if tolerance == 0.0 {
@@ -327,7 +327,10 @@ impl<T: Sample> Extraction<'_, '_, T> {
             let carriers = self.carriers_of(&query.isovalues, &split)?;
             return Ok((split, carriers));
         }
-        self.certify(query, tolerance, split, criterion, solid)
+        match solid {
+            Some(range) => self.certify_solid(query, range, tolerance, split, criterion),
+            None => self.certify(query, tolerance, split, criterion, false),
+        }
     }
 }
 

@@ -255,9 +255,9 @@ impl IsoState {
     /// samples. Here every straddling diamond whose samples may meet `range` is split too, so that
     /// the leaves meeting `range` are inside the grid (their closure may refine the surfaces near
     /// the far faces beyond what [`IsoState::extract`] draws there; grids of `2^k + 1` points per
-    /// axis have no far faces inside the lattice). The surfaces bound the leaves kept, so a face
-    /// drawn from both sides bounds nothing and is no part of them in the bound's check
-    /// ([`Extraction::certify`]'s `solid`).
+    /// axis have no far faces inside the lattice). The surfaces bound the leaves kept: the bound's
+    /// check is for the boundary of `{α ≤ f ≤ β}` (`range`), a face drawn from both sides being no
+    /// part of it ([`Extraction::certify_solid`]).
     pub(crate) fn refined_leaves<T: Sample, X: Send>(
         &mut self,
         hierarchy: &Hierarchy,
@@ -302,7 +302,7 @@ impl IsoState {
             query.tolerance,
             &mut |criterion| Refiner::run(grid, base, &refine, criterion),
             &criterion,
-            true,
+            Some(range),
         )?;
         let error_bound = (carriers.iter())
             .map(x.carrier_error(&query.isovalues, query.tolerance))

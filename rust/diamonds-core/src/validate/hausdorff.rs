@@ -145,11 +145,7 @@ pub fn interval_distances<T: Sample>(
     values: &[f64],
     tets: &[[u32; 4]],
 ) -> SurfaceDistances {
-    let negated: Vec<f64> = volume.samples.iter().map(|s| -s.to_f64()).collect();
-    let below = Volume {
-        grid: volume.grid,
-        samples: &negated[..],
-    };
+    let below = volume.negated();
     let mut fine = full_resolution_triangles(volume, &[alpha]);
     fine.extend(full_resolution_triangles(&below, &[-beta]));
     let mut level_sets = fine.clone();
