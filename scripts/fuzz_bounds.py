@@ -12,7 +12,9 @@ values). It then runs, each with the independent checker of its output:
 
 - `diamonds tetra --tolerance T` then `diamonds verify` (every sample within T, conforming);
 - `diamonds iso --isovalue V --tolerance T` then `diamonds verify-surface --isovalue V --tolerance T`
-  (both one-sided Hausdorff distances to the full-resolution surface);
+  (both one-sided Hausdorff distances to the full-resolution surface), and the same for a second
+  isovalue together with the first (its level drawn from a generator of its own, so that adding this
+  step left every other case of a seed as it was);
 - `diamonds interval --range A B --tolerance T` then `diamonds verify-interval --tolerance T`
   (conforming, values in the range, both distances to the full-resolution boundary);
 
@@ -130,7 +132,7 @@ def run(args):
     return out.returncode, out.stdout + out.stderr
 
 
-def case(rng, n, tmp, execute=True):
+def case(rng, n, tmp, seed, execute=True):
     """Case `n`: its volume and levels are drawn from `rng` whether or not it is executed."""
     dims, origin, spacing, type_name, values, what = volume(rng)
     vti = os.path.join(tmp, f"case{n}.vti")
@@ -148,6 +150,12 @@ def case(rng, n, tmp, execute=True):
     vtp = os.path.join(tmp, f"case{n}-iso.vtp")
     steps.append(("iso", ["iso", vti, vtp, "--isovalue", num(iso), "--tolerance", tolerance],
                   ["verify-surface", vtp, "--image", vti, "--isovalue", num(iso), "--tolerance", tolerance]))
+    second = level(random.Random(f"{seed}:{n}"), values)
+    if second != iso:
+        both = os.path.join(tmp, f"case{n}-iso2.vtp")
+        levels = [x for v in (iso, second) for x in ("--isovalue", num(v))]
+        steps.append(("iso2", ["iso", vti, both, *levels, "--tolerance", tolerance],
+                      ["verify-surface", both, "--image", vti, *levels, "--tolerance", tolerance]))
     a, b = sorted([level(rng, values), level(rng, values)])
     if a < b:
         ivtu = os.path.join(tmp, f"case{n}-interval.vtu")
@@ -181,7 +189,7 @@ def main():
     rng = random.Random(a.seed)
     failed = 0
     for n in range(a.cases):
-        what, failures = case(rng, n, tmp, a.only is None or a.only == n)
+        what, failures = case(rng, n, tmp, a.seed, a.only is None or a.only == n)
         for f in failures:
             print(f"case {n} ({what}): {f}", flush=True)
         failed += bool(failures)

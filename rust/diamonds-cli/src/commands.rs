@@ -773,7 +773,7 @@ pub(crate) fn finish_as(mut report: VerifyReport, command: &str) -> VerifyReport
 /// full-resolution marching-tetrahedra surface of its image's `array` at `isovalue`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SurfaceBound {
-    pub isovalue: f64,
+    pub isovalues: Vec<f64>,
     /// Point-data array of the image [default: the active scalars, else the first scalar array].
     pub array: Option<String>,
     /// Fail when either one-sided Hausdorff distance exceeds it; `None`: report them only.
@@ -804,8 +804,8 @@ pub fn verify_surface(
         None => None,
     };
     if let Some(b) = bound {
-        if !b.isovalue.is_finite() {
-            bail!("the isovalue must be a finite number (got {})", b.isovalue);
+        if let Some(v) = b.isovalues.iter().find(|v| !v.is_finite()) {
+            bail!("the isovalue must be a finite number (got {v})");
         }
         if let Some(t) = b.tolerance.filter(|t| !t.is_finite() || *t < 0.0) {
             bail!("the tolerance must be a finite number >= 0 in world units (got {t})");
@@ -897,16 +897,17 @@ pub fn verify_surface(
     }
     if let (Some(b), Some((_, image))) = (bound, &image) {
         let array = image.scalars(b.array.as_deref())?;
-        let isovalues = [b.isovalue];
         let d = with_volume!(image.grid, array.scalar_slice()?, |v| surface_distances(
             &v,
-            &isovalues,
+            &b.isovalues,
             &surface.points,
             &triangles
         ));
+        let at: Vec<String> = b.isovalues.iter().map(f64::to_string).collect();
         let fine = format!(
             "full-resolution surface of '{}' at {}",
-            array.name, b.isovalue
+            array.name,
+            at.join(" and ")
         );
         report.distances(&d, (&fine, "the surface"), b.tolerance);
     }

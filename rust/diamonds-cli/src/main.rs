@@ -323,9 +323,10 @@ enum Command {
         /// surface and the image's full-resolution marching-tetrahedra surface at this isovalue: from
         /// every vertex of that surface and samples of its triangles spaced at most one voxel to
         /// ours, and from every vertex of ours and samples of its triangles spaced at most one voxel
-        /// to it.
+        /// to it. Repeat the option for a surface of several isovalues (measured against all their
+        /// full-resolution surfaces together).
         #[arg(long, value_name = "V", requires = "image", allow_hyphen_values = true)]
-        isovalue: Option<f64>,
+        isovalue: Vec<f64>,
         /// Fail when either distance exceeds this bound (world units).
         #[arg(
             long,
@@ -749,8 +750,8 @@ fn run(cli: Cli) -> diamonds_cli::Result<ExitCode> {
             tolerance,
             array,
         } => {
-            let bound = isovalue.map(|isovalue| commands::SurfaceBound {
-                isovalue,
+            let bound = (!isovalue.is_empty()).then_some(commands::SurfaceBound {
+                isovalues: isovalue,
                 array,
                 tolerance,
             });

@@ -244,6 +244,23 @@ fn two_isovalues_make_two_surfaces() {
         }
         let summary = iso(&input, &out, &args);
         verify(&out, Some(&input));
+        // Within the tolerance of the full-resolution surfaces of its isovalues, all together; not
+        // of one of them alone when it has two.
+        let mut check = vec!["verify-surface", s(&out), "--image", s(&input)];
+        check.extend(["--tolerance", tol]);
+        let run = |isovalues: &[&str]| {
+            let mut args = check.clone();
+            for v in isovalues {
+                args.extend(["--isovalue", v]);
+            }
+            diamonds(args)
+        };
+        let report = run(values).ok();
+        assert!(report.contains("verify-surface: PASSED"), "{report}");
+        if values.len() > 1 {
+            let one = run(&values[..1]);
+            assert_eq!(one.code, 1, "{one:#?}");
+        }
         let (surface, n) = read_surface(&out);
         let scalars = surface
             .point_data

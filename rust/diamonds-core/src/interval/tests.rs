@@ -5,9 +5,7 @@
 use super::*;
 use crate::fields::{marschner_lobb, marschner_lobb_u8, sample, sphere_distance, unit_grid};
 use crate::isosurface::{self, cell_tets, full_resolution_triangles};
-use crate::validate::{
-    boundary_faces, check_interval_volume, interval_distances, surface_distances,
-};
+use crate::validate::{self, check_interval_volume, interval_distances, surface_distances};
 use crate::volume::Grid;
 use glam::IVec3;
 
@@ -194,26 +192,7 @@ fn conforming_and_converging_as_the_tolerance_shrinks() {
 /// The faces of `v` used by one tetrahedron whose values all equal `level`, as sorted point
 /// positions, and the area they cover.
 fn bounding_faces(v: &IntervalVolume, level: f64) -> (Vec<[u64; 3]>, f64) {
-    let mut faces: Vec<[u32; 3]> = v
-        .tets
-        .iter()
-        .flat_map(|t| {
-            (0..4).map(move |skip| {
-                let mut f = [0u32; 3];
-                for (k, i) in (0..4).filter(|&i| i != skip).enumerate() {
-                    f[k] = t[i];
-                }
-                f.sort_unstable();
-                f
-            })
-        })
-        .collect();
-    faces.sort_unstable();
-    let single: Vec<[u32; 3]> = faces
-        .chunk_by(|a, b| a == b)
-        .filter(|g| g.len() == 1 && g[0].iter().all(|&i| v.values[i as usize] == level))
-        .map(|g| g[0])
-        .collect();
+    let single = validate::bounding_faces(&v.tets, &v.values, &[level]);
     let area = single
         .iter()
         .map(|f| {
@@ -407,18 +386,9 @@ fn bounding_surfaces_are_within_the_tolerance_of_the_full_resolution_boundary() 
         &IntervalQuery::new(range, 0.0),
     )
     .unwrap();
-    let faces = bounding_triangles(&v, range);
+    let faces = validate::bounding_faces(&v.tets, &v.values, &range);
     let d = surface_distances(&volume, &range, &v.points, &faces);
     assert!(d.fine_to_surface.distance > 1.0, "{d:?}");
-}
-
-/// The faces of `v` in one tetrahedron whose values are all α or all β.
-fn bounding_triangles(v: &IntervalVolume, [alpha, beta]: [f64; 2]) -> Vec<[u32; 3]> {
-    let at = |f: &[u32; 3], level: f64| f.iter().all(|&k| v.values[k as usize] == level);
-    boundary_faces(&v.tets)
-        .into_iter()
-        .filter(|f| at(f, alpha) || at(f, beta))
-        .collect()
 }
 
 #[test]

@@ -172,10 +172,7 @@ pub fn interval_distances<T: Sample>(
     let mut vertices: Vec<[f64; 3]> = proper.iter().flatten().copied().collect();
     vertices.sort_unstable_by_key(|p| p.map(f64::to_bits));
     vertices.dedup();
-    let at = |f: &[u32; 3], level: f64| f.iter().all(|&v| values[v as usize] == level);
-    let faces: Vec<[u32; 3]> = (super::boundary_faces(tets).into_iter())
-        .filter(|f| at(f, alpha) || at(f, beta))
-        .collect();
+    let faces = super::bounding_faces(tets, values, &[alpha, beta]);
     let off_the_box: Vec<[u32; 3]> = (faces.iter())
         .filter(|f| !on_the_box(&f.map(|v| points[v as usize]), &bounds, eps))
         .copied()

@@ -31,7 +31,7 @@ pub use surfaces::{
     canonical_triangles, check_isosurface_arrays, check_surface, check_unit_normals, SurfaceReport,
 };
 pub use tetrahedra::{
-    boundary_faces, check_conforming, check_interval_arrays, check_interval_volume,
+    boundary_faces, bounding_faces, check_conforming, check_interval_arrays, check_interval_volume,
     check_manifold_tets, check_material_mesh_arrays, check_mesh, check_mesh_arrays,
     check_no_overlap, check_tolerance, MeshReport,
 };

@@ -320,6 +320,15 @@ pub fn check_interval_volume(
     })
 }
 
+/// The bounding faces of an interval volume (`tets`, `values` the field at each point) at `levels`:
+/// its [`boundary_faces`] whose three values all equal one of them.
+pub fn bounding_faces(tets: &[[u32; 4]], values: &[f64], levels: &[f64]) -> Vec<[u32; 3]> {
+    let at = |f: &[u32; 3], level: f64| f.iter().all(|&v| values[v as usize] == level);
+    (boundary_faces(tets).into_iter())
+        .filter(|f| levels.iter().any(|&level| at(f, level)))
+        .collect()
+}
+
 /// The faces of `tets` used by only one of them, each with its corners in its tetrahedron's order
 /// (faces 012, 013, 023, 123), sorted by their sorted corners. A test helper: the boundary surface of
 /// a mesh that may not fill a box (a simplified mesh, an interval volume).
