@@ -153,7 +153,9 @@ impl<T: Sample> Extraction<'_, '_, T> {
     /// `split` (refined for `query` at `tolerance` > 0 with `criterion`) refined further until its
     /// surface meets the two-sided bound, and its leaves that carry the surface. With `solid` the
     /// surfaces are those of a solid (an interval volume's bounding surfaces): faces two carriers
-    /// draw from both sides ([`sheets`]) are no part of them.
+    /// draw from both sides ([`sheets`]) are no part of them. `certified`: the carriers of a split
+    /// set that `split` refines, where the surface met the bound; then only what the splits since
+    /// may have changed is checked, as in a round after the first (see [`Pending`]).
     pub(super) fn certify(
         &self,
         query: &IsoQuery,
@@ -161,6 +163,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
         mut split: SplitSet,
         criterion: impl Fn(Diamond) -> f64,
         solid: bool,
+        certified: Option<&[Tet]>,
     ) -> Result<(SplitSet, Vec<Tet>)> {
         let isovalues = &query.isovalues;
         let mut carriers = self.carriers_of(isovalues, &split)?;
@@ -191,9 +194,38 @@ impl<T: Sample> Extraction<'_, '_, T> {
                 })
             })
             .collect::<Result<Vec<Fine>>>()?;
-        // What each round checks, per isovalue: the first everything; then what the splits of the
-        // round before may have changed (see `Pending`).
-        let mut pending: Vec<Pending> = fine.iter().map(|_| Pending::All).collect();
+        // What each round checks, per isovalue: the first everything, or what the splits since
+        // `certified` may have changed; then what the splits of the round before may have changed
+        // (see `Pending`).
+        let mut pending: Vec<Pending> = match certified {
+            None => fine.iter().map(|_| Pending::All).collect(),
+            Some(before) => {
+                let (before, now): (FxHashSet<Tet>, FxHashSet<Tet>) = rayon::join(
+                    || before.iter().copied().collect(),
+                    || carriers.iter().copied().collect(),
+                );
+                let removed: Vec<Tet> = (before.iter())
+                    .filter(|t| !now.contains(*t))
+                    .copied()
+                    .collect();
+                let near_removed = NearBoxes::new(grid, &removed, reach.full);
+                let new: Vec<Tet> = (carriers.iter())
+                    .filter(|t| !before.contains(*t))
+                    .copied()
+                    .collect();
+                (fine.iter())
+                    .map(|fine| Pending::Some {
+                        carriers: new.clone(),
+                        cells: (fine.cells.par_iter().copied())
+                            .filter(|&c| {
+                                near_removed
+                                    .has(IVec3::from(grid.ijk(c as usize).map(|c| c as i32)))
+                            })
+                            .collect(),
+                    })
+                    .collect()
+            }
+        };
         for _ in 0..MAX_ROUNDS {
             let mut violations = Vec::new();
             let mut far = Vec::with_capacity(isovalues.len());
@@ -281,7 +313,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
     ) -> Result<(SplitSet, Vec<Tet>)> {
         let ties = (self.volume.samples.par_iter()).any(|s| s.to_f64() == beta);
         if !ties {
-            return self.certify(query, tolerance, split, criterion, true);
+            return self.certify(query, tolerance, split, criterion, true, None);
         }
         let negated = self.volume.negated();
         let cache = self.cache.negated();
@@ -295,13 +327,18 @@ impl<T: Sample> Extraction<'_, '_, T> {
             ..query.clone()
         };
         let (upper, lower) = (level(alpha), level(-beta));
+        // The carriers of each surface where it last met the bound.
+        let mut certified: [Option<Vec<Tet>>; 2] = [None, None];
         for round in 0..MAX_ROUNDS {
             let before = split.len();
-            split = if round % 2 == 0 {
-                self.certify(&upper, tolerance, split, criterion, true)?.0
+            let last = certified[round % 2].as_deref();
+            let carriers;
+            (split, carriers) = if round % 2 == 0 {
+                self.certify(&upper, tolerance, split, criterion, true, last)?
             } else {
-                below.certify(&lower, tolerance, split, criterion, true)?.0
+                below.certify(&lower, tolerance, split, criterion, true, last)?
             };
+            certified[round % 2] = Some(carriers);
             if round > 0 && split.len() == before {
                 let mut carriers = self.carriers_of(&upper.isovalues, &split)?;
                 carriers.extend(below.carriers_of(&lower.isovalues, &split)?);

@@ -329,7 +329,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
         }
         match solid {
             Some(range) => self.certify_solid(query, range, tolerance, split, criterion),
-            None => self.certify(query, tolerance, split, criterion, false),
+            None => self.certify(query, tolerance, split, criterion, false, None),
         }
     }
 }
