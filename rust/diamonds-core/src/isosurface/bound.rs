@@ -742,7 +742,8 @@ fn drawn_triangles<'t, T: Sample>(
 /// A face of the lattice: its corners, sorted.
 type Face = [[i32; 3]; 3];
 
-/// The faces of carriers drawn from both sides (*sheets*), for a surface that bounds a solid.
+/// The faces of carriers that bound no volume (*sheets*, [`sheets`]), for a surface that bounds a
+/// solid.
 type Sheets = FxHashSet<Face>;
 
 /// The face of `t` whose three corners are at `v`, the fourth not: the one triangle marching
@@ -756,19 +757,23 @@ fn face_at<T: Sample>(volume: &Volume<'_, T>, t: &Tet, v: f64) -> Option<Face> {
     })
 }
 
-/// The faces at `v` that two of `carriers` draw, one from each side: a sheet of the surface,
-/// which bounds no volume (the solid `{f ≥ v}` is only that face there, and an interval volume's
-/// tetrahedra hold none of it). Where the surfaces bound a solid, they are no part of it: the
-/// full-resolution surface near them must be drawn by carriers with volume.
+/// The faces at `v` that bound no volume (*sheets*): those that two of `carriers` draw, one from
+/// each side, and those that one draws lying on the image's bounds (the solid `{f ≥ v}` is only
+/// that face there, and an interval volume's tetrahedra hold none of it). Where the surfaces bound
+/// a solid, they are no part of it: the full-resolution surface near them must be drawn by
+/// carriers with volume.
 fn sheets<T: Sample>(volume: &Volume<'_, T>, carriers: &[Tet], v: f64) -> Sheets {
+    let hi = volume.grid.dims.map(|d| d as i32 - 1);
+    let on_the_bounds =
+        |f: &Face| (0..3).any(|a| f.iter().all(|p| p[a] == 0) || f.iter().all(|p| p[a] == hi[a]));
     let mut faces: Vec<Face> = (carriers.par_iter())
         .filter_map(|t| face_at(volume, t, v))
         .collect();
     faces.par_sort_unstable();
     faces
-        .windows(2)
-        .filter(|w| w[0] == w[1])
-        .map(|w| w[0])
+        .chunk_by(|a, b| a == b)
+        .filter(|g| g.len() == 2 || on_the_bounds(&g[0]))
+        .map(|g| g[0])
         .collect()
 }
 
