@@ -227,7 +227,6 @@ impl<T: Sample> Extraction<'_, '_, T> {
             }
         };
         for _ in 0..MAX_ROUNDS {
-            let mut violations = Vec::new();
             let mut far = Vec::with_capacity(isovalues.len());
             for ((&v, fine), pending) in isovalues.iter().zip(&fine).zip(&pending) {
                 let sheets = if solid {
@@ -243,19 +242,17 @@ impl<T: Sample> Extraction<'_, '_, T> {
                     reach,
                     query.region_of_interest,
                 )?;
-                // One per cube of side `reach / (2√3)`: the splits a violation causes cover its
-                // neighbours in the cube.
-                let mut seen = FxHashSet::default();
-                let side = reach.full / (2.0 * 3f64.sqrt());
-                violations.extend((found.points.iter().copied()).filter(|v| {
-                    seen.insert(((v.point - lo) / side).floor().as_i64vec3().to_array())
-                }));
                 far.push(found);
             }
-            if violations.is_empty() {
+            if far.iter().all(|f| f.points.is_empty()) {
                 return Ok((split, carriers));
             }
-            let forced = self.forced(&split, &violations, tolerance);
+            // Cubes of side `reach / (2√3)`: the splits a violation causes cover its neighbours in
+            // its cube.
+            let side = reach.full / (2.0 * 3f64.sqrt());
+            let cube = |p: DVec3| ((p - lo) / side).floor().as_i64vec3().to_array();
+            let violations = far.iter().map(|f| &f.points[..]);
+            let forced = self.forced(&split, violations, tolerance, cube);
             if forced.is_empty() {
                 // Every violation lies in a leaf of the finest tetrahedra, where the surface is F's
                 // but for pieces of zero area (an isovalue equal to a sample's: points and edges of
@@ -951,12 +948,23 @@ impl<T: Sample> Extraction<'_, '_, T> {
         })
     }
 
-    /// The diamonds to split for `violations`: for each, the diamonds on the path from the root to
-    /// the tetrahedron holding it below its leaf in `split` that is no larger than `tolerance` — or,
-    /// when the leaf already is, to the finest tetrahedron holding it — found at the first of its
-    /// [`Violation::probes`] whose leaf is not a finest tetrahedron. In order, each once; none when
-    /// every probe of every violation lies in a finest leaf.
-    fn forced(&self, split: &SplitSet, violations: &[Violation], tolerance: f64) -> Vec<Diamond> {
+    /// The diamonds to split for `violations` (of each isovalue): for a violation, the diamonds on
+    /// the path from the root to the tetrahedron holding it below its leaf in `split` that is no
+    /// larger than `tolerance` — or, when the leaf already is, to the finest tetrahedron holding
+    /// it — found at the first of its [`Violation::probes`] whose leaf is not a finest tetrahedron;
+    /// for one violation per isovalue and `cube` (the splits it causes cover the others there)
+    /// among those that have such a probe (one whose probes all lie in finest leaves forces
+    /// nothing, so it stands for no other: a point of F is a corner of several triangles, and its
+    /// violation on one whose probes find finest leaves once hid the same point on another whose
+    /// probes find the coarse leaf hiding material). In order, each once; none when every probe of
+    /// every violation lies in a finest leaf.
+    fn forced<'v>(
+        &self,
+        split: &SplitSet,
+        violations: impl Iterator<Item = &'v [Violation]>,
+        tolerance: f64,
+        cube: impl Fn(DVec3) -> [i64; 3],
+    ) -> Vec<Diamond> {
         let lattice = *self.lattice();
         let grid = &self.volume.grid;
         let (origin, spacing) = (DVec3::from(grid.origin), DVec3::from(grid.spacing));
@@ -998,21 +1006,26 @@ impl<T: Sample> Extraction<'_, '_, T> {
             }
             path
         };
-        let paths: Vec<Vec<Diamond>> = violations
-            .par_iter()
-            .map(|v| {
-                (v.probes(h).into_iter())
-                    .map(path_at)
-                    .find(|path| !path.is_empty())
-                    .unwrap_or_default()
-            })
-            .collect();
         let mut seen = FxHashSet::default();
-        paths
-            .into_iter()
-            .flatten()
-            .filter(|&d| seen.insert(d))
-            .collect()
+        let mut forced = Vec::new();
+        for violations in violations {
+            let paths: Vec<Vec<Diamond>> = violations
+                .par_iter()
+                .map(|v| {
+                    (v.probes(h).into_iter())
+                        .map(path_at)
+                        .find(|path| !path.is_empty())
+                        .unwrap_or_default()
+                })
+                .collect();
+            let mut cubes = FxHashSet::default();
+            for (v, path) in violations.iter().zip(paths) {
+                if !path.is_empty() && cubes.insert(cube(v.point)) {
+                    forced.extend(path.into_iter().filter(|&d| seen.insert(d)));
+                }
+            }
+        }
+        forced
     }
 }
 
