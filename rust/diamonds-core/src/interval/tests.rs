@@ -90,6 +90,26 @@ fn check(v: &IntervalVolume, grid: &Grid, range: [f64; 2]) {
     assert_eq!(v.weights.len(), v.points.len());
 }
 
+/// The interval volume of `range` at `tolerance`, checked: conforming, and its bounding surfaces
+/// within the tolerance of the full-resolution boundary.
+fn bounded(
+    h: &Hierarchy,
+    volume: &Volume<'_, f32>,
+    range: [f64; 2],
+    tolerance: f64,
+) -> IntervalVolume {
+    let query = IntervalQuery::new(range, tolerance);
+    let v = extract(h, ScalarSlice::F32(volume.samples), &query).unwrap();
+    check(&v, &volume.grid, range);
+    let d = interval_distances(volume, range, &v.points, &v.values, &v.tets);
+    assert_eq!(
+        d.check(tolerance),
+        Ok(()),
+        "{range:?} at {tolerance}: {d:?}"
+    );
+    v
+}
+
 fn hierarchy(grid: Grid, values: &[f32]) -> Hierarchy {
     Hierarchy::build_for_isosurfaces(grid, ScalarSlice::F32(values)).unwrap()
 }
@@ -410,12 +430,7 @@ fn thin_material_under_a_coarse_sheet_is_kept() {
     let volume = Volume::new(grid, &values[..]).unwrap();
     let h = hierarchy(grid, &values);
     for fraction in [0.01, 0.02, 0.04] {
-        let tolerance = fraction * grid.diagonal();
-        let query = IntervalQuery::new(range, tolerance);
-        let v = extract(&h, ScalarSlice::F32(&values), &query).unwrap();
-        check(&v, &grid, range);
-        let d = interval_distances(&volume, range, &v.points, &v.values, &v.tets);
-        assert_eq!(d.check(tolerance), Ok(()), "at {fraction}: {d:?}");
+        bounded(&h, &volume, range, fraction * grid.diagonal());
     }
 }
 
@@ -446,15 +461,7 @@ fn material_under_a_plateau_at_alpha_on_the_image_bounds_is_kept() {
         let volume = Volume::new(grid, &values[..]).unwrap();
         let h = hierarchy(grid, &values);
         for cells in [1.5, 3.0, 6.0] {
-            let v = extract(
-                &h,
-                ScalarSlice::F32(&values),
-                &IntervalQuery::new(range, cells),
-            )
-            .unwrap();
-            check(&v, &grid, range);
-            let d = interval_distances(&volume, range, &v.points, &v.values, &v.tets);
-            assert_eq!(d.check(cells), Ok(()), "{dims:?} at {cells}: {d:?}");
+            let v = bounded(&h, &volume, range, cells);
             assert!(total_volume(&v) >= 1.0, "{dims:?} at {cells}: the cube");
         }
     }
@@ -479,14 +486,5 @@ fn material_whose_boundary_meets_a_finest_leaf_at_a_corner_is_kept() {
     let range = [103.0, 117.13216831671514];
     let tolerance = 0.459732519841701;
     let volume = Volume::new(grid, &values[..]).unwrap();
-    let h = hierarchy(grid, &values);
-    let v = extract(
-        &h,
-        ScalarSlice::F32(&values),
-        &IntervalQuery::new(range, tolerance),
-    )
-    .unwrap();
-    check(&v, &grid, range);
-    let d = interval_distances(&volume, range, &v.points, &v.values, &v.tets);
-    assert_eq!(d.check(tolerance), Ok(()), "{d:?}");
+    bounded(&hierarchy(grid, &values), &volume, range, tolerance);
 }
