@@ -152,8 +152,8 @@ const MAX_ROUNDS: usize = 64;
 impl<T: Sample> Extraction<'_, '_, T> {
     /// `split` (refined for `query` at `tolerance` > 0 with `criterion`) refined further until its
     /// surface meets the two-sided bound, and its leaves that carry the surface. With `solid` the
-    /// surfaces are those of a solid (an interval volume's bounding surfaces): faces two carriers
-    /// draw from both sides ([`sheets`]) are no part of them. `certified`: the carriers of a split
+    /// surfaces are those of a solid (an interval volume's bounding surfaces): faces that bound no
+    /// volume ([`sheets`]) are no part of them. `certified`: the carriers of a split
     /// set that `split` refines, where the surface met the bound; then only what the splits since
     /// may have changed is checked, as in a round after the first (see [`Pending`]).
     pub(super) fn certify(
