@@ -375,7 +375,6 @@ enum ViewMetric {
     DistanceRatio,
 }
 
-/// `diamonds view --sort`.
 /// The range of `interval` and `verify-interval`.
 #[derive(clap::Args, Debug)]
 struct ValueRange {
@@ -448,6 +447,7 @@ impl RegionOfInterest {
     }
 }
 
+/// `diamonds view --sort`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 enum Sort {
     /// The mesh's own order.
