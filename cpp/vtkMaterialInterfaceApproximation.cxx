@@ -606,17 +606,12 @@ vtkMaterialInterfaceApproximation::vtkInternals::UpdateMesh(
     return Status::Failed;
   }
   const bridge::MaterialMesh& mesh = **this->Mesh;
-  if (mesh.max_interface_error() > key.InterfaceTolerance ||
-    mesh.max_field_error() > key.FieldTolerance)
+  const rust::String unmet = mesh.tolerance_warning(query);
+  if (!unmet.empty())
   {
     vtkWarningWithObjectMacro(self,
-      << FilterName << ": the finest tetrahedra cannot meet the "
-      << "tolerances everywhere; reached interface error " << mesh.max_interface_error()
-      << " and field error " << mesh.max_field_error()
-      << " (see MaximumInterfaceError, MaximumFieldError and the cell arrays). Every "
-      << "sample is a mesh vertex and the mesh refines below the InterfaceTolerance where "
-      << "interfaces need it, so this happens only where an interface bends within the finest "
-      << "tetrahedra, or where the finer lattice would not fit in memory.");
+      << FilterName << ": " << std::string(unmet)
+      << " (see MaximumInterfaceError, MaximumFieldError and the cell arrays).");
   }
   this->BuiltMesh = key;
   ++self->NumberOfRefinements;

@@ -393,8 +393,8 @@ rect_grid.UpdatePipeline()
 on_rect = simple.MaterialInterfaceApproximation(Input=rect_grid, FieldArrays=["Pressure"], InterfaceTolerance=0.05, FieldTolerance=0.2)
 with dc.ErrorCapture(on_rect) as errors:
     r0, r1, r2 = fetch_all(on_rect)
-# 16x14x12 points: the samples are not all mesh vertices, so the finest tetrahedra may not reach the field
-# tolerance; then (and only then) a warning tells the error reached.
+# 16x14x12 points, not 2^k + 1: a warning when (and only when) a tolerance is not reached, telling the
+# error reached.
 reached = r0.GetFieldData().GetArray("MaximumFieldError").GetValue(0)
 unmet = [m for m in errors.messages if "cannot meet the tolerances" in m]
 dc.check(len(unmet) == (1 if reached > 0.2 else 0) and len(errors.messages) == len(unmet), f"uniform vtkRectilinearGrid: a warning exactly when the tolerance is not reached ({reached:.3g}): {errors.text()[:300]}")

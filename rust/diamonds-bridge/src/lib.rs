@@ -690,6 +690,9 @@ mod ffi {
         /// Largest interface error (world units) and field error (data units) over the mesh.
         fn max_interface_error(self: &MaterialMesh) -> f64;
         fn max_field_error(self: &MaterialMesh) -> f64;
+        /// What to tell the user when the mesh misses a tolerance of `query` (the interface
+        /// error's, where the next finer lattice would not fit), empty when it meets both.
+        fn tolerance_warning(self: &MaterialMesh, query: &MaterialQuerySpec) -> String;
         /// The name of each interface, "<a>|<b>" with the names `materials`.
         fn interface_names(self: &MaterialMesh, materials: &[String]) -> Vec<String>;
         /// The named arrays of the tetrahedra, for materials and fields named `materials` and

@@ -335,12 +335,10 @@ impl MaterialModel {
         query: &MaterialQuerySpec,
         progress: &mut dyn FnMut(f64) -> bool,
     ) -> Result<MaterialMesh, String> {
-        let q = MaterialQuery {
-            interface_tolerance: query.interface_tolerance,
-            field_tolerance: query.field_tolerance,
-            ghost_values: query.ghost_values,
-        };
-        let mesh = self.model.refine(&q, progress).map_err(|e| e.to_string())?;
+        let mesh = self
+            .model
+            .refine(&query.into(), progress)
+            .map_err(|e| e.to_string())?;
         check_core(check_material_mesh_arrays(
             &mesh,
             self.materials,
@@ -351,6 +349,16 @@ impl MaterialModel {
             mesh,
             global_ids: Vec::new(),
         })
+    }
+}
+
+impl From<&MaterialQuerySpec> for MaterialQuery {
+    fn from(q: &MaterialQuerySpec) -> Self {
+        Self {
+            interface_tolerance: q.interface_tolerance,
+            field_tolerance: q.field_tolerance,
+            ghost_values: q.ghost_values,
+        }
     }
 }
 
@@ -376,6 +384,14 @@ impl MaterialMesh {
         self.mesh.max_field_error
     }
 
+    /// What to tell the user when the mesh misses a tolerance of `query` (see
+    /// [`material::MaterialMesh::tolerance_warning`]), empty when it meets both.
+    pub fn tolerance_warning(&self, query: &MaterialQuerySpec) -> String {
+        self.mesh
+            .tolerance_warning(&query.into())
+            .unwrap_or_default()
+    }
+
     /// The name of each interface, `"<a>|<b>"` (see [`outputs::interface_names`]).
     pub fn interface_names(&self, materials: &[String]) -> Vec<String> {
         outputs::interface_names(materials, &self.mesh.pairs)
@@ -389,12 +405,7 @@ impl MaterialMesh {
         query: &MaterialQuerySpec,
     ) -> Result<Box<OutputArrays>, String> {
         guard("naming the tetrahedra arrays", || {
-            let query = MaterialQuery {
-                interface_tolerance: query.interface_tolerance,
-                field_tolerance: query.field_tolerance,
-                ghost_values: query.ghost_values,
-            };
-            let arrays = outputs::tetrahedra_arrays(&self.mesh, materials, fields, &query)?;
+            let arrays = outputs::tetrahedra_arrays(&self.mesh, materials, fields, &query.into())?;
             Ok(Box::new(OutputArrays::new(arrays)))
         })
     }

@@ -448,6 +448,9 @@ pub fn material(opts: &MaterialOptions) -> Result<MaterialSummary> {
         ghost_values: opts.ghost_values,
     };
     let mesh = model.refine(&query, &mut |_| true)?;
+    if let Some(w) = mesh.tolerance_warning(&query) {
+        eprintln!("warning: '{}': {w}", opts.input.display());
+    }
     let refine_seconds = start.elapsed().as_secs_f64();
     let slice = opts.slice.unwrap_or([
         0.5 * (b[0] + b[1]),

@@ -953,6 +953,31 @@ impl MaterialModel {
 /// split sets take 2 bits per point).
 const MAX_LATTICE_POINTS: u64 = 1 << 30;
 
+impl MaterialMesh {
+    /// What to tell the user when this mesh, refined to `query`, misses a tolerance somewhere
+    /// (`None` when it meets both). Every sample is a vertex, so the field error reaches 0 on the
+    /// finest tetrahedra, and [`MaterialModel::refine`] goes to finer lattices while the interface
+    /// error is above its tolerance: a miss means the next finer lattice would exceed
+    /// [`MAX_LATTICE_POINTS`].
+    pub fn tolerance_warning(&self, query: &MaterialQuery) -> Option<String> {
+        (self.max_interface_error > query.interface_tolerance
+            || self.max_field_error > query.field_tolerance)
+            .then(|| {
+                format!(
+                    "the finest tetrahedra cannot meet the tolerances everywhere: interface error {} \
+                     (tolerance {}), field error {} (tolerance {}). Every sample is a mesh vertex and \
+                     the mesh refines on lattices finer than the data where interfaces need it, but \
+                     the next finer lattice would exceed {MAX_LATTICE_POINTS} points; a larger \
+                     interface tolerance can be met",
+                    self.max_interface_error,
+                    query.interface_tolerance,
+                    self.max_field_error,
+                    query.field_tolerance
+                )
+            })
+    }
+}
+
 /// Points of the domain of the lattice `shift` levels finer than the data of `grid`.
 fn lattice_points(grid: &Grid, shift: u32) -> u64 {
     grid.dims

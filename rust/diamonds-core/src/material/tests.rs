@@ -256,6 +256,20 @@ fn impact_case_meets_both_tolerances_everywhere() {
     );
     assert_conforming(&mesh, case.grid.bounds());
     assert!(mesh.max_interface_error <= ti && mesh.max_field_error <= tf);
+    // No warning when both are met; one naming the error reached when a tolerance is below it.
+    assert_eq!(mesh.tolerance_warning(&query(ti, tf)), None);
+    for tighter in [
+        query(mesh.max_interface_error * 0.5, tf),
+        query(ti, mesh.max_field_error * 0.5),
+    ] {
+        let w = mesh.tolerance_warning(&tighter).expect("a warning");
+        assert!(
+            w.contains("cannot meet the tolerances")
+                && w.contains(&format!("interface error {}", mesh.max_interface_error))
+                && w.contains(&format!("field error {}", mesh.max_field_error)),
+            "{w}"
+        );
+    }
     let labels = model.labels();
     let fe = measured_field_error(&mesh, &case, labels);
     assert!(fe <= tf + 1e-4, "field error {fe} at a sample");
