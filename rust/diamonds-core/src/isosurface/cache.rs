@@ -21,8 +21,9 @@ pub(super) struct IsoCache {
     grid: Grid,
     pub(super) bricks: Bricks,
     /// By central vertex: the smallest gradient magnitude of the diamond's tetrahedra, rounded down
-    /// (bfloat16; [`UNKNOWN`] until a query needs it).
-    gradients: Vec<AtomicU16>,
+    /// (bfloat16; [`UNKNOWN`] until a query needs it). Shared with the [`Self::negated`] cache:
+    /// negating the samples keeps every gradient's magnitude.
+    gradients: Arc<[AtomicU16]>,
     errors: Mutex<Option<Arc<IsoErrors>>>,
 }
 
@@ -48,15 +49,13 @@ impl IsoCache {
         }
     }
 
-    /// A cache for the negated samples ([`Volume::negated`]): its bricks from these ones'; gradients
-    /// unknown, no errors kept.
+    /// A cache for the negated samples ([`Volume::negated`]): its bricks from these ones', the same
+    /// gradients, no errors kept.
     pub(super) fn negated(&self) -> Self {
         Self {
             grid: self.grid,
             bricks: self.bricks.negated(),
-            gradients: (0..self.gradients.len())
-                .map(|_| AtomicU16::new(UNKNOWN))
-                .collect(),
+            gradients: self.gradients.clone(),
             errors: Mutex::new(None),
         }
     }
@@ -65,7 +64,7 @@ impl IsoCache {
     pub(super) fn bytes(&self) -> usize {
         let errors = self.errors.lock().unwrap_or_else(|e| e.into_inner());
         self.bricks.bytes()
-            + self.gradients.capacity() * std::mem::size_of::<AtomicU16>()
+            + std::mem::size_of_val(&*self.gradients)
             + errors.as_ref().map_or(0, |e| e.bytes())
     }
 
