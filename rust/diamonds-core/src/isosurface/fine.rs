@@ -23,6 +23,7 @@ use crate::lattice::Tet;
 use crate::volume::{Sample, Volume};
 use arrayvec::ArrayVec;
 use glam::{DVec3, IVec3};
+use rayon::iter::Either;
 use rayon::prelude::*;
 
 /// The six finest tetrahedra of the grid cell with lower corner `c`.
@@ -233,50 +234,54 @@ pub fn full_resolution_triangles<T: Sample>(
     volume: &Volume<'_, T>,
     isovalues: &[f64],
 ) -> Vec<[[f64; 3]; 3]> {
-    fine_soup(volume, isovalues, |c, v| cell_triangles(volume, c, v))
+    full_resolution_level_sets(volume, isovalues).triangles
 }
 
-/// The parts of the full-resolution level sets of `isovalues` that [`full_resolution_triangles`]
-/// leaves out: marching tetrahedra's triangles of zero area, points and segments where samples hold
-/// the isovalue and the values around them lie on one side of it (a sample at a local maximum equal
-/// to the isovalue; an edge of two such samples). They are part of `{f = v}`, and a surface at
-/// tolerance 0 draws the segments where it keeps coinciding points to stay watertight
-/// ([`super::marching_tetrahedra`]), so a distance *to* the full-resolution surface is measured to
-/// them too.
-pub fn full_resolution_degenerate_pieces<T: Sample>(
-    volume: &Volume<'_, T>,
-    isovalues: &[f64],
-) -> Vec<[[f64; 3]; 3]> {
-    fine_soup(volume, isovalues, |c, v| {
-        let mut out = ArrayVec::<[DVec3; 3], 12>::new();
-        for t in cell_tets(c) {
-            out.extend(tet_polygon(volume, t, v).filter(|t| !has_area(t)));
-        }
-        out
-    })
+/// The full-resolution level sets `{f = v}` of some isovalues, as marching tetrahedra on the finest
+/// tetrahedra draws them (world coordinates, unoriented).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LevelSets {
+    /// `F`: the triangles of positive area ([`full_resolution_triangles`]).
+    pub triangles: Vec<[[f64; 3]; 3]>,
+    /// The rest: marching tetrahedra's triangles of zero area, points and segments where samples
+    /// hold the isovalue and the values around them lie on one side of it (a sample at a local
+    /// maximum equal to the isovalue; an edge of two such samples). They are part of `{f = v}`, and
+    /// a surface at tolerance 0 draws the segments where it keeps coinciding points to stay
+    /// watertight ([`super::marching_tetrahedra`]), so a distance *to* the full-resolution surface
+    /// is measured to them too.
+    pub degenerate: Vec<[[f64; 3]; 3]>,
 }
 
-/// The triangles `cell(c, v)` of every grid cell crossed by an isovalue, for every isovalue.
-fn fine_soup<T: Sample>(
+/// The full-resolution level sets of `isovalues`, from one walk over the grid cells each crosses.
+pub fn full_resolution_level_sets<T: Sample>(
     volume: &Volume<'_, T>,
     isovalues: &[f64],
-    cell: impl Fn(IVec3, f64) -> ArrayVec<[DVec3; 3], 12> + Sync,
-) -> Vec<[[f64; 3]; 3]> {
+) -> LevelSets {
     let bricks = super::bricks::Bricks::new(volume);
     let grid = &volume.grid;
-    isovalues
-        .iter()
-        .flat_map(|&v| {
-            bricks
-                .cells_crossed(volume, v)
-                .par_iter()
-                .flat_map_iter(|&i| {
-                    let c = IVec3::from(grid.ijk(i as usize).map(|c| c as i32));
-                    cell(c, v).into_iter().map(|t| t.map(|p| p.to_array()))
-                })
-                .collect::<Vec<_>>()
-        })
-        .collect()
+    let mut out = LevelSets::default();
+    for &v in isovalues {
+        let (triangles, degenerate): (Vec<_>, Vec<_>) = bricks
+            .cells_crossed(volume, v)
+            .par_iter()
+            .flat_map_iter(|&i| {
+                let c = IVec3::from(grid.ijk(i as usize).map(|c| c as i32));
+                cell_tets(c)
+                    .into_iter()
+                    .flat_map(move |t| tet_polygon(volume, t, v))
+            })
+            .partition_map(|t| {
+                let corners = t.map(|p| p.to_array());
+                if has_area(&t) {
+                    Either::Left(corners)
+                } else {
+                    Either::Right(corners)
+                }
+            });
+        out.triangles.extend(triangles);
+        out.degenerate.extend(degenerate);
+    }
+    out
 }
 
 /// The vertices of the full-resolution surface `F` of `isovalues` (world coordinates, each once).

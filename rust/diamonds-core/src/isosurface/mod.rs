@@ -61,7 +61,7 @@ mod state;
 #[cfg(test)]
 pub(crate) use fine::cell_tets;
 pub use fine::{
-    full_resolution_degenerate_pieces, full_resolution_triangles, full_resolution_vertices,
+    full_resolution_level_sets, full_resolution_triangles, full_resolution_vertices, LevelSets,
 };
 pub use marching::marching_tetrahedra;
 pub use state::{IsoStart, IsoState, IsoStats};

@@ -7,7 +7,7 @@
 //!   spaced at most one voxel (`h`, the smallest grid spacing, [`crate::geometry::triangle_samples`]);
 //! - `S → F`: the largest distance to `F` from the corners of the triangles of `S` and from samples
 //!   of them spaced at most `h`. Here `F` includes the parts of the level set that marching
-//!   tetrahedra draws with zero area ([`crate::isosurface::full_resolution_degenerate_pieces`]):
+//!   tetrahedra draws with zero area ([`crate::isosurface::LevelSets::degenerate`]):
 //!   points of `S` on them lie on `{f = v}`, and a surface at tolerance 0 keeps some of them.
 //!
 //! Every point of either surface lies within `h / √3` of a sample, so every point is within the
@@ -16,9 +16,7 @@
 //! other, so both measured distances are at most the tolerance.
 
 use crate::geometry::{triangle_samples, triangle_tree, TriangleTree};
-use crate::isosurface::{
-    full_resolution_degenerate_pieces, full_resolution_triangles, full_resolution_vertices,
-};
+use crate::isosurface::{full_resolution_level_sets, full_resolution_vertices, LevelSets};
 use crate::volume::{Sample, Volume};
 use glam::DVec3;
 use rayon::prelude::*;
@@ -106,10 +104,13 @@ pub fn surface_distances<T: Sample>(
     points: &[[f64; 3]],
     triangles: &[[u32; 3]],
 ) -> SurfaceDistances {
-    let fine = full_resolution_triangles(volume, isovalues);
+    let LevelSets {
+        triangles: fine,
+        degenerate,
+    } = full_resolution_level_sets(volume, isovalues);
     let vertices = full_resolution_vertices(volume, isovalues);
     let mut level_set = fine.clone();
-    level_set.extend(full_resolution_degenerate_pieces(volume, isovalues));
+    level_set.extend(degenerate);
     distances(
         FineSides {
             from: &fine,
@@ -145,12 +146,14 @@ pub fn interval_distances<T: Sample>(
     values: &[f64],
     tets: &[[u32; 4]],
 ) -> SurfaceDistances {
-    let below = volume.negated();
-    let mut fine = full_resolution_triangles(volume, &[alpha]);
-    fine.extend(full_resolution_triangles(&below, &[-beta]));
-    let mut level_sets = fine.clone();
-    level_sets.extend(full_resolution_degenerate_pieces(volume, &[alpha]));
-    level_sets.extend(full_resolution_degenerate_pieces(&below, &[-beta]));
+    let LevelSets {
+        triangles: mut fine,
+        degenerate: mut level_sets,
+    } = full_resolution_level_sets(volume, &[alpha]);
+    let upper = full_resolution_level_sets(&volume.negated(), &[-beta]);
+    fine.extend(upper.triangles);
+    level_sets.extend(upper.degenerate);
+    level_sets.extend_from_slice(&fine);
     let bounds = volume.grid.bounds();
     let eps = super::bounds_eps(&bounds);
     let key = |t: &[[f64; 3]; 3]| {
@@ -259,6 +262,7 @@ fn distances(
 mod tests {
     use super::*;
     use crate::fields::{sample, sphere_distance, unit_grid};
+    use crate::isosurface::full_resolution_triangles;
 
     #[test]
     fn distances_of_f_itself_are_zero_and_of_a_shifted_copy_the_shift() {
