@@ -17,6 +17,8 @@ values). It then runs, each with the independent checker of its output:
   step left every other case of a seed as it was);
 - `diamonds interval --range A B --tolerance T` then `diamonds verify-interval --tolerance T`
   (conforming, values in the range, both distances to the full-resolution boundary);
+- in half the cases, the surface and the interval volume again with a region of interest (a random
+  box meeting the image, `--roi`), measured inside it (`verify-surface`/`verify-interval --roi`);
 
 T a fraction of the diagonal (0.5 to 8 %).
 
@@ -162,6 +164,26 @@ def case(rng, n, tmp, seed, execute=True):
         steps.append(("interval",
                       ["interval", vti, ivtu, "--range", num(a), num(b), "--tolerance", tolerance],
                       ["verify-interval", vti, ivtu, "--range", num(a), num(b), "--tolerance", tolerance]))
+    # Half the cases again with a region of interest (a random box meeting the image), measured
+    # inside it; drawn from a generator of its own, so that the other steps stay as they were.
+    extra = random.Random(f"{seed}:{n}:roi")
+    if extra.random() < 0.5:
+        roi = []
+        for d, s, o in zip(dims, spacing, origin):
+            u, v = sorted([extra.uniform(-0.2, 1.2), extra.uniform(-0.2, 1.2)])
+            u, v = min(u, 0.9), max(v, 0.1)
+            roi += [num(round(o + u * (d - 1) * s, 3)), num(round(o + v * (d - 1) * s, 3))]
+        region = ["--roi", *roi]
+        rvtp = os.path.join(tmp, f"case{n}-iso-roi.vtp")
+        steps.append(("iso-roi", ["iso", vti, rvtp, "--isovalue", num(iso), "--tolerance", tolerance, *region],
+                      ["verify-surface", rvtp, "--image", vti, "--isovalue", num(iso), "--tolerance", tolerance,
+                       *region]))
+        if a < b:
+            rvtu = os.path.join(tmp, f"case{n}-interval-roi.vtu")
+            steps.append(("interval-roi",
+                          ["interval", vti, rvtu, "--range", num(a), num(b), "--tolerance", tolerance, *region],
+                          ["verify-interval", vti, rvtu, "--range", num(a), num(b), "--tolerance", tolerance,
+                           *region]))
     for name, make, check in steps if execute else []:
         code, said = run(make)
         if code != 0:

@@ -6,6 +6,7 @@ use crate::write::{
     checked_extension, write_image, write_tets, write_triangles, TetGrid, Triangles,
 };
 use crate::{bail, Array, AsScalarSlice, Result};
+use diamonds::refine::check_region;
 use diamonds::validate::{
     check_mesh, check_surface, check_tolerance, check_unit_normals, surface_distances,
     SurfaceDistances,
@@ -758,6 +759,11 @@ pub fn verify(
     Ok(finish(report))
 }
 
+/// How a report names the region distances were measured in (nothing without one).
+pub(crate) fn inside(region: Option<[f64; 6]>) -> String {
+    region.map_or_else(String::new, |r| format!(", measured inside {r:?}"))
+}
+
 fn finish(report: VerifyReport) -> VerifyReport {
     finish_as(report, "verify")
 }
@@ -778,6 +784,8 @@ pub struct SurfaceBound {
     pub array: Option<String>,
     /// Fail when either one-sided Hausdorff distance exceeds it; `None`: report them only.
     pub tolerance: Option<f64>,
+    /// Measure from points inside this world-space box only (the query's region of interest).
+    pub region: Option<[f64; 6]>,
 }
 
 /// `diamonds verify-surface`: checks a triangle surface (`.vtp`): triangles with three distinct points,
@@ -897,17 +905,22 @@ pub fn verify_surface(
     }
     if let (Some(b), Some((_, image))) = (bound, &image) {
         let array = image.scalars(b.array.as_deref())?;
+        if let Some(r) = b.region {
+            check_region(&image.grid, r)?;
+        }
         let d = with_volume!(image.grid, array.scalar_slice()?, |v| surface_distances(
             &v,
             &b.isovalues,
             &surface.points,
-            &triangles
+            &triangles,
+            b.region
         ));
         let at: Vec<String> = b.isovalues.iter().map(f64::to_string).collect();
         let fine = format!(
-            "full-resolution surface of '{}' at {}",
+            "full-resolution surface of '{}' at {}{}",
             array.name,
-            at.join(" and ")
+            at.join(" and "),
+            inside(b.region)
         );
         report.distances(&d, (&fine, "the surface"), b.tolerance);
     }

@@ -1,11 +1,12 @@
 //! `diamonds interval`: the multiresolution interval volume `{α ≤ f ≤ β}` of a volume as tetrahedra
 //! (`.vtu`), as the ParaView filter Adaptive Interval Volume extracts it.
 
-use crate::commands::{finish_as, read_input, IsoTolerance, VerifyReport};
+use crate::commands::{finish_as, inside, read_input, IsoTolerance, VerifyReport};
 use crate::read::{read_unstructured, tetrahedra};
 use crate::write::{checked_extension, write_tets, TetGrid};
 use crate::{bail, Array, AsScalarSlice, Result, Values};
 use diamonds::interval::{self, IntervalQuery, IntervalVolume};
+use diamonds::refine::check_region;
 use diamonds::validate::{check_interval_volume, interval_distances};
 use diamonds::{with_volume, Hierarchy};
 use std::fmt;
@@ -180,6 +181,8 @@ pub struct VerifyIntervalOptions {
     pub array: Option<String>,
     /// Fail when a one-sided Hausdorff distance exceeds it; `None`: report them only.
     pub tolerance: Option<f64>,
+    /// Measure from points inside this world-space box only (the query's region of interest).
+    pub region: Option<[f64; 6]>,
 }
 
 /// `diamonds verify-interval`: checks an interval volume written by `interval` (or by the filter
@@ -201,6 +204,9 @@ pub fn verify_interval(opts: &VerifyIntervalOptions) -> Result<VerifyReport> {
     let array = image.scalars(opts.array.as_deref())?;
     let grid = image.grid;
     grid.validate()?;
+    if let Some(r) = opts.region {
+        check_region(&grid, r)?;
+    }
     let mesh = read_unstructured(&opts.mesh)?;
     let mut report = VerifyReport {
         lines: vec![format!(
@@ -254,9 +260,13 @@ pub fn verify_interval(opts: &VerifyIntervalOptions) -> Result<VerifyReport> {
         opts.range,
         &mesh.points,
         &values,
-        &tets
+        &tets,
+        opts.region
     ));
-    let fine = format!("full-resolution boundary at {alpha} and {beta}, off the bounds");
+    let fine = format!(
+        "full-resolution boundary at {alpha} and {beta}, off the bounds{}",
+        inside(opts.region)
+    );
     report.distances(&d, (&fine, "the bounding surfaces"), opts.tolerance);
     Ok(finish_as(report, "verify-interval"))
 }

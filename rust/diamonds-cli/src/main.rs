@@ -338,6 +338,8 @@ enum Command {
         /// Point-data array of the image [default: as for iso].
         #[arg(long, value_name = "NAME", requires = "isovalue")]
         array: Option<String>,
+        #[command(flatten)]
+        region: MeasuredRegion,
     },
     /// Check an interval volume (.vtu) written by `interval` against its image: conforming, values in
     /// the range and, with --tolerance, its bounding surfaces within it of the full-resolution ones.
@@ -363,6 +365,8 @@ enum Command {
         /// Point-data array of the image, also the mesh's [default: as for interval].
         #[arg(long, value_name = "NAME")]
         array: Option<String>,
+        #[command(flatten)]
+        region: MeasuredRegion,
     },
 }
 
@@ -441,10 +445,35 @@ struct RegionOfInterest {
 
 impl RegionOfInterest {
     fn get(&self) -> Option<[f64; 6]> {
-        self.roi
-            .as_ref()
-            .map(|r| <[f64; 6]>::try_from(r.as_slice()).expect("clap gives 6 values"))
+        six(&self.roi)
     }
+}
+
+/// The region of interest of `verify-surface` and `verify-interval`.
+#[derive(clap::Args, Debug)]
+struct MeasuredRegion {
+    /// Measure the distances from points inside this box only (world coordinates): give the
+    /// region of interest the surface was extracted with, inside which its tolerance holds.
+    #[arg(
+        long,
+        num_args = 6,
+        allow_hyphen_values = true,
+        requires = "tolerance",
+        value_names = ["XMIN", "XMAX", "YMIN", "YMAX", "ZMIN", "ZMAX"]
+    )]
+    roi: Option<Vec<f64>>,
+}
+
+impl MeasuredRegion {
+    fn get(&self) -> Option<[f64; 6]> {
+        six(&self.roi)
+    }
+}
+
+/// The six values clap gives a `--roi`.
+fn six(roi: &Option<Vec<f64>>) -> Option<[f64; 6]> {
+    roi.as_ref()
+        .map(|r| <[f64; 6]>::try_from(r.as_slice()).expect("clap gives 6 values"))
 }
 
 /// `diamonds view --sort`.
@@ -749,11 +778,13 @@ fn run(cli: Cli) -> diamonds_cli::Result<ExitCode> {
             isovalue,
             tolerance,
             array,
+            region,
         } => {
             let bound = (!isovalue.is_empty()).then_some(commands::SurfaceBound {
                 isovalues: isovalue,
                 array,
                 tolerance,
+                region: region.get(),
             });
             let report = commands::verify_surface(&mesh, image.as_deref(), bound.as_ref())?;
             return Ok(printed(&report));
@@ -764,6 +795,7 @@ fn run(cli: Cli) -> diamonds_cli::Result<ExitCode> {
             range,
             tolerance,
             array,
+            region,
         } => {
             let report = interval::verify_interval(&interval::VerifyIntervalOptions {
                 image,
@@ -771,6 +803,7 @@ fn run(cli: Cli) -> diamonds_cli::Result<ExitCode> {
                 range: range.get(),
                 array,
                 tolerance,
+                region: region.get(),
             })?;
             return Ok(printed(&report));
         }

@@ -162,6 +162,31 @@ fn verify_interval_measures_the_bounding_surfaces_against_the_full_resolution_on
     let run = verify(&coarse, ["101", "160"], "0.08");
     assert_eq!(run.code, 1, "{run:?}");
     assert!(run.stdout.contains("values: FAILED"), "{run:?}");
+    // A volume exact inside a region of interest: it passes tolerance 0 measured there only.
+    let roi = dir.join("ml-roi.vtu");
+    let region = ["-1", "0", "-1", "1", "-1", "1"];
+    let mut args = vec!["--tolerance", "0", "--roi"];
+    args.extend(region);
+    interval(&input, &roi, range, &args);
+    let run = verify(&roi, ["100", "160"], "0");
+    assert_eq!(run.code, 1, "{run:?}");
+    let mut args = vec![
+        "verify-interval",
+        s(&input),
+        s(&roi),
+        "--range",
+        "100",
+        "160",
+        "--tolerance",
+        "0",
+        "--roi",
+    ];
+    args.extend(region);
+    let report = diamonds(args).ok();
+    assert!(
+        report.contains("distance: OK") && report.contains("measured inside [-1.0, 0.0"),
+        "{report}"
+    );
     // Bad arguments are user errors.
     let e = verify(&coarse, ["160", "100"], "0.08").user_error();
     assert!(e.contains("A < B"), "{e}");

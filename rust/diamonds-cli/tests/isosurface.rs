@@ -426,6 +426,30 @@ fn carrier_tetrahedra_region_of_interest_and_no_normals() {
     let (in_roi, all) = (read_surface(&roi).1, read_surface(&full).1);
     assert!(in_roi < all, "{in_roi} !< {all}");
     verify(&roi, Some(&input));
+    // Its tolerance holds inside the region: measured there, both distances are 0; measured
+    // everywhere, the coarse part outside fails.
+    let bound = |region: &[&str]| {
+        let mut args = vec![
+            "verify-surface",
+            s(&roi),
+            "--image",
+            s(&input),
+            "--isovalue",
+            "127.5",
+            "--tolerance",
+            "0",
+        ];
+        args.extend_from_slice(region);
+        diamonds(args)
+    };
+    let run = bound(&["--roi", "0", "1", "-1", "1", "-1", "1"]);
+    assert_eq!(run.code, 0, "{run:#?}");
+    assert!(run.stdout.contains("measured inside [0.0, 1.0"), "{run:#?}");
+    let run = bound(&[]);
+    assert_eq!(run.code, 1, "{run:#?}");
+    assert!(bound(&["--roi", "5", "6", "-1", "1", "-1", "1"])
+        .user_error()
+        .contains("outside the data bounds"));
 
     let bare = dir.join("bare.vtp");
     iso(&input, &bare, &["--isovalue", "127.5", "--no-normals"]);

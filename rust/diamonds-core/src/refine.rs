@@ -961,8 +961,9 @@ pub(crate) fn outside_roi(
         && d.placement(lattice) != Placement::Straddling
 }
 
-/// Converts a world-space box to lattice coordinates, refusing boxes that miss the grid.
-fn lattice_box(g: &Grid, roi: [f64; 6]) -> Result<(glam::DVec3, glam::DVec3)> {
+/// Refuses a region of interest (a world-space box: x, y and z ranges) that is not finite with
+/// min ≤ max on every axis, or that misses the bounds of `g`.
+pub fn check_region(g: &Grid, roi: [f64; 6]) -> Result<()> {
     let b = g.bounds();
     let valid = roi.iter().all(|v| v.is_finite()) && (0..3).all(|a| roi[2 * a] <= roi[2 * a + 1]);
     if !valid {
@@ -975,6 +976,12 @@ fn lattice_box(g: &Grid, roi: [f64; 6]) -> Result<(glam::DVec3, glam::DVec3)> {
             "region of interest {roi:?} lies outside the data bounds {b:?}"
         )));
     }
+    Ok(())
+}
+
+/// Converts a world-space box to lattice coordinates, refusing boxes that miss the grid.
+fn lattice_box(g: &Grid, roi: [f64; 6]) -> Result<(glam::DVec3, glam::DVec3)> {
+    check_region(g, roi)?;
     let to_lattice = |a: usize, v: f64| (v - g.origin[a]) / g.spacing[a];
     Ok((
         glam::DVec3::new(

@@ -291,7 +291,7 @@ fn both_hierarchies_give_the_same_surfaces() {
 /// `isovalues` within `tol` (the two-sided bound, `diamonds::validate::hausdorff`).
 fn assert_bound(g: Grid, v: &[f32], isovalues: &[f64], tol: f64, s: &IsoSurface, what: &str) {
     let volume = Volume::new(g, v).unwrap();
-    let d = surface_distances(&volume, isovalues, &s.points, &s.triangles);
+    let d = surface_distances(&volume, isovalues, &s.points, &s.triangles, None);
     assert_eq!(d.check(tol), Ok(()), "{what}: {d:?}");
 }
 

@@ -60,7 +60,7 @@ impl<P> Known<P> {
 }
 
 /// Is `p` in `region` (a box, x, y and z ranges), if there is one?
-pub(super) fn in_region(region: Option<[f64; 6]>, p: DVec3) -> bool {
+pub(crate) fn in_region(region: Option<[f64; 6]>, p: DVec3) -> bool {
     region.is_none_or(|r| (0..3).all(|a| r[2 * a] <= p[a] && p[a] <= r[2 * a + 1]))
 }
 

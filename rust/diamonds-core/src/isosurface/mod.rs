@@ -58,6 +58,7 @@ mod fine;
 mod marching;
 mod state;
 
+pub(crate) use cover::in_region;
 #[cfg(test)]
 pub(crate) use fine::cell_tets;
 pub use fine::{

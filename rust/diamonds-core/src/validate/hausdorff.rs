@@ -16,7 +16,9 @@
 //! other, so both measured distances are at most the tolerance.
 
 use crate::geometry::{triangle_samples, triangle_tree, TriangleTree};
-use crate::isosurface::{full_resolution_level_sets, full_resolution_vertices, LevelSets};
+use crate::isosurface::{
+    full_resolution_level_sets, full_resolution_vertices, in_region, LevelSets,
+};
 use crate::volume::{Sample, Volume};
 use glam::DVec3;
 use rayon::prelude::*;
@@ -97,12 +99,15 @@ pub fn farthest(points: &[DVec3], tree: &TriangleTree) -> Farthest {
 }
 
 /// Both one-sided distances between the surface made of `triangles` (corners indexing `points`) and
-/// the full-resolution surface of `isovalues` in `volume`.
+/// the full-resolution surface of `isovalues` in `volume`, measured from the points of either
+/// inside `region` (a box, x, y and z ranges) when there is one: a query with a region of interest
+/// meets its tolerance there.
 pub fn surface_distances<T: Sample>(
     volume: &Volume<'_, T>,
     isovalues: &[f64],
     points: &[[f64; 3]],
     triangles: &[[u32; 3]],
+    region: Option<[f64; 6]>,
 ) -> SurfaceDistances {
     let LevelSets {
         triangles: fine,
@@ -118,7 +123,7 @@ pub fn surface_distances<T: Sample>(
             to: &level_set,
         },
         &volume.grid,
-        points,
+        (points, region),
         (triangles, triangles),
     )
 }
@@ -139,12 +144,16 @@ pub fn surface_distances<T: Sample>(
 /// full-resolution boundary, sheets: triangles drawn twice, from both sides of samples at a level
 /// with the other side of it all around (a part of the set without thickness, which no
 /// tetrahedron holds).
+///
+/// With a `region` (a box), only points of either side inside it are measured from, as in
+/// [`surface_distances`].
 pub fn interval_distances<T: Sample>(
     volume: &Volume<'_, T>,
     [alpha, beta]: [f64; 2],
     points: &[[f64; 3]],
     values: &[f64],
     tets: &[[u32; 4]],
+    region: Option<[f64; 6]>,
 ) -> SurfaceDistances {
     let LevelSets {
         triangles: mut fine,
@@ -187,7 +196,7 @@ pub fn interval_distances<T: Sample>(
             to: &level_sets,
         },
         &volume.grid,
-        points,
+        (points, region),
         (&off_the_box, &faces),
     )
 }
@@ -209,11 +218,12 @@ struct FineSides<'a> {
 }
 
 /// Both one-sided distances on `grid`: from `fine.from` and `fine.vertices` to the triangles
-/// `surface.1` (corners indexing `points`), and from the triangles `surface.0` to `fine.to`.
+/// `surface.1` (corners indexing `points`), and from the triangles `surface.0` to `fine.to`; from
+/// points inside `region` only, when there is one.
 fn distances(
     fine: FineSides<'_>,
     grid: &crate::Grid,
-    points: &[[f64; 3]],
+    (points, region): (&[[f64; 3]], Option<[f64; 6]>),
     surface: (&[[u32; 3]], &[[u32; 3]]),
 ) -> SurfaceDistances {
     let FineSides {
@@ -237,6 +247,7 @@ fn distances(
                 })
                 .collect::<Vec<_>>(),
         )
+        .filter(|&p| in_region(region, p))
         .collect();
     let surface = triangle_tree(to.iter().map(corners));
     let fine_to_surface = farthest(&fine, &surface);
@@ -246,6 +257,7 @@ fn distances(
     let samples: Vec<DVec3> = from
         .par_iter()
         .flat_map_iter(|t| triangle_samples(corners(t), h))
+        .filter(|&p| in_region(region, p))
         .collect();
     SurfaceDistances {
         fine_to_surface,
@@ -274,7 +286,7 @@ mod tests {
         let triangles: Vec<[u32; 3]> = (0..soup.len() as u32)
             .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
             .collect();
-        let d = surface_distances(&volume, &[0.0], &points, &triangles);
+        let d = surface_distances(&volume, &[0.0], &points, &triangles, None);
         assert!(d.fine_to_surface.distance < 1e-12, "{d:?}");
         assert!(d.surface_to_fine.distance < 1e-12, "{d:?}");
         assert_eq!(d.check(0.0), Ok(()));
@@ -283,7 +295,7 @@ mod tests {
         // it (the sphere's poles along x move straight away).
         let shift = 0.3;
         let moved: Vec<[f64; 3]> = points.iter().map(|p| [p[0] + shift, p[1], p[2]]).collect();
-        let d = surface_distances(&volume, &[0.0], &moved, &triangles);
+        let d = surface_distances(&volume, &[0.0], &moved, &triangles, None);
         for f in [d.fine_to_surface, d.surface_to_fine] {
             assert!(
                 f.distance <= shift + 1e-12 && f.distance > 0.8 * shift,
@@ -291,8 +303,21 @@ mod tests {
             );
         }
         assert!(d.check(0.2).unwrap_err().contains("> tolerance 0.2"));
+        // Only the part beyond x = 0.3 moved: measured from points in x <= 0 only, both
+        // distances are 0 again, and fewer points are measured.
+        let partly: Vec<[f64; 3]> = (points.iter())
+            .map(|p| [p[0] + if p[0] > 0.3 { shift } else { 0.0 }, p[1], p[2]])
+            .collect();
+        let whole = surface_distances(&volume, &[0.0], &partly, &triangles, None);
+        assert!(whole.fine_to_surface.distance > 0.1, "{whole:?}");
+        let region = Some([-2.0, 0.0, -2.0, 2.0, -2.0, 2.0]);
+        let d = surface_distances(&volume, &[0.0], &partly, &triangles, region);
+        assert!(d.fine_to_surface.distance < 1e-12, "{d:?}");
+        assert!(d.surface_to_fine.distance < 1e-12, "{d:?}");
+        assert!(d.fine_vertices < whole.fine_vertices && d.surface_samples < whole.surface_samples);
+        assert!(d.fine_vertices > 0 && d.surface_samples > 0, "{d:?}");
         // An empty surface is infinitely far from a non-empty F.
-        let d = surface_distances(&volume, &[0.0], &[], &[]);
+        let d = surface_distances(&volume, &[0.0], &[], &[], None);
         assert_eq!(d.fine_to_surface.distance, f64::INFINITY);
         assert_eq!(d.surface_to_fine.distance, 0.0);
     }
@@ -361,7 +386,7 @@ mod tests {
             s.triangles.iter().any(|t| !has_area(&corners(t))),
             "the case: triangles of zero area"
         );
-        let d = surface_distances(&volume, &[90.0], &s.points, &s.triangles);
+        let d = surface_distances(&volume, &[90.0], &s.points, &s.triangles, None);
         assert_eq!(d.check(0.0), Ok(()), "{d:?}");
     }
 }
