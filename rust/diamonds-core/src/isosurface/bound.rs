@@ -226,11 +226,26 @@ impl<T: Sample> Extraction<'_, '_, T> {
                     .collect()
             }
         };
+        // Solid surfaces: the sheets of the surface the pending checks start from, per isovalue.
+        let mut last_sheets: Vec<Option<Sheets>> = match certified {
+            Some(before) if solid => (isovalues.iter())
+                .map(|&v| Some(sheets(self.volume, before, v)))
+                .collect(),
+            _ => isovalues.iter().map(|_| None).collect(),
+        };
         for _ in 0..MAX_ROUNDS {
             let mut far = Vec::with_capacity(isovalues.len());
-            for ((&v, fine), pending) in isovalues.iter().zip(&fine).zip(&pending) {
+            for (((&v, fine), pending), last) in (isovalues.iter().zip(&fine))
+                .zip(&mut pending)
+                .zip(&mut last_sheets)
+            {
                 let sheets = if solid {
-                    sheets(self.volume, &carriers, v)
+                    let now = sheets(self.volume, &carriers, v);
+                    if let Some(before) = last.replace(now.clone()) {
+                        let crossed = &fine.cells;
+                        self.sheets_changed(v, (&before, &now), &carriers, crossed, pending, reach);
+                    }
+                    now
                 } else {
                     Sheets::default()
                 };
@@ -775,6 +790,53 @@ fn sheets<T: Sample>(volume: &Volume<'_, T>, carriers: &[Tet], v: f64) -> Sheets
 }
 
 impl<T: Sample> Extraction<'_, '_, T> {
+    /// Adds to `pending` what a change of the sheets at `v` from `before` to `now` changed on a
+    /// solid's surface, beyond the carriers that splits removed or made: a kept carrier draws a
+    /// face again when the tetrahedron across it no longer draws it (a split moved the fourth
+    /// vertex's side), and stops drawing it when the one across it starts to. The carriers that
+    /// draw a face that is no longer a sheet are checked again (their surface grew), and the cells
+    /// among F's `crossed` within the reach of a face that became one (the surface that certified
+    /// them may be gone).
+    fn sheets_changed(
+        &self,
+        v: f64,
+        (before, now): (&Sheets, &Sheets),
+        carriers: &[Tet],
+        crossed: &[u32],
+        pending: &mut Pending,
+        reach: Reach,
+    ) {
+        let Pending::Some {
+            carriers: again,
+            cells,
+        } = pending
+        else {
+            return;
+        };
+        let drawn: Sheets = before.difference(now).copied().collect();
+        if !drawn.is_empty() {
+            let known: FxHashSet<Tet> = again.iter().copied().collect();
+            again.extend((carriers.iter()).filter(|t| {
+                !known.contains(*t)
+                    && face_at(self.volume, t, v).is_some_and(|f| drawn.contains(&f))
+            }));
+        }
+        let gone: Vec<Tet> = (now.difference(before))
+            .map(|f| f.map(IVec3::from))
+            .map(|[a, b, c]| [a, b, c, c])
+            .collect();
+        if !gone.is_empty() {
+            let grid = &self.volume.grid;
+            let near = NearBoxes::new(grid, &gone, reach.full);
+            cells.par_extend(
+                (crossed.par_iter().copied())
+                    .filter(|&c| near.has(IVec3::from(grid.ijk(c as usize).map(|c| c as i32)))),
+            );
+            cells.sort_unstable();
+            cells.dedup();
+        }
+    }
+
     /// The points that break the bound for isovalue `v` on the surface of `carriers`, among those
     /// `pending` names: points of F's triangles in the pending cells of `fine` farther than `reach`
     /// from the surface, points of the pending surface farther than `reach` from F ([`Cover`]).
@@ -1129,6 +1191,88 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn a_change_of_sheets_checks_again_what_it_changed_on_kept_carriers() {
+        // Two tetrahedra draw the face abc at 0 from both sides (a sheet); when one of them stops
+        // drawing it, the other, kept, draws it again and is checked again; when the face becomes
+        // a sheet, the cells of F within the reach of it are checked again.
+        let grid = Grid::new([12, 12, 12]);
+        let p = |x, y, z| IVec3::new(x, y, z);
+        let (a, b, c) = (p(5, 5, 5), p(6, 5, 5), p(5, 6, 5));
+        let mut v = vec![5.0f32; grid.len()];
+        for q in [a, b, c] {
+            v[grid.index(q.x as usize, q.y as usize, q.z as usize)] = 0.0;
+        }
+        for q in [p(5, 5, 6), p(5, 5, 4)] {
+            v[grid.index(q.x as usize, q.y as usize, q.z as usize)] = -1.0;
+        }
+        let h = Hierarchy::build_for_isosurfaces(grid, ScalarSlice::F32(&v)).unwrap();
+        let volume = Volume::new(grid, &v[..]).unwrap();
+        let cache = IsoCache::new(&volume);
+        let x = Extraction {
+            hierarchy: &h,
+            volume: &volume,
+            cache: &cache,
+        };
+        let (above, below) = ([a, b, c, p(5, 5, 6)], [a, c, b, p(5, 5, 4)]);
+        let reach = Reach::new(&grid, 1.0);
+        let both = sheets(&volume, &[above, below], 0.0);
+        let one = sheets(&volume, &[above], 0.0);
+        assert_eq!((both.len(), one.len()), (1, 0));
+        let all: Vec<u32> = (0..grid.len() as u32).collect();
+        let empty = || Pending::Some {
+            carriers: Vec::new(),
+            cells: Vec::new(),
+        };
+        let mut pending = empty();
+        x.sheets_changed(0.0, (&both, &one), &[above], &all, &mut pending, reach);
+        let Pending::Some { carriers, cells } = pending else {
+            unreachable!()
+        };
+        assert_eq!((carriers, cells.len()), (vec![above], 0));
+        let mut pending = empty();
+        x.sheets_changed(
+            0.0,
+            (&one, &both),
+            &[above, below],
+            &all,
+            &mut pending,
+            reach,
+        );
+        let Pending::Some { carriers, cells } = pending else {
+            unreachable!()
+        };
+        let near = NearBoxes::new(&grid, &[[a, b, c, c]], reach.full);
+        let expected: Vec<u32> = (all.iter().copied())
+            .filter(|&i| near.has(IVec3::from(grid.ijk(i as usize).map(|c| c as i32))))
+            .collect();
+        assert!(carriers.is_empty() && !expected.is_empty() && expected.len() < all.len() / 4);
+        assert_eq!(cells, expected);
+        // No change, nothing added; the first round (everything pending) is left as it is.
+        let mut pending = empty();
+        x.sheets_changed(
+            0.0,
+            (&both, &both),
+            &[above, below],
+            &all,
+            &mut pending,
+            reach,
+        );
+        assert!(
+            matches!(pending, Pending::Some { carriers, cells } if carriers.is_empty() && cells.is_empty())
+        );
+        let mut pending = Pending::All;
+        x.sheets_changed(
+            0.0,
+            (&one, &both),
+            &[above, below],
+            &all,
+            &mut pending,
+            reach,
+        );
+        assert!(matches!(pending, Pending::All));
     }
 
     #[test]
