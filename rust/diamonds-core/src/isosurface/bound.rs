@@ -31,7 +31,9 @@
 //! checks only what the splits may have changed: the surface of the new carriers and of the
 //! carriers that held a violation, and the cells of F within the tolerance of a carrier that was
 //! split (the surface that certified them may be gone) or that held violations; everything else
-//! was certified by surface that is still there, against the same `F`.
+//! was certified by surface that is still there, against the same `F`. (For a solid's surfaces,
+//! whose sheets depend on the carriers across them, also what a change of sheets changed:
+//! [`Extraction::sheets_changed`].)
 //!
 //! Both directions are checked against the tolerance less a millionth of the volume's diagonal (at
 //! most half the tolerance), for rounding (points written in single precision). Points outside the
