@@ -958,7 +958,7 @@ impl MaterialMesh {
     /// (`None` when it meets both). Every sample is a vertex, so the field error reaches 0 on the
     /// finest tetrahedra, and [`MaterialModel::refine`] goes to finer lattices while the interface
     /// error is above its tolerance: a miss means the next finer lattice would exceed
-    /// [`MAX_LATTICE_POINTS`].
+    /// `MAX_LATTICE_POINTS` (2³⁰ points).
     pub fn tolerance_warning(&self, query: &MaterialQuery) -> Option<String> {
         (self.max_interface_error > query.interface_tolerance
             || self.max_field_error > query.field_tolerance)
