@@ -22,12 +22,16 @@
 #include "vtkDiamondsHierarchyCache.h"
 #include "vtkDiamondsImageGeometry.h"
 #include "vtkDiamondsOutput.h"
+#include "vtkDiamondsPieces.h"
 #include "vtkDiamondsProgress.h"
 
+#include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstddef>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 vtkStandardNewMacro(vtkAdaptiveIntervalVolume);
@@ -82,6 +86,23 @@ public:
   vtkDiamonds::AbortLatch Abort;
   // The extraction reads the samples again: keep them with the hierarchy.
   vtkDiamonds::HierarchyCache Cache{ vtkDiamonds::HierarchyCache::Use::Isosurfaces };
+
+  // On more than one rank: the whole image this rank put together, with every point array (new
+  // points interpolate them), none on an empty piece; and what it was put together from (every
+  // rank fetches again when any rank's key changed).
+  struct WholeKey
+  {
+    vtkDiamonds::InputKey Input;
+    // The other point arrays gathered, and their modification times.
+    std::vector<std::pair<const void*, vtkMTimeType>> Others;
+    std::vector<std::int64_t> Extents;
+    bool operator==(const WholeKey& o) const
+    {
+      return Input == o.Input && Others == o.Others && Extents == o.Extents;
+    }
+  };
+  vtkSmartPointer<vtkImageData> Whole;
+  WholeKey WholeBuilt;
 };
 
 //------------------------------------------------------------------------------
@@ -155,6 +176,10 @@ try
   // Every error below leaves an empty output.
   output->Initialize();
   this->RelativeTolerance = 0.0;
+  if (vtkMultiProcessController* controller = vtkDiamonds::Pieces::DistributedController())
+  {
+    return this->RequestDistributed(controller, inputVector, input, output);
+  }
 
   // ---- Parameters (the range itself is checked by the core, with the same words everywhere).
   if (!std::isfinite(this->Tolerance) || this->Tolerance < 0.0)
@@ -280,6 +305,201 @@ catch (const std::bad_alloc& e)
 {
   vtkDiamonds::ReportOutOfMemory(this, "Adaptive Interval Volume", outputVector, e);
   return 0;
+}
+
+//------------------------------------------------------------------------------
+int vtkAdaptiveIntervalVolume::RequestDistributed(vtkMultiProcessController* controller,
+  vtkInformationVector** inputVector, vtkImageData* input, vtkUnstructuredGrid* output)
+{
+  const auto started = std::chrono::steady_clock::now();
+  const bool empty = input->GetNumberOfPoints() == 0;
+  // As Adaptive Isosurface's: every rank takes part in every collective step; each step between
+  // two of them runs in Pieces::Run, and a failure on one rank is agreed on before the next.
+  vtkDiamonds::Pieces pieces(controller, inputVector[0]->GetInformationObject(0), input);
+  const auto run = [&](const char* failure, auto&& work) {
+    return vtkDiamonds::Pieces::Run(this, Text.Name, failure, work);
+  };
+  const auto agree = [&](bool mine, const char* what) {
+    if (pieces.Agree(this, Text.Name, mine, what))
+    {
+      return true;
+    }
+    output->Initialize();
+    return false;
+  };
+
+  // ---- Parameters and this piece's arrays (an empty piece reads none).
+  bool ok = true;
+  if (!std::isfinite(this->Tolerance) || this->Tolerance < 0.0)
+  {
+    vtkErrorMacro(<< "Tolerance must be a finite number >= 0 (got " << this->Tolerance
+                  << "); it is in world units, 0 gives the full-resolution interval volume.");
+    ok = false;
+  }
+  ok = ok && vtkDiamonds::CheckBudget(this, this->MaximumNumberOfTetrahedra);
+  if (ok && this->Hierarchy != HIERARCHY_FULL)
+  {
+    vtkErrorMacro(<< "Hierarchy Relevant and Minimal run on one process: choose Hierarchy Full "
+                     "for distributed (MPI) execution.");
+    ok = false;
+  }
+  vtkDataArray* array = nullptr;
+  std::vector<vtkDataArray*> pointArrays;
+  if (ok && !empty)
+  {
+    ok = run("cannot read its input", [&] {
+      int association = vtkDataObject::FIELD_ASSOCIATION_POINTS;
+      vtkDataArray* selected = this->GetInputArrayToProcess(0, inputVector, association);
+      if (!vtkDiamonds::CheckAxisAligned(this, Text, input) ||
+        !(array = vtkDiamonds::SelectPointArray(this, Text, input, selected, association)))
+      {
+        return false;
+      }
+      // The array processed first (the whole image's active scalars), then every other point
+      // array, which new points interpolate as serially.
+      pointArrays.push_back(array);
+      vtkPointData* pd = input->GetPointData();
+      for (int i = 0; i < pd->GetNumberOfArrays(); ++i)
+      {
+        vtkDataArray* other = pd->GetArray(i);
+        if (other && other != array && std::string(other->GetName() ? other->GetName() : "") !=
+            vtkDataSetAttributes::GhostArrayName())
+        {
+          pointArrays.push_back(other);
+        }
+      }
+      return true;
+    });
+  }
+  if (!agree(ok, "reading the input"))
+  {
+    return pieces.Failed();
+  }
+
+  // ---- The whole image on every rank with a piece, fetched again when any rank's input changed.
+  vtkInternals::WholeKey key;
+  key.Input = vtkDiamonds::InputKey(input, array);
+  for (std::size_t i = 1; i < pointArrays.size(); ++i)
+  {
+    key.Others.emplace_back(pointArrays[i], pointArrays[i]->GetMTime());
+  }
+  key.Extents.assign(pieces.Extents().begin(), pieces.Extents().end());
+  const bool stale = !(this->Internals->WholeBuilt == key);
+  if (pieces.Sum(stale ? 1 : 0) > 0)
+  {
+    this->Internals->Cache.Release();
+    this->Internals->WholeBuilt = vtkInternals::WholeKey();
+    std::string error;
+    vtkSmartPointer<vtkDataSet> gathered;
+    ok = pieces.GatherWhole(input, pointArrays, {}, gathered, error);
+    this->Internals->Whole = vtkImageData::SafeDownCast(gathered);
+    if (!ok)
+    {
+      vtkErrorMacro(<< Text.Name << " could not fetch the image from the other ranks: " << error);
+    }
+    if (!agree(ok, "fetching the image"))
+    {
+      this->Internals->Whole = nullptr;
+      return pieces.Failed();
+    }
+    this->Internals->WholeBuilt = key;
+  }
+  this->UpdateProgress(0.1);
+
+  // ---- This rank's share of the interval volume of the whole image.
+  vtkImageData* whole = this->Internals->Whole;
+  vtkDiamonds::HierarchyCache& cache = this->Internals->Cache;
+  std::optional<rust::Box<bridge::IntervalVolume>> volume;
+  if (whole)
+  {
+    const std::string failed =
+      std::string("extraction failed for array \"") + array->GetName() + "\"";
+    ok = run(failed.c_str(), [&] {
+      int result = 0; // the agreement below decides what to return
+      if (!cache.Prepare(this, Text, whole, whole->GetPointData()->GetScalars(), 0.1, 0.7,
+            this->NumberOfHierarchyBuilds, result))
+      {
+        return false;
+      }
+      bridge::IntervalSpec spec;
+      spec.range = { this->ThresholdRange[0], this->ThresholdRange[1] };
+      spec.tolerance = this->Tolerance;
+      spec.max_tetrahedra = static_cast<std::size_t>(this->MaximumNumberOfTetrahedra);
+      spec.use_region_of_interest = this->UseRegionOfInterest != 0;
+      std::copy(this->RegionOfInterest, this->RegionOfInterest + 6, spec.region_of_interest.begin());
+      volume.emplace(cache.GetHierarchy().interval_piece(cache.GetIsoState(), cache.GetSampleType(),
+        cache.GetSamples(), spec, pieces.Extents(), static_cast<std::size_t>(pieces.Rank())));
+      for (const rust::String& warning : (*volume)->warnings())
+      {
+        vtkWarningMacro(<< Text.Name << ", array \"" << array->GetName()
+                        << "\": " << std::string(warning));
+      }
+      return true;
+    });
+    if (!ok)
+    {
+      volume.reset();
+    }
+  }
+  if (!agree(ok, "the extraction"))
+  {
+    return pieces.Failed();
+  }
+  this->UpdateProgress(0.8);
+
+  // ---- Output: this rank's tetrahedra with global point ids; the whole volume's figures.
+  std::vector<double> figures{ 0.0, 0.0, 0.0, 0.0 };
+  ok = !volume || run("could not write its output", [&] {
+    FillVolume(**volume, whole, output);
+    output->GetPointData()->SetGlobalIds(
+      vtkDiamonds::GlobalPointIds((*volume)->global_point_ids()));
+    // The whole volume's points: every one is used by a tetrahedron some rank owns.
+    const rust::Slice<const std::uint64_t> ids = (*volume)->global_point_ids();
+    const double points = ids.empty() ? 0.0 : static_cast<double>(*std::max_element(ids.begin(), ids.end()) + 1);
+    figures = { (*volume)->error_bound(), (*volume)->reached_tolerance(),
+      static_cast<double>((*volume)->leaves()), points };
+    return true;
+  });
+  volume.reset();
+  if (!agree(ok, "the output"))
+  {
+    return pieces.Failed();
+  }
+  std::string error;
+  if (!pieces.MaxInPlace(figures, error))
+  {
+    vtkErrorMacro(<< Text.Name << " could not combine the ranks' figures: " << error);
+    output->Initialize();
+    return 0;
+  }
+  const vtkIdType numTets = output->GetNumberOfCells();
+  const vtkIdType totalTets = pieces.Sum(numTets);
+  const bridge::GridSpec& grid = pieces.Whole();
+  double diagonal2 = 0.0;
+  for (int axis = 0; axis < 3; ++axis)
+  {
+    diagonal2 += std::pow((static_cast<double>(grid.dims[axis]) - 1.0) * grid.spacing[axis], 2);
+  }
+  const double relativeTolerance = diagonal2 > 0.0 ? this->Tolerance / std::sqrt(diagonal2) : 0.0;
+  this->RelativeTolerance = relativeTolerance;
+  vtkFieldData* fieldData = output->GetFieldData();
+  if (!empty)
+  {
+    fieldData->PassData(input->GetFieldData());
+  }
+  fieldData->AddArray(OneValue<vtkDoubleArray>("ErrorBound", figures[0]));
+  fieldData->AddArray(OneValue<vtkDoubleArray>("Tolerance", this->Tolerance));
+  fieldData->AddArray(OneValue<vtkDoubleArray>("RelativeTolerance", relativeTolerance));
+  fieldData->AddArray(OneValue<vtkDoubleArray>("ReachedTolerance", figures[1]));
+  fieldData->AddArray(OneValue<vtkIdTypeArray>("NumberOfTetrahedra", totalTets));
+  fieldData->AddArray(
+    OneValue<vtkIdTypeArray>("NumberOfPoints", static_cast<vtkIdType>(figures[3])));
+  fieldData->AddArray(
+    OneValue<vtkIdTypeArray>("NumberOfLeaves", static_cast<vtkIdType>(figures[2])));
+  fieldData->AddArray(OneValue<vtkIdTypeArray>("HierarchyMemorySize", cache.GetMemorySize()));
+  pieces.AddFigures(fieldData, "TetrahedraPerRank", numTets, started);
+  this->UpdateProgress(1.0);
+  return 1;
 }
 
 //------------------------------------------------------------------------------

@@ -68,6 +68,9 @@
 #include "vtkDiamondsModule.h" // For export macro
 #include "vtkUnstructuredGridAlgorithm.h"
 
+class vtkImageData;
+class vtkMultiProcessController;
+
 class VTKDIAMONDS_EXPORT vtkAdaptiveIntervalVolume : public vtkUnstructuredGridAlgorithm
 {
 public:
@@ -176,6 +179,9 @@ protected:
   int FillInputPortInformation(int port, vtkInformation* info) override;
   int RequestUpdateExtent(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
   int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
+  // RequestData on more than one rank: every rank's share of the serial interval volume.
+  int RequestDistributed(vtkMultiProcessController* controller, vtkInformationVector** inputVector,
+    vtkImageData* input, vtkUnstructuredGrid* output);
 
   double ThresholdRange[2];
   double Tolerance;

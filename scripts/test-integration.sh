@@ -11,8 +11,8 @@
 #    and material interfaces, properties, bad inputs, memory limits (test_memory_limit.py)
 #    (test_material.py writes its impact case with target/release/diamonds, brought up to date
 #    with cargo).
-# 3. tests/pvpython/mpi_pieces.py, mpi_isosurface.py and mpi_material.py under `mpiexec -n 2 pvbatch`,
-#    all three again under `mpiexec -n 3 pvbatch`, and all three as pvpython
+# 3. tests/pvpython/mpi_pieces.py, mpi_isosurface.py, mpi_interval.py and mpi_material.py under
+#    `mpiexec -n 2 pvbatch`, all four again under `mpiexec -n 3 pvbatch`, and all four as pvpython
 #    clients of `mpiexec -n 2 pvserver`; mpi_memory_limit.py (out of memory on one rank of two);
 #    mpi_abort.py (a user's abort on one rank of two, and after an abort in every filter).
 # 4. scripts/demo.py under `xvfb-run -a pvbatch`, into build/test-demo, and
@@ -85,7 +85,8 @@ step "C++ consumer of the installed package" cpp_consumer
 for t in tests/pvpython/test_*.py; do
   step "pvpython $t" pvpython "$t"
 done
-for t in tests/pvpython/mpi_pieces.py tests/pvpython/mpi_isosurface.py tests/pvpython/mpi_material.py; do
+for t in tests/pvpython/mpi_pieces.py tests/pvpython/mpi_isosurface.py tests/pvpython/mpi_interval.py \
+  tests/pvpython/mpi_material.py; do
   step "mpiexec -n 2 pvbatch $t" env DIAMONDS_MPI_LARGE=1 \
     mpiexec --allow-run-as-root --oversubscribe -n 2 pvbatch "$t"
 done
@@ -93,6 +94,8 @@ step "mpiexec -n 3 pvbatch tests/pvpython/mpi_pieces.py" env DIAMONDS_EXPECTED_R
   mpiexec --allow-run-as-root --oversubscribe -n 3 pvbatch tests/pvpython/mpi_pieces.py
 step "mpiexec -n 3 pvbatch tests/pvpython/mpi_isosurface.py" env DIAMONDS_EXPECTED_RANKS=3 \
   mpiexec --allow-run-as-root --oversubscribe -n 3 pvbatch tests/pvpython/mpi_isosurface.py
+step "mpiexec -n 3 pvbatch tests/pvpython/mpi_interval.py" env DIAMONDS_EXPECTED_RANKS=3 \
+  mpiexec --allow-run-as-root --oversubscribe -n 3 pvbatch tests/pvpython/mpi_interval.py
 step "mpiexec -n 3 pvbatch tests/pvpython/mpi_material.py" env DIAMONDS_EXPECTED_RANKS=3 \
   mpiexec --allow-run-as-root --oversubscribe -n 3 pvbatch tests/pvpython/mpi_material.py
 # Out of memory, or an abort, on one rank of two: each child run is under its own `timeout` too.
@@ -104,6 +107,8 @@ step "pvpython tests/pvpython/mpi_pieces.py --client-server (mpiexec -n 2 pvserv
   timeout 1200 pvpython tests/pvpython/mpi_pieces.py --client-server
 step "pvpython tests/pvpython/mpi_isosurface.py --client-server (mpiexec -n 2 pvserver)" \
   timeout 1200 pvpython tests/pvpython/mpi_isosurface.py --client-server
+step "pvpython tests/pvpython/mpi_interval.py --client-server (mpiexec -n 2 pvserver)" \
+  timeout 1200 pvpython tests/pvpython/mpi_interval.py --client-server
 step "pvpython tests/pvpython/mpi_material.py --client-server (mpiexec -n 2 pvserver)" \
   timeout 1200 pvpython tests/pvpython/mpi_material.py --client-server
 step "xvfb-run -a pvbatch scripts/demo.py" demo_render

@@ -12,8 +12,8 @@ started) or at the very first report (the executive's, before the filter runs); 
   clear afterwards.
 Before, VTK 9.2 (ParaView 5.11) left the flag set: every later update aborted at once.
 
-Distributed part: for Adaptive Tetrahedra, Adaptive Isosurface and Material Interface
-Approximation, a child `mpiexec -n 2 pvbatch --symmetric` (under `timeout`: a hang is a failure)
+Distributed part: for Adaptive Tetrahedra, Adaptive Isosurface, Adaptive Interval Volume and
+Material Interface Approximation, a child `mpiexec -n 2 pvbatch --symmetric` (under `timeout`: a hang is a failure)
 runs, in one session, aborts on rank 1 and on rank 0, during the first execution (in the hierarchy
 build) and at the start of later ones, each followed by a property change and UpdatePipeline (every
 output port, as Apply). Every rank exits 0; after each abort every port of every rank is empty and
@@ -22,8 +22,8 @@ run's, rank by rank, their cell total equals the serial result, and no rank's fl
 Before, an abort on one rank of Adaptive Isosurface or Material Interface Approximation hung both:
 the aborting rank alone had its outputs marked ABORTED, so the request for the second port
 executed the filter there again, alone, and it waited in a collective no other rank entered.
-(Adaptive Interval Volume, Progressive Tetrahedral Mesh and View Dependent Tetrahedra do not
-run distributed: they are in the serial part.)
+(Progressive Tetrahedral Mesh and View Dependent Tetrahedra do not run distributed: they are in
+the serial part.)
 """
 
 import json
@@ -37,8 +37,8 @@ import diamonds_checks as dc  # noqa: E402
 from mpi_memory_limit import counts, run_symmetric  # noqa: E402
 from test_memory_limit import make  # noqa: E402
 
-DISTRIBUTED = ["AdaptiveTetrahedra", "AdaptiveIsosurface", "MaterialInterfaceApproximation"]
-SERIAL = DISTRIBUTED + ["AdaptiveIntervalVolume", "ProgressiveTetrahedralMesh"]
+DISTRIBUTED = ["AdaptiveTetrahedra", "AdaptiveIsosurface", "AdaptiveIntervalVolume", "MaterialInterfaceApproximation"]
+SERIAL = DISTRIBUTED + ["ProgressiveTetrahedralMesh"]
 # The input's extent (Wavelet 0..EXTENT; the impact case for Material at its coarse tolerances).
 EXTENT = 24
 # Seconds a child may take before it counts as hung (it takes about 20 s).

@@ -3,8 +3,8 @@ hang, no crash, no partial result (a user's abort on one rank: mpi_abort.py). Ru
 
   PV_PLUGIN_PATH=$PWD/build/lib/paraview-5.11/plugins/Diamonds pvpython tests/pvpython/mpi_memory_limit.py
 
-For each distributed filter (Adaptive Tetrahedra, Adaptive Isosurface, Material Interface
-Approximation), the parent runs children `mpiexec -n 2 pvbatch --symmetric` under `timeout` (a hang
+For each distributed filter (Adaptive Tetrahedra, Adaptive Isosurface, Adaptive Interval Volume,
+Material Interface Approximation), the parent runs children `mpiexec -n 2 pvbatch --symmetric` under `timeout` (a hang
 is a failure). In a child every rank runs the filter once on a tiny input (libraries, thread pools
 and the core's emergency reserve set up as in a session that has done some work), then rank 1 alone
 limits its address space (RLIMIT_AS) to what it uses plus a headroom, and both ranks run the filter
@@ -31,13 +31,14 @@ import diamonds_checks as dc  # noqa: E402
 from test_memory_limit import MiB, make, vm_size  # noqa: E402
 
 HEADROOMS = ["4", "32", "96"]
-FILTERS = ["AdaptiveTetrahedra", "AdaptiveIsosurface", "MaterialInterfaceApproximation"]
+FILTERS = ["AdaptiveTetrahedra", "AdaptiveIsosurface", "AdaptiveIntervalVolume", "MaterialInterfaceApproximation"]
 # Seconds a child may take before it counts as hung (a run takes well under a minute).
 TIMEOUT = 240
 
 
 # The input of each filter on a large extent (1: the impact case for Material), 0 for the tiny one.
-EXTENT = {"AdaptiveTetrahedra": 127, "AdaptiveIsosurface": 127, "MaterialInterfaceApproximation": 1}
+EXTENT = {"AdaptiveTetrahedra": 127, "AdaptiveIsosurface": 127, "AdaptiveIntervalVolume": 127,
+          "MaterialInterfaceApproximation": 1}
 
 
 def counts(algorithm):

@@ -4,15 +4,20 @@
 //! reads as slices (points, the two input points and weight each point interpolates from,
 //! tetrahedra, levels).
 
+use diamonds::hierarchy::piece::PositionOwner;
 use diamonds::interval;
 use diamonds::validate::check_interval_arrays;
 
 use crate::ffi::{IntervalSpec, ScalarType};
+use crate::piece::boxes;
 use crate::{check_core, guard, Hierarchy, IsoState};
 
 /// Opaque handle on a [`diamonds::interval::IntervalVolume`] for C++, its sources flattened.
 pub struct IntervalVolume {
     pub(crate) volume: interval::IntervalVolume,
+    /// For a piece's share ([`Hierarchy::interval_piece`]): each point's index in the whole
+    /// volume; empty for a whole volume.
+    pub(crate) global_ids: Vec<u64>,
 }
 
 impl Hierarchy {
@@ -35,9 +40,34 @@ impl Hierarchy {
                 let volume = interval::extract_with(state, &self.hierarchy, scalars, &query)
                     .map_err(|e| e.to_string())?;
                 check_core(check_interval_arrays(&volume, expected))?;
-                Ok(Box::new(IntervalVolume { volume }))
+                Ok(Box::new(IntervalVolume {
+                    volume,
+                    global_ids: Vec::new(),
+                }))
             },
         )
+    }
+
+    /// The share of the rank at `rank` of `pieces` (every rank's extent) of the interval volume
+    /// of `spec`, on a rank that holds the whole image (see `ffi::Hierarchy::interval_piece`).
+    pub fn interval_piece(
+        &self,
+        state: &mut IsoState,
+        scalar_type: ScalarType,
+        samples: &[u8],
+        spec: &IntervalSpec,
+        pieces: &[i64],
+        rank: usize,
+    ) -> Result<Box<IntervalVolume>, String> {
+        let owner = guard("reading the pieces' extents", || {
+            PositionOwner::new(self.hierarchy.grid(), &boxes(pieces)?, rank)
+                .map_err(|e| e.to_string())
+        })?;
+        let whole = self.interval_volume(state, scalar_type, samples, spec)?;
+        guard("keeping this piece's tetrahedra", || {
+            let (volume, global_ids) = whole.volume.piece(&owner);
+            Ok(Box::new(IntervalVolume { volume, global_ids }))
+        })
     }
 }
 
@@ -60,6 +90,10 @@ impl IntervalVolume {
 
     pub fn levels(&self) -> &[u8] {
         &self.volume.levels
+    }
+
+    pub fn global_point_ids(&self) -> &[u64] {
+        &self.global_ids
     }
 
     pub fn leaves(&self) -> usize {
@@ -137,5 +171,49 @@ mod tests {
             .err()
             .unwrap();
         assert!(e.contains("built for"), "{e}");
+        // Two slabs of the 17³ points (extents as C++ gives them): their shares are the whole
+        // volume, each tetrahedron once, points under their ids in it; a bad extent is an error.
+        let whole = h
+            .interval_volume(&mut state, ScalarType::F32, bytes, &spec([2.0, 4.0], 0.3))
+            .unwrap();
+        assert!(whole.global_point_ids().is_empty());
+        let pieces = [0, 16, 0, 16, 0, 8, 0, 16, 0, 16, 8, 16];
+        let mut tets = 0;
+        for rank in 0..2 {
+            let share = h
+                .interval_piece(
+                    &mut state,
+                    ScalarType::F32,
+                    bytes,
+                    &spec([2.0, 4.0], 0.3),
+                    &pieces,
+                    rank,
+                )
+                .unwrap();
+            let ids = share.global_point_ids();
+            assert_eq!(ids.len(), share.weights().len());
+            for (k, &i) in ids.iter().enumerate() {
+                let i = i as usize;
+                assert_eq!(
+                    share.points()[3 * k..3 * k + 3],
+                    whole.points()[3 * i..3 * i + 3]
+                );
+            }
+            assert!(!share.levels().is_empty());
+            tets += share.levels().len();
+        }
+        assert_eq!(tets, whole.levels().len());
+        let e = h
+            .interval_piece(
+                &mut state,
+                ScalarType::F32,
+                bytes,
+                &spec([2.0, 4.0], 0.3),
+                &pieces[..5],
+                0,
+            )
+            .err()
+            .unwrap();
+        assert!(!e.is_empty());
     }
 }

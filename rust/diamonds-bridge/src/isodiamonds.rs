@@ -110,7 +110,10 @@ impl Isodiamonds {
                     .interval_volume_query(&query)
                     .map_err(|e| e.to_string())?;
                 check_core(check_interval_arrays(&volume, self.grid_points))?;
-                Ok(Box::new(IntervalVolume { volume }))
+                Ok(Box::new(IntervalVolume {
+                    volume,
+                    global_ids: Vec::new(),
+                }))
             },
         )
     }

@@ -552,6 +552,20 @@ mod ffi {
             samples: &[u8],
             spec: &IntervalSpec,
         ) -> Result<Box<IntervalVolume>>;
+        /// `interval_volume` on a rank that holds the whole image (this hierarchy and `samples`
+        /// are the whole image's): the share of the rank at `rank` of `pieces` (every rank's
+        /// extent) — the tetrahedra whose centroid its cells hold, with `global_point_ids`. Over
+        /// all ranks, the serial volume, each tetrahedron once.
+        #[allow(clippy::too_many_arguments)]
+        fn interval_piece(
+            self: &Hierarchy,
+            state: &mut IsoState,
+            scalar_type: ScalarType,
+            samples: &[u8],
+            spec: &IntervalSpec,
+            pieces: &[i64],
+            rank: usize,
+        ) -> Result<Box<IntervalVolume>>;
         /// World coordinates, three per point.
         fn points(self: &IntervalVolume) -> &[f64];
         /// Two input point ids (relative to the grid of the build) per point: the ends of the mesh
@@ -559,6 +573,9 @@ mod ffi {
         fn sources(self: &IntervalVolume) -> &[u32];
         /// Per point, the weight of its second source (0 at a sample).
         fn weights(self: &IntervalVolume) -> &[f64];
+        /// For a piece's share (`interval_piece`): each point's id in the whole volume, the same
+        /// on every rank; empty for a whole volume.
+        fn global_point_ids(self: &IntervalVolume) -> &[u64];
         /// Four point indices per tetrahedron, positively oriented (VTK_TETRA order).
         fn tets(self: &IntervalVolume) -> &[u32];
         /// Bisection depth of the adaptive-mesh leaf each tetrahedron was cut from.

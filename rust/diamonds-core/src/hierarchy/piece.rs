@@ -992,6 +992,31 @@ pub struct PieceRefinement {
     outbox: Vec<Diamond>,
 }
 
+/// The points used by `cells`, ascending (a point's global id is its index in the
+/// whole output), and the map from a whole-output point index to its index in the share.
+pub(crate) fn used_points<'a>(
+    n_points: usize,
+    cells: impl Iterator<Item = &'a [u32]>,
+) -> (Vec<u64>, Vec<u32>) {
+    let mut used = vec![false; n_points];
+    for cell in cells {
+        for &v in cell {
+            used[v as usize] = true;
+        }
+    }
+    let ids: Vec<u64> = (0..n_points as u64).filter(|&i| used[i as usize]).collect();
+    let mut local = vec![u32::MAX; n_points];
+    for (k, &i) in ids.iter().enumerate() {
+        local[i as usize] = k as u32;
+    }
+    (ids, local)
+}
+
+/// `values` at `ids` (one value per whole-output point or cell).
+pub(crate) fn pick<T: Copy>(values: &[T], ids: &[u64]) -> Vec<T> {
+    ids.iter().map(|&i| values[i as usize]).collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -21,6 +21,11 @@
 //! samples. Tolerance 0 refines every diamond that may hold `α` or `β` to the finest tetrahedra, so
 //! the volume is exactly that of `{α ≤ f ≤ β}` for the piecewise-linear field on the finest
 //! tetrahedra.
+//!
+//! **Across MPI pieces** ([`IntervalVolume::piece`]): as Adaptive Isosurface's, a rank that holds
+//! the whole image extracts the whole volume, the same bit for bit on every rank, and keeps the
+//! tetrahedra whose centroid its piece owns ([`PositionOwner`]), numbering their points by the whole
+//! volume (global ids). Exact, not scalable.
 
 mod clip;
 #[cfg(test)]
@@ -29,6 +34,7 @@ mod tests;
 pub use clip::{PointKey, ALPHA, BETA, SAMPLE};
 
 use crate::diamond::Diamond;
+use crate::hierarchy::piece::{pick, used_points, PositionOwner};
 use crate::hierarchy::Hierarchy;
 use crate::isosurface::IsoState;
 use crate::lattice::{Lattice, Tet};
@@ -103,6 +109,43 @@ pub struct IntervalVolume {
     pub error_bound: f64,
     /// What the user should know: a range that misses the data, a budget that cannot be met.
     pub warnings: Vec<String>,
+}
+
+impl IntervalVolume {
+    /// The tetrahedra the piece of `owner` owns (centroid in its half-open cell box) with their
+    /// points, sources, weights, values and levels, and each point's index in this volume (its
+    /// global id). Counts, tolerance, error bound and warnings are the whole volume's, of which
+    /// this is a share.
+    pub fn piece(&self, owner: &PositionOwner) -> (IntervalVolume, Vec<u64>) {
+        let kept: Vec<u64> = (0..self.tets.len() as u64)
+            .filter(|&t| {
+                owner.owns(
+                    self.tets[t as usize]
+                        .iter()
+                        .map(|&v| self.points[v as usize]),
+                )
+            })
+            .collect();
+        let (ids, local) = used_points(
+            self.points.len(),
+            kept.iter().map(|&t| self.tets[t as usize].as_slice()),
+        );
+        let volume = IntervalVolume {
+            points: pick(&self.points, &ids),
+            sources: pick(&self.sources, &ids),
+            weights: pick(&self.weights, &ids),
+            values: pick(&self.values, &ids),
+            tets: (kept.iter())
+                .map(|&t| self.tets[t as usize].map(|v| local[v as usize]))
+                .collect(),
+            levels: pick(&self.levels, &kept),
+            leaves: self.leaves,
+            tolerance: self.tolerance,
+            error_bound: self.error_bound,
+            warnings: self.warnings.clone(),
+        };
+        (volume, ids)
+    }
 }
 
 /// Extracts the interval volume of `query` from the adaptive mesh of `hierarchy`; `scalars` must be

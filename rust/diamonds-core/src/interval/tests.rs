@@ -488,3 +488,62 @@ fn material_whose_boundary_meets_a_finest_leaf_at_a_corner_is_kept() {
     let volume = Volume::new(grid, &values[..]).unwrap();
     bounded(&hierarchy(grid, &values), &volume, range, tolerance);
 }
+
+/// The pieces' shares of an interval volume partition it: each tetrahedron on exactly one piece,
+/// its points those of the whole volume under their global ids, whatever the layout (slabs, an
+/// uneven split in three, overlapping pieces, empty pieces).
+#[test]
+fn pieces_together_are_the_whole_volume() {
+    use crate::hierarchy::piece::{PointBox, PositionOwner};
+    let (_, grid, values, range) = cases().remove(0);
+    let v = extract(
+        &hierarchy(grid, &values),
+        ScalarSlice::F32(&values),
+        &IntervalQuery::new(range, 0.05),
+    )
+    .unwrap();
+    assert!(!v.tets.is_empty());
+    let far = IVec3::from(grid.dims.map(|d| d as i32 - 1));
+    let pb = |lo: IVec3, hi: IVec3| PointBox { lo, hi };
+    let mid = far / 2;
+    let layouts = [
+        vec![
+            pb(IVec3::ZERO, far.with_z(mid.z)),
+            pb(IVec3::ZERO.with_z(mid.z), far),
+        ],
+        vec![
+            pb(IVec3::ZERO, far.with_x(mid.x)),
+            pb(IVec3::ZERO.with_x(mid.x), far.with_y(mid.y)),
+            pb(mid.with_z(0), far),
+        ],
+        vec![pb(IVec3::ZERO, far); 2],
+        vec![PointBox::EMPTY, pb(IVec3::ZERO, far), PointBox::EMPTY],
+    ];
+    for boxes in &layouts {
+        let mut owned = vec![0u32; v.tets.len()];
+        let index: rustc_hash::FxHashMap<[u32; 4], usize> =
+            v.tets.iter().enumerate().map(|(k, &t)| (t, k)).collect();
+        for me in 0..boxes.len() {
+            let (share, ids) = v.piece(&PositionOwner::new(&grid, boxes, me).unwrap());
+            assert_eq!(share.points.len(), ids.len());
+            assert_eq!(share.tets.len(), share.levels.len());
+            for (k, &i) in ids.iter().enumerate() {
+                let i = i as usize;
+                assert_eq!(share.points[k], v.points[i]);
+                assert_eq!(
+                    (share.sources[k], share.weights[k]),
+                    (v.sources[i], v.weights[i])
+                );
+                assert_eq!(share.values[k], v.values[i]);
+            }
+            for (t, &level) in share.tets.iter().zip(&share.levels) {
+                let whole = t.map(|p| ids[p as usize] as u32);
+                let k = index[&whole];
+                assert_eq!(v.levels[k], level);
+                owned[k] += 1;
+            }
+            assert_eq!((share.leaves, share.error_bound), (v.leaves, v.error_bound));
+        }
+        assert!(owned.iter().all(|&n| n == 1), "{boxes:?}");
+    }
+}
