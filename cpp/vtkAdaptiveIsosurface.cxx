@@ -612,13 +612,8 @@ int vtkAdaptiveIsosurface::RequestDistributed(vtkMultiProcessController* control
     return 0;
   }
   const vtkIdType total = pieces.Sum(numTriangles);
-  const bridge::GridSpec& grid = pieces.Whole();
-  double diagonal2 = 0.0;
-  for (int axis = 0; axis < 3; ++axis)
-  {
-    diagonal2 += std::pow((static_cast<double>(grid.dims[axis]) - 1.0) * grid.spacing[axis], 2);
-  }
-  const double relativeTolerance = diagonal2 > 0.0 ? this->Tolerance / std::sqrt(diagonal2) : 0.0;
+  const double diagonal = pieces.WholeDiagonal();
+  const double relativeTolerance = diagonal > 0.0 ? this->Tolerance / diagonal : 0.0;
   this->RelativeTolerance = relativeTolerance;
   vtkFieldData* fieldData = output->GetFieldData();
   if (!empty)

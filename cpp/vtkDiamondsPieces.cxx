@@ -20,6 +20,7 @@
 #include "vtkTypeUInt64Array.h"
 
 #include <algorithm>
+#include <cmath>
 #include <chrono>
 #include <functional>
 #include <limits>
@@ -150,6 +151,18 @@ vtkMultiProcessController* Pieces::DistributedController()
 {
   vtkMultiProcessController* c = vtkMultiProcessController::GetGlobalController();
   return c && c->GetNumberOfProcesses() > 1 ? c : nullptr;
+}
+
+//------------------------------------------------------------------------------
+double Pieces::WholeDiagonal() const
+{
+  double diagonal2 = 0.0;
+  for (int axis = 0; axis < 3; ++axis)
+  {
+    diagonal2 += std::pow(
+      (static_cast<double>(this->WholeGrid.dims[axis]) - 1.0) * this->WholeGrid.spacing[axis], 2);
+  }
+  return std::sqrt(diagonal2);
 }
 
 //------------------------------------------------------------------------------

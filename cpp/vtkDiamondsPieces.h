@@ -54,6 +54,8 @@ public:
   int Size() const { return this->Ranks; }
   // The whole grid (origin at its first point).
   const bridge::GridSpec& Whole() const { return this->WholeGrid; }
+  // Length of the whole grid's diagonal: what relative tolerances are relative to.
+  double WholeDiagonal() const;
   // Where the whole grid's points are, by vtkImageData's formula (the origin, the whole extent's
   // minima and the spacing), as the serial filters place them.
   bridge::PointFrame Frame() const;
