@@ -31,7 +31,6 @@
 #include <cstddef>
 #include <optional>
 #include <string>
-#include <utility>
 #include <vector>
 
 vtkStandardNewMacro(vtkAdaptiveIntervalVolume);
@@ -88,21 +87,8 @@ public:
   vtkDiamonds::HierarchyCache Cache{ vtkDiamonds::HierarchyCache::Use::Isosurfaces };
 
   // On more than one rank: the whole image this rank put together, with every point array (new
-  // points interpolate them), none on an empty piece; and what it was put together from (every
-  // rank fetches again when any rank's key changed).
-  struct WholeKey
-  {
-    vtkDiamonds::InputKey Input;
-    // The other point arrays gathered, and their modification times.
-    std::vector<std::pair<const void*, vtkMTimeType>> Others;
-    std::vector<std::int64_t> Extents;
-    bool operator==(const WholeKey& o) const
-    {
-      return Input == o.Input && Others == o.Others && Extents == o.Extents;
-    }
-  };
-  vtkSmartPointer<vtkImageData> Whole;
-  WholeKey WholeBuilt;
+  // points interpolate them).
+  vtkDiamonds::WholeImage Whole;
 };
 
 //------------------------------------------------------------------------------
@@ -377,37 +363,21 @@ int vtkAdaptiveIntervalVolume::RequestDistributed(vtkMultiProcessController* con
   }
 
   // ---- The whole image on every rank with a piece, fetched again when any rank's input changed.
-  vtkInternals::WholeKey key;
-  key.Input = vtkDiamonds::InputKey(input, array);
-  for (std::size_t i = 1; i < pointArrays.size(); ++i)
-  {
-    key.Others.emplace_back(pointArrays[i], pointArrays[i]->GetMTime());
-  }
-  key.Extents.assign(pieces.Extents().begin(), pieces.Extents().end());
-  const bool stale = !(this->Internals->WholeBuilt == key);
-  if (pieces.Sum(stale ? 1 : 0) > 0)
+  const vtkDiamonds::WholeImage::Key key =
+    vtkDiamonds::WholeImage::KeyOf(pieces, input, pointArrays);
+  if (this->Internals->Whole.Stale(pieces, key))
   {
     this->Internals->Cache.Release();
-    this->Internals->WholeBuilt = vtkInternals::WholeKey();
-    std::string error;
-    vtkSmartPointer<vtkDataSet> gathered;
-    ok = pieces.GatherWhole(input, pointArrays, {}, gathered, error);
-    this->Internals->Whole = vtkImageData::SafeDownCast(gathered);
-    if (!ok)
+    if (!this->Internals->Whole.Gather(this, Text.Name, pieces, input, pointArrays, key))
     {
-      vtkErrorMacro(<< Text.Name << " could not fetch the image from the other ranks: " << error);
-    }
-    if (!agree(ok, "fetching the image"))
-    {
-      this->Internals->Whole = nullptr;
+      output->Initialize();
       return pieces.Failed();
     }
-    this->Internals->WholeBuilt = key;
   }
   this->UpdateProgress(0.1);
 
   // ---- This rank's share of the interval volume of the whole image.
-  vtkImageData* whole = this->Internals->Whole;
+  vtkImageData* whole = this->Internals->Whole.Get();
   vtkDiamonds::HierarchyCache& cache = this->Internals->Cache;
   std::optional<rust::Box<bridge::IntervalVolume>> volume;
   if (whole)

@@ -68,16 +68,8 @@ public:
   // The extraction's parameters (tolerance, budget, outputs; not the region of interest).
   bridge::IsoSpec Spec(vtkAdaptiveIsosurface* self) const;
 
-  // On more than one rank: the whole image this rank put together (none on an empty piece), and
-  // what it was put together from (every rank fetches again when any rank's key changed).
-  struct WholeKey
-  {
-    vtkDiamonds::InputKey Input;
-    std::vector<std::int64_t> Extents;
-    bool operator==(const WholeKey& o) const { return Input == o.Input && Extents == o.Extents; }
-  };
-  vtkSmartPointer<vtkImageData> Whole;
-  WholeKey WholeBuilt;
+  // On more than one rank: the whole image this rank put together.
+  vtkDiamonds::WholeImage Whole;
 };
 
 //------------------------------------------------------------------------------
@@ -508,40 +500,29 @@ int vtkAdaptiveIsosurface::RequestDistributed(vtkMultiProcessController* control
     return pieces.Failed();
   }
 
-  // ---- The whole image on every rank with a piece, fetched again when any rank's input changed.
-  vtkInternals::WholeKey key;
+  // ---- The whole image on every rank with a piece, fetched again when any rank's input changed
+  // (keyed by the array as read; its converted samples are gathered).
+  std::vector<vtkDataArray*> pointArrays;
+  if (samples)
+  {
+    pointArrays.push_back(samples);
+  }
+  vtkDiamonds::WholeImage::Key key = vtkDiamonds::WholeImage::KeyOf(pieces, input, {});
   key.Input = vtkDiamonds::InputKey(input, array);
-  key.Extents.assign(pieces.Extents().begin(), pieces.Extents().end());
-  const bool stale = !(this->Internals->WholeBuilt == key);
-  if (pieces.Sum(stale ? 1 : 0) > 0)
+  if (this->Internals->Whole.Stale(pieces, key))
   {
     this->Internals->Cache.Release();
-    this->Internals->WholeBuilt = vtkInternals::WholeKey();
-    std::string error;
-    std::vector<vtkDataArray*> pointArrays;
-    if (samples)
+    if (!this->Internals->Whole.Gather(this, Text.Name, pieces, input, pointArrays, key))
     {
-      pointArrays.push_back(samples);
-    }
-    vtkSmartPointer<vtkDataSet> gathered;
-    ok = pieces.GatherWhole(input, pointArrays, {}, gathered, error);
-    this->Internals->Whole = vtkImageData::SafeDownCast(gathered);
-    if (!ok)
-    {
-      vtkErrorMacro(<< "Adaptive Isosurface could not fetch the image from the other ranks: "
-                    << error);
-    }
-    if (!agree(ok, "fetching the image"))
-    {
-      this->Internals->Whole = nullptr;
+      output->Initialize();
+      carrier->Initialize();
       return pieces.Failed();
     }
-    this->Internals->WholeBuilt = key;
   }
   this->UpdateProgress(0.1);
 
   // ---- This rank's share of the surface of the whole image.
-  vtkImageData* whole = this->Internals->Whole;
+  vtkImageData* whole = this->Internals->Whole.Get();
   vtkDiamonds::HierarchyCache& cache = this->Internals->Cache;
   std::optional<rust::Box<bridge::Surface>> surface;
   if (whole)

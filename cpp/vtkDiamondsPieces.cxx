@@ -1045,4 +1045,53 @@ bool Pieces::Ask(std::vector<std::vector<std::uint64_t>>& want,
   return ok;
 }
 
+//------------------------------------------------------------------------------
+WholeImage::Key WholeImage::KeyOf(
+  const Pieces& pieces, vtkImageData* input, const std::vector<vtkDataArray*>& pointArrays)
+{
+  Key key;
+  key.Input = InputKey(input, pointArrays.empty() ? nullptr : pointArrays.front());
+  for (std::size_t i = 1; i < pointArrays.size(); ++i)
+  {
+    key.Others.emplace_back(pointArrays[i], pointArrays[i]->GetMTime());
+  }
+  key.Extents.assign(pieces.Extents().begin(), pieces.Extents().end());
+  return key;
+}
+
+//------------------------------------------------------------------------------
+bool WholeImage::Stale(Pieces& pieces, const Key& key) const
+{
+  return pieces.Sum(this->Built == key ? 0 : 1) > 0;
+}
+
+//------------------------------------------------------------------------------
+bool WholeImage::Gather(vtkAlgorithm* filter, const char* name, Pieces& pieces,
+  vtkImageData* input, const std::vector<vtkDataArray*>& pointArrays, const Key& key)
+{
+  this->Image = nullptr;
+  this->Built = Key();
+  std::string error;
+  vtkSmartPointer<vtkDataSet> gathered;
+  const bool ok = pieces.GatherWhole(input, pointArrays, {}, gathered, error);
+  if (!ok)
+  {
+    vtkErrorWithObjectMacro(
+      filter, << name << " could not fetch the image from the other ranks: " << error);
+  }
+  if (!pieces.Agree(filter, name, ok, "fetching the image"))
+  {
+    return false;
+  }
+  this->Image = vtkImageData::SafeDownCast(gathered);
+  this->Built = key;
+  return true;
+}
+
+//------------------------------------------------------------------------------
+vtkImageData* WholeImage::Get() const
+{
+  return this->Image;
+}
+
 } // namespace vtkDiamonds

@@ -10,6 +10,7 @@
 #define vtkDiamondsPieces_h
 
 #include "vtkDiamondsBridge.h"
+#include "vtkDiamondsHierarchyCache.h"
 
 #include "vtkSmartPointer.h"
 #include "vtkType.h"
@@ -18,6 +19,7 @@
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 class vtkAlgorithm;
@@ -25,6 +27,7 @@ class vtkDataArray;
 class vtkDataSet;
 class vtkFieldData;
 class vtkIdList;
+class vtkImageData;
 class vtkInformation;
 class vtkMultiProcessController;
 
@@ -201,6 +204,44 @@ private:
   double Sent = 0.0;
   double Seconds = 0.0;
   bool Aborted = false; // an Agree found a rank aborted
+};
+
+// The whole image a distributed image filter puts together on every rank with a piece (Adaptive
+// Isosurface, Adaptive Interval Volume: exact, not scalable), kept between executions while no
+// rank's input changed.
+class WholeImage
+{
+public:
+  // What it is put together from: the processed array, the other point arrays gathered with it
+  // (and their modification times), every rank's extent.
+  struct Key
+  {
+    InputKey Input;
+    std::vector<std::pair<const void*, vtkMTimeType>> Others;
+    std::vector<std::int64_t> Extents;
+    bool operator==(const Key& o) const
+    {
+      return Input == o.Input && Others == o.Others && Extents == o.Extents;
+    }
+  };
+  // This rank's key: `pointArrays` of `input` (the processed one first; none on an empty piece).
+  static Key KeyOf(const Pieces& pieces, vtkImageData* input,
+    const std::vector<vtkDataArray*>& pointArrays);
+
+  // Collective: whether any rank's key differs from the one of its last gather (then every rank
+  // gathers again: release what depends on the image first).
+  bool Stale(Pieces& pieces, const Key& key) const;
+  // Collective: gathers `pointArrays` of every rank's piece into the whole image (GatherWhole; the
+  // first array its active scalars). False on every rank when it failed anywhere (an error on
+  // `filter`, named `name`, where it failed; agreed on as Pieces::Agree): no image is kept.
+  bool Gather(vtkAlgorithm* filter, const char* name, Pieces& pieces, vtkImageData* input,
+    const std::vector<vtkDataArray*>& pointArrays, const Key& key);
+  // The image (none on an empty piece, or after a failed gather).
+  vtkImageData* Get() const;
+
+private:
+  vtkSmartPointer<vtkImageData> Image;
+  Key Built;
 };
 
 } // namespace vtkDiamonds
