@@ -416,6 +416,34 @@ def programmable_image(simple, dims, script_body, origin=(0.0, 0.0, 0.0), spacin
     return src
 
 
+def wavelet(simple, whole):
+    """ParaView's Wavelet over the extent `whole` (a pipeline proxy) and the same image made here
+    (vtkRTAnalyticSource), for comparing a distributed run with a serial reference."""
+    from vtkmodules.vtkImagingCore import vtkRTAnalyticSource
+
+    proxy = simple.Wavelet()
+    proxy.WholeExtent = list(whole)
+    rt = vtkRTAnalyticSource()
+    rt.SetWholeExtent(*whole)
+    rt.Update()
+    return proxy, rt.GetOutput()
+
+
+def shared_images():
+    """Every shared volume (../shared/data/volumes/*.vti, in name order) as (file name, path, the
+    image read here); nothing when ../shared is absent (see shared_path)."""
+    from vtkmodules.vtkIOXML import vtkXMLImageDataReader
+
+    folder = shared_path("data/volumes")
+    for entry in sorted(os.listdir(folder)) if folder else []:
+        if entry.endswith(".vti"):
+            path = os.path.join(folder, entry)
+            reader = vtkXMLImageDataReader()
+            reader.SetFileName(path)
+            reader.Update()
+            yield entry, path, reader.GetOutput()
+
+
 def shared_path(relative):
     """`relative` under `../shared` beside the checkout, or None when absent: then the test is skipped
     with a message, or fails when the shared data is required (CI=true, as `.ci/run` sets, or

@@ -32,12 +32,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import diamonds_checks as dc  # noqa: E402
 from paraview import servermanager  # noqa: E402
 from vtkmodules.util.numpy_support import vtk_to_numpy  # noqa: E402
-from vtkmodules.vtkImagingCore import vtkRTAnalyticSource  # noqa: E402
-from vtkmodules.vtkIOXML import (  # noqa: E402
-    vtkXMLImageDataReader,
-    vtkXMLImageDataWriter,
-    vtkXMLUnstructuredGridReader,
-)
+from vtkmodules.vtkIOXML import vtkXMLImageDataWriter, vtkXMLUnstructuredGridReader  # noqa: E402
 
 simple = dc.require_plugin()
 RANKS = dc.Ranks(simple)
@@ -153,13 +148,7 @@ def check_distributed(source, image, scalars, value_range, tolerance, label, fil
 
 
 # A generated image of odd sizes: ParaView's Wavelet over 41 x 37 x 31 points.
-whole = [0, 40, 0, 36, 0, 30]
-wavelet = simple.Wavelet()
-wavelet.WholeExtent = whole
-rt = vtkRTAnalyticSource()
-rt.SetWholeExtent(*whole)
-rt.Update()
-image = rt.GetOutput()
+wavelet, image = dc.wavelet(simple, [0, 40, 0, 36, 0, 30])
 filt = check_distributed(wavelet, image, "RTData", [100.0, 200.0], 1.0, "wavelet [100, 200] tol 1")
 builds = dc.hierarchy_builds(filt)
 check_distributed(wavelet, image, "RTData", [100.0, 200.0], 0.4, "wavelet [100, 200] tol 0.4", filt=filt)
@@ -168,37 +157,24 @@ check_distributed(wavelet, image, "RTData", [150.0, 170.0], 0.0, "wavelet [150, 
 simple.Delete(filt)
 
 # An image smaller than the number of ranks: some ranks have empty pieces.
-tiny = simple.Wavelet()
-tiny.WholeExtent = [0, 2, 0, 1, 0, 1]
-rt_tiny = vtkRTAnalyticSource()
-rt_tiny.SetWholeExtent(0, 2, 0, 1, 0, 1)
-rt_tiny.Update()
-lo, hi = rt_tiny.GetOutput().GetPointData().GetScalars().GetRange()
-simple.Delete(check_distributed(tiny, rt_tiny.GetOutput(), "RTData", [lo, 0.5 * (lo + hi)], 0.0, "tiny"))
+tiny, tiny_image = dc.wavelet(simple, [0, 2, 0, 1, 0, 1])
+lo, hi = tiny_image.GetPointData().GetScalars().GetRange()
+simple.Delete(check_distributed(tiny, tiny_image, "RTData", [lo, 0.5 * (lo + hi)], 0.0, "tiny"))
 
 # The shared volumes of up to 2 M points, read in pieces: an integer range in the middle of the
 # data's (levels equal to samples) at 2 % of the diagonal.
-folder = dc.shared_path("data/volumes")
-if folder:
-    for entry in sorted(os.listdir(folder)):
-        if not entry.endswith(".vti"):
-            continue
-        path = os.path.join(folder, entry)
-        local = vtkXMLImageDataReader()
-        local.SetFileName(path)
-        local.Update()
-        ct = local.GetOutput()
-        if ct.GetNumberOfPoints() > 2_000_000:
-            continue
-        name = ct.GetPointData().GetScalars().GetName()
-        lo, hi = ct.GetPointData().GetScalars().GetRange()
-        b = np.array(ct.GetBounds())
-        diagonal = float(np.linalg.norm(b[1::2] - b[0::2]))
-        a, c = lo + 0.3 * (hi - lo), lo + 0.6 * (hi - lo)
-        if hi - lo > 20:
-            a, c = float(np.round(a)), float(np.round(c))
-        reader = simple.XMLImageDataReader(FileName=[path])
-        simple.Delete(check_distributed(reader, ct, name, [a, c], 0.02 * diagonal, entry.split("_")[0]))
-        simple.Delete(reader)
+for entry, path, ct in dc.shared_images():
+    if ct.GetNumberOfPoints() > 2_000_000:
+        continue
+    name = ct.GetPointData().GetScalars().GetName()
+    lo, hi = ct.GetPointData().GetScalars().GetRange()
+    b = np.array(ct.GetBounds())
+    diagonal = float(np.linalg.norm(b[1::2] - b[0::2]))
+    a, c = lo + 0.3 * (hi - lo), lo + 0.6 * (hi - lo)
+    if hi - lo > 20:
+        a, c = float(np.round(a)), float(np.round(c))
+    reader = simple.XMLImageDataReader(FileName=[path])
+    simple.Delete(check_distributed(reader, ct, name, [a, c], 0.02 * diagonal, entry.split("_")[0]))
+    simple.Delete(reader)
 
 RANKS.finish("mpi_interval")

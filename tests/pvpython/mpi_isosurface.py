@@ -33,8 +33,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import diamonds_checks as dc  # noqa: E402
 from paraview import servermanager  # noqa: E402
 from vtkmodules.util.numpy_support import vtk_to_numpy  # noqa: E402
-from vtkmodules.vtkImagingCore import vtkRTAnalyticSource  # noqa: E402
-from vtkmodules.vtkIOXML import vtkXMLImageDataReader, vtkXMLImageDataWriter, vtkXMLPolyDataReader  # noqa: E402
+from vtkmodules.vtkIOXML import vtkXMLImageDataWriter, vtkXMLPolyDataReader  # noqa: E402
 
 simple = dc.require_plugin()
 RANKS = dc.Ranks(simple)
@@ -197,13 +196,7 @@ def check_distributed(source, image, scalars, isovalues, tolerance, label, roi=N
 
 
 # A generated image of odd sizes: ParaView's Wavelet over 65 x 41 x 53 points.
-whole = [0, 64, 0, 40, 0, 52]
-wavelet = simple.Wavelet()
-wavelet.WholeExtent = whole
-rt = vtkRTAnalyticSource()
-rt.SetWholeExtent(*whole)
-rt.Update()
-image = rt.GetOutput()
+wavelet, image = dc.wavelet(simple, [0, 64, 0, 40, 0, 52])
 filt = check_distributed(wavelet, image, "RTData", [157.0], 1.0, "wavelet 157 tol 1")
 builds = dc.hierarchy_builds(filt)
 check_distributed(wavelet, image, "RTData", [157.0], 0.3, "wavelet 157 tol 0.3", filt=filt)
@@ -214,38 +207,25 @@ check_distributed(wavelet, image, "RTData", [157.0], 0.5, "wavelet ROI", roi=[10
 simple.Delete(filt)
 
 # An image smaller than the number of ranks: some ranks have empty pieces.
-tiny = simple.Wavelet()
-tiny.WholeExtent = [0, 2, 0, 1, 0, 1]
-rt_tiny = vtkRTAnalyticSource()
-rt_tiny.SetWholeExtent(0, 2, 0, 1, 0, 1)
-rt_tiny.Update()
-lo, hi = rt_tiny.GetOutput().GetPointData().GetScalars().GetRange()
-simple.Delete(check_distributed(tiny, rt_tiny.GetOutput(), "RTData", [0.5 * (lo + hi)], 0.0, "tiny"))
+tiny, tiny_image = dc.wavelet(simple, [0, 2, 0, 1, 0, 1])
+lo, hi = tiny_image.GetPointData().GetScalars().GetRange()
+simple.Delete(check_distributed(tiny, tiny_image, "RTData", [0.5 * (lo + hi)], 0.0, "tiny"))
 
 # Every shared volume (real CT/MRI/simulation data, several odd sizes and types) read in pieces, at
 # the middle of its range and 1 % of its diagonal. Volumes over 2 M points (bonsai 256³) only where
 # DIAMONDS_MPI_LARGE=1 (the 2-rank pvbatch run of test-integration.sh).
-folder = dc.shared_path("data/volumes")
-if folder:
-    large = os.environ.get("DIAMONDS_MPI_LARGE") == "1"
-    for entry in sorted(os.listdir(folder)):
-        if not entry.endswith(".vti"):
-            continue
-        path = os.path.join(folder, entry)
-        local = vtkXMLImageDataReader()
-        local.SetFileName(path)
-        local.Update()
-        ct = local.GetOutput()
-        if ct.GetNumberOfPoints() > 2_000_000 and not large:
-            print(f"{entry}: {ct.GetNumberOfPoints()} points, compared in the 2-rank pvbatch run only")
-            continue
-        name = ct.GetPointData().GetScalars().GetName()
-        lo, hi = ct.GetPointData().GetScalars().GetRange()
-        b = np.array(ct.GetBounds())
-        diagonal = float(np.linalg.norm(b[1::2] - b[0::2]))
-        reader = simple.XMLImageDataReader(FileName=[path])
-        isovalue = float(np.floor(lo + 0.4 * (hi - lo))) + 0.5 if hi - lo > 4 else 0.5 * (lo + hi)
-        simple.Delete(check_distributed(reader, ct, name, [isovalue], 0.01 * diagonal, entry.split("_")[0]))
-        simple.Delete(reader)
+large = os.environ.get("DIAMONDS_MPI_LARGE") == "1"
+for entry, path, ct in dc.shared_images():
+    if ct.GetNumberOfPoints() > 2_000_000 and not large:
+        print(f"{entry}: {ct.GetNumberOfPoints()} points, compared in the 2-rank pvbatch run only")
+        continue
+    name = ct.GetPointData().GetScalars().GetName()
+    lo, hi = ct.GetPointData().GetScalars().GetRange()
+    b = np.array(ct.GetBounds())
+    diagonal = float(np.linalg.norm(b[1::2] - b[0::2]))
+    reader = simple.XMLImageDataReader(FileName=[path])
+    isovalue = float(np.floor(lo + 0.4 * (hi - lo))) + 0.5 if hi - lo > 4 else 0.5 * (lo + hi)
+    simple.Delete(check_distributed(reader, ct, name, [isovalue], 0.01 * diagonal, entry.split("_")[0]))
+    simple.Delete(reader)
 
 RANKS.finish("mpi_isosurface")

@@ -31,8 +31,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import diamonds_checks as dc  # noqa: E402
 from paraview import servermanager  # noqa: E402
 from vtkmodules.util.numpy_support import vtk_to_numpy  # noqa: E402
-from vtkmodules.vtkImagingCore import vtkRTAnalyticSource  # noqa: E402
-from vtkmodules.vtkIOXML import vtkXMLImageDataReader, vtkXMLImageDataWriter, vtkXMLUnstructuredGridReader  # noqa: E402
+from vtkmodules.vtkIOXML import vtkXMLImageDataWriter, vtkXMLUnstructuredGridReader  # noqa: E402
 
 simple = dc.require_plugin()
 RANKS = dc.Ranks(simple)
@@ -139,13 +138,7 @@ def check_distributed(source, image, scalars, tolerance, label, roi=None):
 
 
 # A generated image of odd sizes: ParaView's Wavelet over 65 x 41 x 53 points.
-whole = [0, 64, 0, 40, 0, 52]
-wavelet = simple.Wavelet()
-wavelet.WholeExtent = whole
-rt = vtkRTAnalyticSource()
-rt.SetWholeExtent(*whole)
-rt.Update()
-image = rt.GetOutput()
+wavelet, image = dc.wavelet(simple, [0, 64, 0, 40, 0, 52])
 filt = check_distributed(wavelet, image, "RTData", 8.0, "wavelet tol 8")
 builds = dc.hierarchy_builds(filt)
 filt.Tolerance = 2.0
@@ -192,36 +185,23 @@ simple.Delete(filt)
 simple.Delete(extra)
 
 # An image smaller than the number of ranks: some ranks have empty pieces.
-tiny = simple.Wavelet()
-tiny.WholeExtent = [0, 1, 0, 1, 0, 1]
-rt_tiny = vtkRTAnalyticSource()
-rt_tiny.SetWholeExtent(0, 1, 0, 1, 0, 1)
-rt_tiny.Update()
-check_distributed(tiny, rt_tiny.GetOutput(), "RTData", 0.0, "one cell")
+tiny, tiny_image = dc.wavelet(simple, [0, 1, 0, 1, 0, 1])
+check_distributed(tiny, tiny_image, "RTData", 0.0, "one cell")
 
 # Every shared volume (real CT/MRI/simulation data, several odd sizes and types) read in pieces, at
 # 2 % of its range. Volumes over 2 M points (bonsai 256³) only where DIAMONDS_MPI_LARGE=1 (the 2-rank
 # pvbatch run of test-integration.sh), at 10 % of the range (at 2 %: 17.9 M tetrahedra, equal to
 # serial, but ten minutes of comparing on a loaded 2-core machine).
-folder = dc.shared_path("data/volumes")
-if folder:
-    large = os.environ.get("DIAMONDS_MPI_LARGE") == "1"
-    for entry in sorted(os.listdir(folder)):
-        if not entry.endswith(".vti"):
-            continue
-        path = os.path.join(folder, entry)
-        local = vtkXMLImageDataReader()
-        local.SetFileName(path)
-        local.Update()
-        ct = local.GetOutput()
-        big = ct.GetNumberOfPoints() > 2_000_000
-        if big and not large:
-            print(f"{entry}: {ct.GetNumberOfPoints()} points, compared in the 2-rank pvbatch run only")
-            continue
-        name = ct.GetPointData().GetScalars().GetName()
-        lo, hi = ct.GetPointData().GetScalars().GetRange()
-        reader = simple.XMLImageDataReader(FileName=[path])
-        simple.Delete(check_distributed(reader, ct, name, (0.1 if big else 0.02) * (hi - lo), entry.split("_")[0]))
-        simple.Delete(reader)
+large = os.environ.get("DIAMONDS_MPI_LARGE") == "1"
+for entry, path, ct in dc.shared_images():
+    big = ct.GetNumberOfPoints() > 2_000_000
+    if big and not large:
+        print(f"{entry}: {ct.GetNumberOfPoints()} points, compared in the 2-rank pvbatch run only")
+        continue
+    name = ct.GetPointData().GetScalars().GetName()
+    lo, hi = ct.GetPointData().GetScalars().GetRange()
+    reader = simple.XMLImageDataReader(FileName=[path])
+    simple.Delete(check_distributed(reader, ct, name, (0.1 if big else 0.02) * (hi - lo), entry.split("_")[0]))
+    simple.Delete(reader)
 
 RANKS.finish("mpi_pieces")
