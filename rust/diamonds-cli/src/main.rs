@@ -458,7 +458,6 @@ struct MeasuredRegion {
         long,
         num_args = 6,
         allow_hyphen_values = true,
-        requires = "tolerance",
         value_names = ["XMIN", "XMAX", "YMIN", "YMAX", "ZMIN", "ZMAX"]
     )]
     roi: Option<Vec<f64>>,
@@ -780,6 +779,11 @@ fn run(cli: Cli) -> diamonds_cli::Result<ExitCode> {
             array,
             region,
         } => {
+            if region.roi.is_some() && isovalue.is_empty() {
+                diamonds_cli::bail!(
+                    "--roi needs --isovalue: it restricts the distances to the full-resolution surface"
+                );
+            }
             let bound = (!isovalue.is_empty()).then_some(commands::SurfaceBound {
                 isovalues: isovalue,
                 array,

@@ -450,6 +450,21 @@ fn carrier_tetrahedra_region_of_interest_and_no_normals() {
     assert!(bound(&["--roi", "5", "6", "-1", "1", "-1", "1"])
         .user_error()
         .contains("outside the data bounds"));
+    let run = diamonds([
+        "verify-surface",
+        s(&roi),
+        "--image",
+        s(&input),
+        "--roi",
+        "0",
+        "1",
+        "-1",
+        "1",
+        "-1",
+        "1",
+    ]);
+    let e = run.user_error();
+    assert!(e.contains("--roi needs --isovalue"), "{e}");
 
     let bare = dir.join("bare.vtp");
     iso(&input, &bare, &["--isovalue", "127.5", "--no-normals"]);
