@@ -416,6 +416,35 @@ def programmable_image(simple, dims, script_body, origin=(0.0, 0.0, 0.0), spacin
     return src
 
 
+def check_rank_share(piece, points, rank, ranks, cells, total, by_gid, label):
+    """Checks rank `rank`'s share `piece` (its `points`, N x 3) of a distributed output split over
+    `ranks` ranks: field data `cells` (e.g. TetrahedraPerRank) holds its cell count at its rank,
+    NumberOf<cells without PerRank> is `total`, and the per-rank figures are there; when it has cells,
+    a GlobalPointId per point, each id at one position across the ranks seen so far (`by_gid`, id
+    -> position, filled in). Returns the global ids (None without cells)."""
+    import numpy as np
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+
+    n = piece.GetNumberOfCells()
+    per = piece.GetFieldData().GetArray(cells)
+    check(per is not None and per.GetNumberOfTuples() == ranks and per.GetTuple1(rank) == n,
+          f"{label}: rank {rank}: {cells}")
+    name = "NumberOf" + cells[: -len("PerRank")]
+    check(field_value(piece, name) == total, f"{label}: rank {rank}: {name} is the total")
+    for figure in ("SecondsPerRank", "BytesSentPerRank", "ExchangeSecondsPerRank", "PeakMemoryPerRank"):
+        a = piece.GetFieldData().GetArray(figure)
+        check(a is not None and a.GetNumberOfTuples() == ranks, f"{label}: rank {rank}: {figure}")
+    if n == 0:
+        return None
+    gids = vtk_to_numpy(piece.GetPointData().GetGlobalIds()).astype(np.int64)
+    check(len(gids) == len(points), f"{label}: rank {rank}: a GlobalPointId per point")
+    for g, p in zip(gids.tolist(), map(tuple, points.tolist())):
+        if by_gid.setdefault(g, p) != p:
+            check(False, f"{label}: global id {g} has two positions {by_gid[g]} and {p}")
+            break
+    return gids
+
+
 def wavelet(simple, whole):
     """ParaView's Wavelet over the extent `whole` (a pipeline proxy) and the same image made here
     (vtkRTAnalyticSource), for comparing a distributed run with a serial reference."""

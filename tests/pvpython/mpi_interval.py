@@ -95,23 +95,9 @@ def check_distributed(source, image, scalars, value_range, tolerance, label, fil
         piece = servermanager.Fetch(filt, r)
         points, tets, values = tet_arrays(piece, scalars)
         per_rank.append(len(tets))
-        per = piece.GetFieldData().GetArray("TetrahedraPerRank")
-        dc.check(per is not None and per.GetNumberOfTuples() == ranks and per.GetTuple1(r) == len(tets),
-                 f"{label}: rank {r}: TetrahedraPerRank")
-        dc.check(dc.field_value(piece, "NumberOfTetrahedra") == len(ref_tets), f"{label}: rank {r}: NumberOfTetrahedra is the total")
-        for name in ("SecondsPerRank", "BytesSentPerRank", "ExchangeSecondsPerRank", "PeakMemoryPerRank"):
-            a = piece.GetFieldData().GetArray(name)
-            dc.check(a is not None and a.GetNumberOfTuples() == ranks, f"{label}: rank {r}: {name}")
         figures.add((dc.field_value(piece, "ErrorBound"), dc.field_value(piece, "NumberOfPoints")))
-        if len(tets) == 0:
-            continue
-        gids = vtk_to_numpy(piece.GetPointData().GetGlobalIds()).astype(np.int64)
-        dc.check(len(gids) == len(points), f"{label}: rank {r}: a GlobalPointId per point")
-        for g, p in zip(gids.tolist(), map(tuple, points.tolist())):
-            if by_gid.setdefault(g, p) != p:
-                dc.check(False, f"{label}: global id {g} has two positions {by_gid[g]} and {p}")
-                break
-        parts.append((points, tets, values))
+        if dc.check_rank_share(piece, points, r, ranks, "TetrahedraPerRank", len(ref_tets), by_gid, label) is not None:
+            parts.append((points, tets, values))
     print(f"{label}: {len(ref_tets)} serial tetrahedra; per rank {per_rank}")
     dc.check(len(figures) == 1 and next(iter(figures))[1] == len(ref_points),
              f"{label}: ErrorBound and NumberOfPoints (the whole volume's) the same on every rank ({figures}; {len(ref_points)} points)")

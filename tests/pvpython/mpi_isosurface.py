@@ -130,23 +130,10 @@ def check_distributed(source, image, scalars, isovalues, tolerance, label, roi=N
         piece = servermanager.Fetch(filt, r)
         points, tris = surface_arrays(piece)
         per_rank.append(len(tris))
-        per = piece.GetFieldData().GetArray("TrianglesPerRank")
-        dc.check(per is not None and per.GetNumberOfTuples() == ranks and per.GetTuple1(r) == len(tris),
-                 f"{label}: rank {r}: TrianglesPerRank")
-        dc.check(dc.field_value(piece, "NumberOfTriangles") == len(ref_tris), f"{label}: rank {r}: NumberOfTriangles is the total")
-        for name in ("SecondsPerRank", "BytesSentPerRank", "ExchangeSecondsPerRank", "PeakMemoryPerRank"):
-            a = piece.GetFieldData().GetArray(name)
-            dc.check(a is not None and a.GetNumberOfTuples() == ranks, f"{label}: rank {r}: {name}")
         bounds.add(dc.field_value(piece, "ErrorBound"))
-        if len(tris) == 0:
-            continue
-        gids = vtk_to_numpy(piece.GetPointData().GetGlobalIds()).astype(np.int64)
-        dc.check(len(gids) == len(points), f"{label}: rank {r}: a GlobalPointId per point")
-        for g, p in zip(gids.tolist(), map(tuple, points.tolist())):
-            if by_gid.setdefault(g, p) != p:
-                dc.check(False, f"{label}: global id {g} has two positions {by_gid[g]} and {p}")
-                break
-        parts.append((points, tris, gids))
+        gids = dc.check_rank_share(piece, points, r, ranks, "TrianglesPerRank", len(ref_tris), by_gid, label)
+        if gids is not None:
+            parts.append((points, tris, gids))
     print(f"{label}: {len(ref_tris)} serial triangles; per rank {per_rank}")
     dc.check(len(bounds) == 1, f"{label}: ErrorBound the same on every rank ({bounds})")
     dc.check(sum(per_rank) == len(ref_tris), f"{label}: as many triangles as serial ({sum(per_rank)} vs {len(ref_tris)})")
