@@ -7,6 +7,8 @@
 //! - [`input`]: the input mesh and its checks (tetrahedra only, positive volumes, manifold);
 //! - [`cost`]: the weighted cost of §3.3 (error quadrics on boundary faces, field error, shape
 //!   measure);
+//! - [`faces`]: the boundary faces of the current boundary surface, searched by box and by
+//!   distance;
 //! - [`validity`]: the tests of §3.2 (boundary rule, link condition, flipped or degenerate
 //!   tetrahedra, features);
 //! - [`simplify`]: the reduction algorithm of §3.2 (priority queue of half-edge collapses) with the
@@ -22,6 +24,7 @@
 //! arrays pass through exactly.
 
 mod cost;
+mod faces;
 mod input;
 pub mod isosurface;
 mod record;

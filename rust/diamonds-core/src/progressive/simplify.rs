@@ -17,8 +17,8 @@
 //! the mesh* (on its boundary surface): `|f(v) - L(π(v))|`. The tetrahedron of that boundary face
 //! carries it. A collapse that changes the boundary (`p_i` on it: the boundary surface undergoes the
 //! edge collapse `p_i → p_j`) can bring a new face nearer to any outside vertex, not only to those
-//! its star carries, so the current boundary faces and the outside vertices (each with the ball
-//! reaching its nearest point) are kept in R-trees: the outside vertices whose ball meets the new
+//! its star carries, so the current boundary faces ([`FaceIndex`]) and the outside vertices (each
+//! with the ball reaching its nearest point) are kept in R-trees: the outside vertices whose ball meets the new
 //! faces are measured again, and the tetrahedra they leave or join outside the collapse's star are
 //! recorded in its split, so a replay keeps every tetrahedron's error.
 //!
@@ -28,6 +28,7 @@
 //! the boundary faces (carried like the field's vertices, by the tetrahedron of the nearest face).
 
 use super::cost::{interpolate, shape_measure, Frame, Quadric};
+use super::faces::{is_closer, BoundaryFace, FaceIndex};
 use super::record::{LevelError, ProgressiveMesh, VertexSplit};
 use super::validity::{feature_edges_at, is_feature_edge, link_condition_from_star, Link};
 use super::{Params, TetInput};
@@ -40,9 +41,7 @@ use glam::DVec3;
 use priority_queue::PriorityQueue;
 use rayon::prelude::*;
 use rstar::primitives::{GeomWithData, Rectangle};
-use rstar::{
-    Envelope, PointDistance, RStarInsertionStrategy, RTree, RTreeObject, RTreeParams, AABB,
-};
+use rstar::{Envelope, PointDistance, RTree, RTreeObject};
 use rustc_hash::{FxBuildHasher, FxHashSet};
 use std::cmp::Ordering;
 
@@ -154,78 +153,6 @@ struct Placed {
 /// Barycentric coordinates at least this far below 0 put a point outside a tetrahedron (rounding
 /// puts points on a face either side of it).
 const INSIDE: f64 = -1e-9;
-
-/// A face of the current boundary surface in the R-tree of [`Simplifier::faces`]: its corners
-/// (sorted: faces are equal when their corners are), their positions and its box
-/// ([`BoundaryFace::padded_box`], computed once: the R-tree asks for it at every node an
-/// insertion or removal visits).
-#[derive(Clone, Debug)]
-struct BoundaryFace {
-    corners: [u32; 3],
-    x: [DVec3; 3],
-    envelope: AABB<[f64; 3]>,
-}
-
-impl BoundaryFace {
-    fn new(mut corners: [u32; 3], pos: &[DVec3]) -> Self {
-        corners.sort_unstable();
-        let x = corners.map(|v| pos[v as usize]);
-        Self {
-            corners,
-            x,
-            envelope: Self::padded_box(x),
-        }
-    }
-
-    /// The face's box thickened by a hundredth of its largest side: a face in an axis plane has a
-    /// flat box of no volume, and the R*-tree's insertion, which compares volumes, then builds
-    /// nodes that overlap (on the box boundary of a volume's tetrahedra, removals and queries
-    /// visited a large part of a side's faces: a third of the reduction's time). Queries take the
-    /// faces whose boxes meet and decide exactly, so a larger box changes nothing else.
-    fn padded_box([a, b, c]: [DVec3; 3]) -> AABB<[f64; 3]> {
-        let (lo, hi) = (a.min(b).min(c), a.max(b).max(c));
-        let pad = 0.01 * (hi - lo).max_element();
-        AABB::from_corners((lo - pad).to_array(), (hi + pad).to_array())
-    }
-}
-
-impl PartialEq for BoundaryFace {
-    fn eq(&self, other: &Self) -> bool {
-        self.corners == other.corners
-    }
-}
-
-impl RTreeObject for BoundaryFace {
-    type Envelope = AABB<[f64; 3]>;
-
-    fn envelope(&self) -> Self::Envelope {
-        self.envelope
-    }
-}
-
-impl PointDistance for BoundaryFace {
-    fn distance_2(&self, point: &[f64; 3]) -> f64 {
-        let p = DVec3::from_array(*point);
-        let [a, b, c] = self.x;
-        closest_point_on_triangle(p, a, b, c).0.distance_squared(p)
-    }
-}
-
-/// The parameters of the boundary faces' R-tree ([`Simplifier::faces`]): nodes of up to 8
-/// children and no forced reinsertion (R*-tree insertion reinserts a full node's farthest children
-/// before splitting it, to improve the tree; rstar's default nodes hold up to 6 with 2 reinserted).
-/// Faces are inserted one by one as collapses make them, about as often as the tree is searched:
-/// on the blunt fin this cut the insertions by a fifth and slowed no search. The tree's shape
-/// changes no result ([`Simplifier::place_field`] breaks ties between equally near faces by their
-/// corners; the other searches only ask whether some face meets).
-struct FaceTreeParams;
-
-impl RTreeParams for FaceTreeParams {
-    const MIN_SIZE: usize = 3;
-    const MAX_SIZE: usize = 8;
-    const REINSERTION_COUNT: usize = 0;
-    type DefaultInsertionStrategy = RStarInsertionStrategy;
-}
 
 /// A tetrahedron after a collapse: its index, corners and [`Frame`].
 type Framed = (u32, [u32; 4], Frame);
@@ -356,10 +283,8 @@ struct Simplifier {
     home: Vec<u32>,
     outside_distance: Vec<f64>,
     /// The boundary faces of the current boundary surface, among the dead ones of earlier surfaces
-    /// ([`Simplifier::is_live`]), and the removed vertices outside the mesh.
-    faces: RTree<BoundaryFace, FaceTreeParams>,
-    /// How many faces of [`Self::faces`] are dead.
-    dead_faces: usize,
+    /// ([`BoundaryFace::is_live`]), and the removed vertices outside the mesh.
+    faces: FaceIndex,
     /// The live faces of [`Self::faces`] by their (sorted) corners: whether a face is on the
     /// boundary without counting the tetrahedra around it.
     live_faces: FxHashSet<[u32; 3]>,
@@ -615,15 +540,12 @@ impl Simplifier {
                 },
             )
             .collect();
-        // Each boundary face once, from its lowest corner's link. Inserted one by one, not
-        // bulk-loaded: rstar 0.12's bulk load can leave leaves at different depths, and a later
-        // insertion (a collapse's new faces) then panics ("This is a bug in rstar", georust/rstar
-        // PR #239; met on a generated mesh with a jittered boundary).
-        let mut faces = RTree::new_with_params();
+        // Each boundary face once, from its lowest corner's link.
+        let mut faces = Vec::new();
         for (v, l) in links.iter().enumerate() {
             let v = v as u32;
             for (a, b, _) in l.boundary_faces().filter(|&(a, b, _)| v < a && v < b) {
-                faces.insert(BoundaryFace::new([v, a, b], &pos));
+                faces.push(BoundaryFace::new([v, a, b], &pos));
             }
         }
         // Q_v: the planes of the boundary faces around v (Eq. 3).
@@ -668,8 +590,7 @@ impl Simplifier {
             home: vec![u32::MAX; n],
             outside_distance: vec![0.0; n],
             live_faces: faces.iter().map(|f| f.corners).collect(),
-            faces,
-            dead_faces: 0,
+            faces: FaceIndex::new(faces),
             outside: RTree::new(),
             boundary_distance: vec![0.0; n],
             field_set: ErrorTree::new(n),
@@ -723,32 +644,6 @@ impl Simplifier {
     /// The weighted field term of Eq. 2 for a field error `e` (data units).
     fn field_term(&self, e: f64) -> f64 {
         self.params.field_weight * e * e / self.range2
-    }
-
-    /// Is the face `f` of [`Self::faces`] on the current boundary surface? A collapse `hec(i → j)`
-    /// leaves the faces at `i` in the R-tree instead of removing them (a removal searches the tree
-    /// and condenses its nodes: 22 % of the 1 M-tet bonsai's reduction profile); they are dead
-    /// from then on, as `i` is: a face leaves the boundary surface only when a corner is removed,
-    /// and a new face has live corners.
-    fn is_live(&self, f: &BoundaryFace) -> bool {
-        f.corners.iter().all(|&v| !self.removed[v as usize])
-    }
-
-    /// Rebuilds [`Self::faces`] from its live faces, once the dead ones are the majority: the tree
-    /// then holds at most twice the boundary surface (the 1 M-tet bonsai's reduction to 10 % left
-    /// 2.5 M dead faces, 0.4 GB, in it otherwise). Inserted one by one (see [`Self::new`]).
-    fn compact_faces(&mut self) {
-        let live: Vec<BoundaryFace> = self
-            .faces
-            .iter()
-            .filter(|f| self.is_live(f))
-            .cloned()
-            .collect();
-        self.faces = RTree::new_with_params();
-        for f in live {
-            self.faces.insert(f);
-        }
-        self.dead_faces = 0;
     }
 
     /// The corners of `t` with `i` replaced by `j`.
@@ -943,7 +838,7 @@ impl Simplifier {
     }
 
     /// The test of [`Self::boundary_stays_embedded`] by the faces themselves: the faces at `j`
-    /// replacing those at `i` against each other and the boundary faces around them (R-tree).
+    /// replacing those at `i` against each other and the boundary faces around them ([`FaceIndex`]).
     fn new_faces_meet_no_face(&self, i: u32, link: &Link, j: u32) -> bool {
         let new = self.faces_replacing(link, j);
         new.iter().enumerate().all(|(k, f)| {
@@ -951,13 +846,13 @@ impl Simplifier {
             !new[k + 1..].iter().any(meets)
                 && !self
                     .faces
-                    .locate_in_envelope_intersecting(&f.envelope())
-                    .any(|g| !g.corners.contains(&i) && self.is_live(g) && meets(g))
+                    .meeting(&f.envelope())
+                    .any(|g| !g.corners.contains(&i) && g.is_live(&self.removed) && meets(g))
         })
     }
 
     /// A sufficient condition for [`Self::boundary_stays_embedded`], decided exactly and without
-    /// the R-tree: the boundary faces at `i` form one disk (their far edges one cycle), exactly
+    /// the face index: the boundary faces at `i` form one disk (their far edges one cycle), exactly
     /// coplanar ([`orient3d`]), their tetrahedra all on one side of the plane, and every face
     /// `jab` replacing a face `iab` turns the same way in the plane as `iab` ([`orient2d_along`],
     /// none flat). Then the faces at `j` tile the disk the faces at `i` covered, once: the
@@ -1076,30 +971,14 @@ impl Simplifier {
         if m >= INSIDE {
             return clamped;
         }
-        let at = p.to_array();
-        // The nearest face, ties broken by the lowest sorted corners: the choice depends on the
-        // faces alone, not on the R-tree's order (which depends on the order of insertion and on
-        // its nodes' sizes). The R-tree yields faces by increasing distance: the first face
-        // farther than the nearest ends the search.
-        let mut nearest: Option<(&BoundaryFace, f64)> = None;
-        let closer = |nearest: Option<(&BoundaryFace, f64)>, f: &BoundaryFace, d: f64| {
-            nearest.is_none_or(|(g, e)| d.total_cmp(&e).then(f.corners.cmp(&g.corners)).is_lt())
-        };
-        for (f, d) in self
+        // The nearest face after the collapse: the live faces not at `i`, and the new ones.
+        let mut nearest = self
             .faces
-            .nearest_neighbor_iter_with_distance_2(&at)
-            .filter(|(f, _)| !f.corners.contains(&i) && self.is_live(f))
-        {
-            if nearest.is_some_and(|(_, e)| d > e) {
-                break;
-            }
-            if closer(nearest, f, d) {
-                nearest = Some((f, d));
-            }
-        }
+            .nearest(p, |f| !f.corners.contains(&i) && f.is_live(&self.removed));
+        let at = p.to_array();
         for f in new_faces {
             let d = f.distance_2(&at);
-            if closer(nearest, f, d) {
+            if is_closer(nearest, f, d) {
                 nearest = Some((f, d));
             }
         }
@@ -1304,8 +1183,6 @@ impl Simplifier {
                 self.field_bins[home as usize].retain(|&v| v != p.vertex);
             }
         }
-        // The faces at `i` stay in the R-tree, dead with `i` ([`Self::is_live`]).
-        self.dead_faces += faces_gone;
         if faces_gone > 0 {
             for &t in removed.iter().chain(&moved) {
                 let c = self.tets[t as usize];
@@ -1341,9 +1218,8 @@ impl Simplifier {
         self.measured.clear();
         self.removed[i as usize] = true;
         self.removed_count += 1;
-        if 2 * self.dead_faces > self.faces.size() {
-            self.compact_faces();
-        }
+        // The faces at `i` stay in the index, dead with `i` ([`BoundaryFace::is_live`]).
+        self.faces.kill(faces_gone, &self.removed);
         let qi = self.quadric[i as usize];
         self.quadric[j as usize].add(&qi);
         self.live -= removed.len();
@@ -1488,10 +1364,10 @@ mod tests {
         );
     }
 
-    /// The live faces of the boundary R-tree, and the set of live faces, are exactly the boundary
+    /// The live faces of the boundary's index, and the set of live faces, are exactly the boundary
     /// faces of the current mesh (faces of one live tetrahedron), each once, and the dead ones are
-    /// at most half the tree, at every step of a cube's reduction to a twentieth (collapses on its
-    /// sides kill faces and compact the tree).
+    /// at most half the index, at every step of a cube's reduction to a twentieth (collapses on its
+    /// sides kill faces and rebuild the index).
     #[test]
     fn the_live_faces_of_the_boundary_tree_and_set_are_the_current_boundary() {
         let g = grid(6, |p| p.x * p.y + p.z);
@@ -1517,7 +1393,7 @@ mod tests {
             let mut live: Vec<[u32; 3]> = s
                 .faces
                 .iter()
-                .filter(|f| s.is_live(f))
+                .filter(|f| f.is_live(&s.removed))
                 .map(|f| f.corners)
                 .collect();
             live.sort_unstable();
@@ -1525,14 +1401,14 @@ mod tests {
             let mut set: Vec<[u32; 3]> = s.live_faces.iter().copied().collect();
             set.sort_unstable();
             assert_eq!(set, want, "the set of live faces after step {step}");
-            assert_eq!(s.faces.size() - live.len(), s.dead_faces);
-            assert!(2 * s.dead_faces <= s.faces.size());
-            compacted |= s.dead_faces < dead_before;
-            dead_before = s.dead_faces;
+            assert_eq!(s.faces.len() - live.len(), s.faces.dead());
+            assert!(2 * s.faces.dead() <= s.faces.len());
+            compacted |= s.faces.dead() < dead_before;
+            dead_before = s.faces.dead();
         }
         assert!(
             compacted,
-            "the tree was never compacted: the test tests nothing"
+            "the index was never rebuilt: the test tests nothing"
         );
     }
 
