@@ -4,9 +4,9 @@
 //! into the first of them, and the tetrahedra that become flat (repeated corners) are dropped —
 //! tetrahedralised curvilinear grids with a singular axis, such as the blunt fin, have them.
 
-use crate::validate::check_manifold_tets;
+use crate::validate::{boundary_faces, check_manifold_tets};
 use crate::{Error, Result};
-use rustc_hash::FxHashMap;
+use rustc_hash::{FxHashMap, FxHashSet};
 
 /// A tetrahedral mesh with the scalar field that drives the field error.
 #[derive(Clone, Copy, Debug)]
@@ -30,6 +30,33 @@ pub(super) struct Cleaned {
 }
 
 impl TetInput<'_> {
+    /// The corners of the mesh's boundary faces (faces of one tetrahedron), ascending.
+    pub fn boundary_points(&self) -> Vec<u32> {
+        let mut points: Vec<u32> = boundary_faces(self.tets).into_iter().flatten().collect();
+        points.sort_unstable();
+        points.dedup();
+        points
+    }
+
+    /// The boundary points at the position of one of `others` (equal coordinates, bit for bit
+    /// up to the sign of 0). For a piece of a distributed mesh with `others` the boundary points
+    /// of the other pieces, these are where the piece meets another: every point two pieces share
+    /// is on both pieces' boundaries. A reduction that keeps them ([`super::Reduction::keeping`])
+    /// changes no face between pieces, so the pieces' meshes stay conforming together.
+    pub fn seam_points(&self, others: &[[f64; 3]]) -> Vec<u32> {
+        // `+ 0.0` makes -0 into +0.
+        let key = |p: &[f64; 3]| p.map(|c| (c + 0.0).to_bits());
+        let others: FxHashSet<[u64; 3]> = others.iter().map(key).collect();
+        self.boundary_points()
+            .into_iter()
+            .filter(|&v| {
+                self.points
+                    .get(v as usize)
+                    .is_some_and(|p| others.contains(&key(p)))
+            })
+            .collect()
+    }
+
     /// Checks and cleans the input: at least one tetrahedron, fewer than 2^32 points, one finite
     /// value and finite coordinates per point, distinct corners inside the points; coincident points
     /// merged and the tetrahedra they flatten dropped; then a manifold tetrahedralisation with

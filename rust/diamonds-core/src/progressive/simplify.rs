@@ -269,6 +269,8 @@ struct Simplifier {
     /// The live tetrahedra around each vertex.
     star: Vec<Vec<u32>>,
     removed: Vec<bool>,
+    /// Points no collapse removes ([`Reduction::keeping`]).
+    kept: Vec<bool>,
     kind: Vec<Kind>,
     quadric: Vec<Quadric>,
     /// Removed original vertices inside each tetrahedron (field error) and nearest to one of its
@@ -356,9 +358,26 @@ impl Reduction {
     /// estimated offer); no collapse is made. `params.target_tets` is not used (see
     /// [`Self::reduce_to`]); `params.max_field_error` holds for every step.
     pub fn new(input: TetInput<'_>, params: &Params) -> Result<Self> {
+        Self::keeping(input, params, &[])
+    }
+
+    /// [`Self::new`] for a reduction that never removes the points `kept`: for a piece of a
+    /// distributed mesh, its [`TetInput::seam_points`], so that the pieces reduced apart stay
+    /// conforming together (no collapse changes a face between two pieces: such a face has only
+    /// seam points, and a collapse changes only the faces at the point it removes).
+    pub fn keeping(input: TetInput<'_>, params: &Params, kept: &[u32]) -> Result<Self> {
         params.check()?;
         let cleaned = input.clean()?;
+        if let Some(v) = kept.iter().find(|&&v| v as usize >= input.points.len()) {
+            return Err(Error::Parameter(format!(
+                "point {v} is to be kept, but the mesh has {} points",
+                input.points.len()
+            )));
+        }
         let mut s = Simplifier::new(input, &cleaned.tets, params)?;
+        for &v in kept {
+            s.kept[v as usize] = true;
+        }
         for &(v, kept) in &cleaned.merged {
             s.seed_merged(v, kept);
         }
@@ -581,6 +600,7 @@ impl Simplifier {
             f: input.scalars.to_vec(),
             alive: vec![true; m],
             removed: vec![false; n],
+            kept: vec![false; n],
             kind,
             quadric,
             field_bins: vec![Vec::new(); m],
@@ -727,7 +747,10 @@ impl Simplifier {
     /// estimates need no more).
     fn candidates(&self, i: u32, full_link: bool) -> Option<(Link, Vec<Candidate>)> {
         let preserve = self.params.preserve_boundary;
-        if self.removed[i as usize] || (preserve && self.kind[i as usize] == Kind::Corner) {
+        if self.removed[i as usize]
+            || self.kept[i as usize]
+            || (preserve && self.kind[i as usize] == Kind::Corner)
+        {
             return None;
         }
         let star = &self.star[i as usize];

@@ -6,6 +6,7 @@ use super::*;
 use crate::validate::{boundary_faces, check_manifold_tets, check_no_overlap};
 use crate::Error;
 use glam::DVec3;
+use rustc_hash::FxHashMap;
 
 /// A grid of `n³` cubes over `[0, 1]³`, each cut into the six tetrahedra around its main diagonal
 /// (conforming: every cube face is cut along the diagonal through its lowest corner), with the field
@@ -604,5 +605,96 @@ fn removed_vertices_outside_a_curved_boundary_are_within_the_reported_error() {
     assert!(
         outside > 0,
         "no removed vertex ended outside: the test tests nothing"
+    );
+}
+
+/// The union of pieces' tetrahedra (original point ids) and whether it is conforming as the cube:
+/// no face of more than two tetrahedra, and every face of one tetrahedron on the cube's boundary
+/// (its three points on one side of the unit cube), so no face of a piece is left open inside.
+fn conforming_union(g: &Generated, pieces: &[Vec<[u32; 4]>]) -> std::result::Result<(), String> {
+    let mut faces: FxHashMap<[u32; 3], usize> = FxHashMap::default();
+    for t in pieces.iter().flatten() {
+        for skip in 0..4 {
+            let mut f: Vec<u32> = (0..4).filter(|&k| k != skip).map(|k| t[k]).collect();
+            f.sort_unstable();
+            *faces.entry([f[0], f[1], f[2]]).or_default() += 1;
+        }
+    }
+    for (f, n) in faces {
+        let on_side = (0..3).any(|a| {
+            [0.0, 1.0]
+                .iter()
+                .any(|&s| f.iter().all(|&v| g.points[v as usize][a] == s))
+        });
+        if n > 2 || (n == 1 && !on_side) {
+            return Err(format!("face {f:?} of {n} tetrahedra"));
+        }
+    }
+    Ok(())
+}
+
+/// A cube cut into two pieces along the plane x = 0.5 (its tetrahedra by their centroids), each
+/// reduced on its own to a fifth as a rank of a distributed run would: keeping its seam points (its
+/// boundary points the other piece has too), the pieces' meshes together are conforming at the
+/// levels tried, and every seam point is still there; reduced without keeping them (the seam is
+/// flat: collapses along it are allowed), they are not.
+#[test]
+fn pieces_reduced_apart_keeping_their_seam_points_stay_conforming() {
+    let g = grid(6, |p| (3.0 * p.x).sin() + p.y * p.z);
+    let centroid_x = |t: &[u32; 4]| t.iter().map(|&v| g.points[v as usize][0]).sum::<f64>() / 4.0;
+    let (left, right): (Vec<[u32; 4]>, Vec<[u32; 4]>) =
+        g.tets.iter().partition(|t| centroid_x(t) < 0.5);
+    fn piece<'a>(g: &'a Generated, tets: &'a [[u32; 4]]) -> TetInput<'a> {
+        TetInput {
+            points: &g.points,
+            tets,
+            scalars: &g.scalars,
+        }
+    }
+    let boundary = |tets: &[[u32; 4]]| -> Vec<[f64; 3]> {
+        piece(&g, tets)
+            .boundary_points()
+            .iter()
+            .map(|&v| g.points[v as usize])
+            .collect()
+    };
+    let seams = [
+        piece(&g, &left).seam_points(&boundary(&right)),
+        piece(&g, &right).seam_points(&boundary(&left)),
+    ];
+    assert!(
+        !seams[0].is_empty() && seams[0] == seams[1],
+        "the pieces share their seam"
+    );
+    let reduce = |tets: &[[u32; 4]], kept: &[u32]| {
+        let mut r = Reduction::keeping(piece(&g, tets), &params(0), kept).unwrap();
+        r.reduce_to(tets.len() / 5, &mut |_| true).unwrap();
+        r.into_mesh()
+    };
+    let level_tets = |pm: &ProgressiveMesh, l: usize| -> Vec<[u32; 4]> {
+        let (_, tets, ids) = level(pm, l);
+        tets.iter().map(|t| t.map(|k| ids[k as usize])).collect()
+    };
+    let kept = [reduce(&left, &seams[0]), reduce(&right, &seams[1])];
+    for pm in &kept {
+        assert!(pm.levels() > 0, "the piece was reduced");
+        let (_, _, ids) = level(pm, 0);
+        assert!(
+            seams[0].iter().all(|v| ids.binary_search(v).is_ok()),
+            "seam points kept"
+        );
+    }
+    for (a, b) in [
+        (0, 0),
+        (kept[0].levels() / 2, kept[1].levels()),
+        (kept[0].levels(), 0),
+    ] {
+        conforming_union(&g, &[level_tets(&kept[0], a), level_tets(&kept[1], b)])
+            .unwrap_or_else(|e| panic!("levels {a} and {b}: {e}"));
+    }
+    let apart = [reduce(&left, &[]), reduce(&right, &[])];
+    assert!(
+        conforming_union(&g, &[level_tets(&apart[0], 0), level_tets(&apart[1], 0)]).is_err(),
+        "without their seam points kept the pieces crack apart: the test tests nothing"
     );
 }
