@@ -3,6 +3,7 @@
 #include "vtkAbstractArray.h"
 #include "vtkCellArray.h"
 #include "vtkCellData.h"
+#include "vtkCommunicator.h"
 #include "vtkContourValues.h"
 #include "vtkDataSetTriangleFilter.h"
 #include "vtkDoubleArray.h"
@@ -10,6 +11,7 @@
 #include "vtkIdTypeArray.h"
 #include "vtkInformation.h"
 #include "vtkInformationVector.h"
+#include "vtkMultiProcessController.h"
 #include "vtkNew.h"
 #include "vtkObjectFactory.h"
 #include "vtkPointData.h"
@@ -23,13 +25,17 @@
 // The module's internal helpers and the cxx bridge. Kept out of the public header: the VTK
 // wrappers parse that one.
 #include "vtkDiamondsOutput.h"
+#include "vtkDiamondsPieces.h"
 #include "vtkDiamondsProgress.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <optional>
+#include <string>
 #include <vector>
 
 vtkStandardNewMacro(vtkProgressiveTetrahedralMesh);
@@ -57,6 +63,84 @@ struct Key
       Weights[2] == o.Weights[2] && Preserve == o.Preserve && Tolerance == o.Tolerance;
   }
 };
+
+// Under MPI, the collective steps every rank takes alike before any leaves. Whether some rank's
+// checks failed (`ok` false: then every rank stops, and the message is for the others) and
+// whether some rank must compute its sequence (`build`: then every rank with cells computes it
+// again, since a changed piece may change its neighbours' seams, and `flatten` fills `points` and
+// `corners` when they are empty). Then `bounds` become the whole mesh's, and `seamWith` the other
+// pieces' boundary points (the core keeps this piece's points at those positions, so the pieces
+// stay conforming). Returns why every rank stops, or nothing.
+std::string Distributed(vtkMultiProcessController* controller, bool ok, vtkIdType cells,
+  bool& build, std::array<double, 6>& bounds, const std::function<void()>& flatten,
+  const std::vector<double>& points, const std::vector<std::int64_t>& corners,
+  std::vector<double>& seamWith)
+{
+  const int flags[2] = { ok ? 0 : 1, build ? 1 : 0 };
+  int any[2] = { 0, 0 };
+  controller->AllReduce(flags, any, 2, vtkCommunicator::MAX_OP);
+  vtkIdType total = 0;
+  controller->AllReduce(&cells, &total, 1, vtkCommunicator::SUM_OP);
+  if (any[0])
+  {
+    return "stopped because the piece of another rank failed its checks (that rank reported why).";
+  }
+  if (total == 0)
+  {
+    return "the input has no cells on any rank.";
+  }
+  if (!any[1])
+  {
+    return {};
+  }
+  build = cells > 0;
+  if (build && points.empty())
+  {
+    flatten();
+  }
+  double lo[3], hi[3], whole[6];
+  for (int a = 0; a < 3; ++a)
+  {
+    lo[a] = cells > 0 ? bounds[2 * a] : std::numeric_limits<double>::infinity();
+    hi[a] = cells > 0 ? bounds[2 * a + 1] : -std::numeric_limits<double>::infinity();
+  }
+  controller->AllReduce(lo, whole, 3, vtkCommunicator::MIN_OP);
+  controller->AllReduce(hi, whole + 3, 3, vtkCommunicator::MAX_OP);
+  for (int a = 0; a < 3; ++a)
+  {
+    bounds[2 * a] = whole[a];
+    bounds[2 * a + 1] = whole[3 + a];
+  }
+  std::vector<double> mine;
+  if (build)
+  {
+    try
+    {
+      const rust::Vec<double> boundary = bridge::progressive_boundary_points(
+        rust::Slice<const double>(points.data(), points.size()),
+        rust::Slice<const std::int64_t>(corners.data(), corners.size()));
+      mine.assign(boundary.begin(), boundary.end());
+    }
+    catch (const rust::Error&)
+    {
+      // Bad tetrahedra: the build reports it. This rank still takes part in the gather.
+    }
+  }
+  const int ranks = controller->GetNumberOfProcesses();
+  const int me = controller->GetLocalProcessId();
+  const vtkIdType length = static_cast<vtkIdType>(mine.size());
+  std::vector<vtkIdType> lengths(ranks), offsets(ranks, 0);
+  controller->AllGather(&length, lengths.data(), 1);
+  for (int r = 1; r < ranks; ++r)
+  {
+    offsets[r] = offsets[r - 1] + lengths[r - 1];
+  }
+  std::vector<double> all(static_cast<std::size_t>(offsets.back() + lengths.back()));
+  controller->AllGatherV(mine.data(), all.data(), length, lengths.data(), offsets.data());
+  seamWith.assign(all.begin(), all.begin() + offsets[me]);
+  seamWith.insert(seamWith.end(), all.begin() + offsets[me] + lengths[me], all.end());
+  return {};
+}
 } // namespace
 
 class vtkProgressiveTetrahedralMesh::vtkInternals
@@ -158,93 +242,113 @@ try
     return 0;
   }
   output->Initialize();
-  if (input->GetNumberOfCells() == 0)
+  vtkInternals& in = *this->Internals;
+  // Under MPI (a piece per rank): every rank takes part in the collective steps below, so no rank
+  // leaves before them; a rank whose piece is empty outputs nothing.
+  vtkMultiProcessController* controller = vtkDiamonds::Pieces::DistributedController();
+  const vtkIdType cells = input->GetNumberOfCells();
+  if (cells == 0 && !controller)
   {
     vtkErrorMacro(<< "Progressive Tetrahedral Mesh: the input has no cells.");
     return 0;
   }
-  vtkInternals& in = *this->Internals;
-  // The times of the input's points, cells and point arrays (the data object's and its point
-  // data's own MTimes move on every pipeline pass).
-  vtkMTimeType inputTime =
-    std::max({ input->GetPoints() ? input->GetPoints()->GetMTime() : 0, input->GetCells()->GetMTime(),
-      input->GetCellTypesArray()->GetMTime() });
-  for (int a = 0; a < input->GetPointData()->GetNumberOfArrays(); ++a)
-  {
-    if (vtkAbstractArray* pointArray = input->GetPointData()->GetAbstractArray(a))
-    {
-      inputTime = std::max(inputTime, pointArray->GetMTime());
-    }
-  }
-
-  // ---- Tetrahedra only: other cells are tetrahedralised first.
+  // ---- Checks, each failure reported: tetrahedra (other cells are tetrahedralised first) and the
+  // field of the error (one point array, one component).
   vtkUnstructuredGrid* tets = input;
-  const unsigned char* types = input->GetCellTypesArray()->GetPointer(0);
-  const bool onlyTets = std::all_of(types, types + input->GetNumberOfCells(),
-    [](unsigned char type) { return type == VTK_TETRA; });
-  if (!onlyTets)
+  vtkDataArray* array = nullptr;
+  vtkMTimeType inputTime = 0;
+  const auto check = [&]() -> bool
   {
-    if (!in.Tetrahedra || in.TetrahedralisedFrom != input || in.TetrahedralisedTime != inputTime)
+    // The times of the input's points, cells and point arrays (the data object's and its point
+    // data's own MTimes move on every pipeline pass).
+    inputTime =
+      std::max({ input->GetPoints() ? input->GetPoints()->GetMTime() : 0, input->GetCells()->GetMTime(),
+        input->GetCellTypesArray()->GetMTime() });
+    for (int a = 0; a < input->GetPointData()->GetNumberOfArrays(); ++a)
     {
-      vtkNew<vtkDataSetTriangleFilter> tetrahedralize;
-      tetrahedralize->TetrahedraOnlyOn();
-      tetrahedralize->SetInputData(input);
-      tetrahedralize->Update();
-      in.Tetrahedra = tetrahedralize->GetOutput();
-      in.TetrahedralisedFrom = input;
-      in.TetrahedralisedTime = inputTime;
+      if (vtkAbstractArray* pointArray = input->GetPointData()->GetAbstractArray(a))
+      {
+        inputTime = std::max(inputTime, pointArray->GetMTime());
+      }
     }
-    tets = in.Tetrahedra;
-    vtkWarningMacro(<< "Progressive Tetrahedral Mesh: the input has cells other than tetrahedra; "
-                       "it was tetrahedralised first ("
-                    << tets->GetNumberOfCells() << " tetrahedra).");
-    if (tets->GetNumberOfCells() == 0)
+
+    // ---- Tetrahedra only: other cells are tetrahedralised first.
+    const unsigned char* types = input->GetCellTypesArray()->GetPointer(0);
+    const bool onlyTets = std::all_of(types, types + input->GetNumberOfCells(),
+      [](unsigned char type) { return type == VTK_TETRA; });
+    if (!onlyTets)
     {
-      vtkErrorMacro(<< "Progressive Tetrahedral Mesh: the input has no 3-D cells to tetrahedralise.");
-      return 0;
+      if (!in.Tetrahedra || in.TetrahedralisedFrom != input || in.TetrahedralisedTime != inputTime)
+      {
+        vtkNew<vtkDataSetTriangleFilter> tetrahedralize;
+        tetrahedralize->TetrahedraOnlyOn();
+        tetrahedralize->SetInputData(input);
+        tetrahedralize->Update();
+        in.Tetrahedra = tetrahedralize->GetOutput();
+        in.TetrahedralisedFrom = input;
+        in.TetrahedralisedTime = inputTime;
+      }
+      tets = in.Tetrahedra;
+      vtkWarningMacro(<< "Progressive Tetrahedral Mesh: the input has cells other than tetrahedra; "
+                         "it was tetrahedralised first ("
+                      << tets->GetNumberOfCells() << " tetrahedra).");
+      if (tets->GetNumberOfCells() == 0)
+      {
+        vtkErrorMacro(<< "Progressive Tetrahedral Mesh: the input has no 3-D cells to tetrahedralise.");
+        return false;
+      }
     }
-  }
 
-  // ---- The field of the error: one point array, one component.
-  int association = vtkDataObject::FIELD_ASSOCIATION_POINTS;
-  vtkDataArray* array = this->GetInputArrayToProcess(0, tets, association);
-  if (!array || association != vtkDataObject::FIELD_ASSOCIATION_POINTS)
-  {
-    vtkErrorMacro(<< "Progressive Tetrahedral Mesh needs a point-data array (Scalars) to measure "
-                     "the field error on; the input has none selected.");
-    return 0;
-  }
-  if (array->GetNumberOfComponents() != 1)
-  {
-    vtkErrorMacro(<< "Progressive Tetrahedral Mesh: Scalars '" << array->GetName() << "' has "
-                  << array->GetNumberOfComponents() << " components; choose a single-component array.");
-    return 0;
-  }
-
-  // ---- The sequence: computed once per input and settings.
+    // ---- The field of the error: one point array, one component.
+    int association = vtkDataObject::FIELD_ASSOCIATION_POINTS;
+    array = this->GetInputArrayToProcess(0, tets, association);
+    if (!array || association != vtkDataObject::FIELD_ASSOCIATION_POINTS)
+    {
+      vtkErrorMacro(<< "Progressive Tetrahedral Mesh needs a point-data array (Scalars) to measure "
+                       "the field error on; the input has none selected.");
+      return false;
+    }
+    if (array->GetNumberOfComponents() != 1)
+    {
+      vtkErrorMacro(<< "Progressive Tetrahedral Mesh: Scalars '" << array->GetName() << "' has "
+                    << array->GetNumberOfComponents() << " components; choose a single-component array.");
+      return false;
+    }
+    return true;
+  };
+  const bool ok = cells == 0 || check();
   Key key;
-  key.Input = input;
-  key.InputTime = inputTime;
-  key.Array = array;
-  key.ArrayTime = array->GetMTime();
-  key.Weights[0] = this->GeometryWeight;
-  key.Weights[1] = this->FieldWeight;
-  key.Weights[2] = this->ShapeWeight;
-  key.Preserve = this->PreserveBoundary != 0;
-  key.Tolerance = this->BoundaryTolerance;
-  if (!in.Progressive || !(in.Built == key))
+  if (ok && cells > 0)
   {
-    in.Progressive.reset();
+    key.Input = input;
+    key.InputTime = inputTime;
+    key.Array = array;
+    key.ArrayTime = array->GetMTime();
+    key.Weights[0] = this->GeometryWeight;
+    key.Weights[1] = this->FieldWeight;
+    key.Weights[2] = this->ShapeWeight;
+    key.Preserve = this->PreserveBoundary != 0;
+    key.Tolerance = this->BoundaryTolerance;
+  }
+  bool build = ok && cells > 0 && (!in.Progressive || !(in.Built == key));
+
+  // ---- What the sequence is computed from: the points, tetrahedra and scalars as the core takes
+  // them, the whole mesh's bounds and, under MPI, the other pieces' boundary points.
+  std::vector<double> flatPoints;
+  std::vector<double> flatScalars;
+  std::vector<std::int64_t> flatCorners;
+  const auto flatten = [&]
+  {
     const vtkIdType n = tets->GetNumberOfPoints();
     const vtkIdType m = tets->GetNumberOfCells();
-    std::vector<double> points(3 * static_cast<std::size_t>(n));
-    std::vector<double> scalars(static_cast<std::size_t>(n));
+    flatPoints.resize(3 * static_cast<std::size_t>(n));
+    flatScalars.resize(static_cast<std::size_t>(n));
     for (vtkIdType p = 0; p < n; ++p)
     {
-      tets->GetPoint(p, &points[3 * p]);
-      scalars[p] = array->GetComponent(p, 0);
+      tets->GetPoint(p, &flatPoints[3 * p]);
+      flatScalars[p] = array->GetComponent(p, 0);
     }
-    std::vector<std::int64_t> corners(4 * static_cast<std::size_t>(m));
+    flatCorners.resize(4 * static_cast<std::size_t>(m));
     for (vtkIdType c = 0; c < m; ++c)
     {
       vtkIdType npts = 0;
@@ -252,21 +356,61 @@ try
       tets->GetCellPoints(c, npts, ids);
       for (int k = 0; k < 4; ++k)
       {
-        corners[4 * c + k] = ids[k];
+        flatCorners[4 * c + k] = ids[k];
       }
     }
+  };
+  if (build)
+  {
+    flatten();
+  }
+  std::array<double, 6> bounds{};
+  if (cells > 0 && ok)
+  {
+    tets->GetBounds(bounds.data());
+  }
+  std::vector<double> seamWith;
+  if (controller)
+  {
+    const std::string stopped =
+      Distributed(controller, ok, cells, build, bounds, flatten, flatPoints, flatCorners, seamWith);
+    if (!stopped.empty())
+    {
+      if (ok)
+      {
+        vtkErrorMacro(<< "Progressive Tetrahedral Mesh: " << stopped);
+      }
+      return 0;
+    }
+    if (cells == 0)
+    {
+      return 1; // an empty piece of a distributed mesh
+    }
+  }
+  else if (!ok)
+  {
+    return 0;
+  }
+
+  // ---- The sequence: computed once per input and settings (under MPI, and whenever another
+  // rank's piece changed).
+  if (build)
+  {
+    in.Progressive.reset();
     bridge::ProgressiveSpec spec;
     spec.geometry_weight = this->GeometryWeight;
     spec.field_weight = this->FieldWeight;
     spec.shape_weight = this->ShapeWeight;
     spec.preserve_boundary = this->PreserveBoundary != 0;
     spec.boundary_tolerance = this->BoundaryTolerance;
+    std::copy(bounds.begin(), bounds.end(), spec.whole_bounds.begin());
     try
     {
       in.Progressive.emplace(bridge::build_progressive(
-        rust::Slice<const double>(points.data(), points.size()),
-        rust::Slice<const std::int64_t>(corners.data(), corners.size()),
-        rust::Slice<const double>(scalars.data(), scalars.size()), spec));
+        rust::Slice<const double>(flatPoints.data(), flatPoints.size()),
+        rust::Slice<const std::int64_t>(flatCorners.data(), flatCorners.size()),
+        rust::Slice<const double>(flatScalars.data(), flatScalars.size()), spec,
+        rust::Slice<const double>(seamWith.data(), seamWith.size())));
     }
     catch (const rust::Error& e)
     {
@@ -275,6 +419,10 @@ try
       return 0;
     }
     in.Built = key;
+    // The copies the core took are no longer needed while the output is built.
+    std::vector<double>().swap(flatPoints);
+    std::vector<double>().swap(flatScalars);
+    std::vector<std::int64_t>().swap(flatCorners);
     ++this->NumberOfSimplifications;
   }
   bridge::Progressive& pm = **in.Progressive;
@@ -420,11 +568,11 @@ try
     surface->GetPointData()->SetScalars(vtkDiamonds::NamedArray<vtkDoubleArray>(
       array->GetName() ? array->GetName() : "Isovalue", nip, isoValues.data()));
   }
-  if (pm.merged_points() > 0)
+  if (pm.merged_points() > 0 || pm.dropped_tets() > 0)
   {
     vtkWarningMacro(<< "Progressive Tetrahedral Mesh: " << pm.merged_points()
                     << " coincident points merged, " << pm.dropped_tets()
-                    << " tetrahedra they flattened dropped.");
+                    << " flat tetrahedra (a corner repeated, in the input or after merging) dropped.");
   }
   this->UpdateProgress(1.0);
   return 1;

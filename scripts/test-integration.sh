@@ -11,9 +11,11 @@
 #    and material interfaces, properties, bad inputs, memory limits (test_memory_limit.py)
 #    (test_material.py writes its impact case with target/release/diamonds, brought up to date
 #    with cargo).
-# 3. tests/pvpython/mpi_pieces.py, mpi_isosurface.py, mpi_interval.py and mpi_material.py under
-#    `mpiexec -n 2 pvbatch`, all four again under `mpiexec -n 3 pvbatch`, and all four as pvpython
-#    clients of `mpiexec -n 2 pvserver`; mpi_memory_limit.py (out of memory on one rank of two);
+# 3. tests/pvpython/mpi_pieces.py, mpi_isosurface.py, mpi_interval.py, mpi_material.py and
+#    mpi_progressive.py under `mpiexec -n 2 pvbatch`, all five again under `mpiexec -n 3 pvbatch`,
+#    and all five as pvpython clients of `mpiexec -n 2 pvserver` (mpi_progressive.py's steps also
+#    fail when any rank printed an error of the filter); mpi_memory_limit.py (out of memory on one
+#    rank of two);
 #    mpi_abort.py (a user's abort on one rank of two, and after an abort in every filter).
 # 4. scripts/demo.py under `xvfb-run -a pvbatch`, into build/test-demo, and
 #    tests/pvpython/render_visibility_sort.py and render_adaptive_volume.py under `xvfb-run -a`
@@ -39,6 +41,21 @@ echo "PV_PLUGIN_PATH=$PV_PLUGIN_PATH"
 passed=0
 failed=0
 failed_steps=()
+# Runs a command and fails when it fails or when its output (every rank's) holds an error of
+# Progressive Tetrahedral Mesh: the errors of ranks other than the script's do not reach it.
+without_progressive_errors() {
+  local log
+  log="$(mktemp)"
+  "$@" 2>&1 | tee "$log"
+  local rc=${PIPESTATUS[0]}
+  if grep -q "ERR| vtkProgressiveTetrahedralMesh" "$log"; then
+    echo "error: a rank reported an error of Progressive Tetrahedral Mesh (above)"
+    rc=1
+  fi
+  rm -f "$log"
+  return "$rc"
+}
+
 step() {
   local name="$1"
   shift
@@ -98,6 +115,11 @@ step "mpiexec -n 3 pvbatch tests/pvpython/mpi_interval.py" env DIAMONDS_EXPECTED
   mpiexec --allow-run-as-root --oversubscribe -n 3 pvbatch tests/pvpython/mpi_interval.py
 step "mpiexec -n 3 pvbatch tests/pvpython/mpi_material.py" env DIAMONDS_EXPECTED_RANKS=3 \
   mpiexec --allow-run-as-root --oversubscribe -n 3 pvbatch tests/pvpython/mpi_material.py
+step "mpiexec -n 2 pvbatch tests/pvpython/mpi_progressive.py" without_progressive_errors \
+  mpiexec --allow-run-as-root --oversubscribe -n 2 pvbatch tests/pvpython/mpi_progressive.py
+step "mpiexec -n 3 pvbatch tests/pvpython/mpi_progressive.py" without_progressive_errors \
+  env DIAMONDS_EXPECTED_RANKS=3 \
+  mpiexec --allow-run-as-root --oversubscribe -n 3 pvbatch tests/pvpython/mpi_progressive.py
 # Out of memory, or an abort, on one rank of two: each child run is under its own `timeout` too.
 step "pvpython tests/pvpython/mpi_memory_limit.py (children: mpiexec -n 2 pvbatch --symmetric)" \
   timeout 900 pvpython tests/pvpython/mpi_memory_limit.py
@@ -111,6 +133,8 @@ step "pvpython tests/pvpython/mpi_interval.py --client-server (mpiexec -n 2 pvse
   timeout 1200 pvpython tests/pvpython/mpi_interval.py --client-server
 step "pvpython tests/pvpython/mpi_material.py --client-server (mpiexec -n 2 pvserver)" \
   timeout 1200 pvpython tests/pvpython/mpi_material.py --client-server
+step "pvpython tests/pvpython/mpi_progressive.py --client-server (mpiexec -n 2 pvserver)" \
+  without_progressive_errors timeout 1200 pvpython tests/pvpython/mpi_progressive.py --client-server
 step "xvfb-run -a pvbatch scripts/demo.py" demo_render
 # A rendering test under xvfb, retried twice, 30 s apart, when the X server or its OpenGL context
 # could not be had (the test then prints no summary line): a 2-rank pvserver's second rank was seen

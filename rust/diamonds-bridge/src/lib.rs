@@ -227,8 +227,11 @@ mod ffi {
         shape_weight: f64,
         /// Keep corners and feature edges, and removed boundary vertices within the tolerance.
         preserve_boundary: bool,
-        /// Boundary tolerance as a fraction of the bounding-box diagonal.
+        /// Boundary tolerance as a fraction of the diagonal of `whole_bounds`.
         boundary_tolerance: f64,
+        /// The bounds (xmin, xmax, ymin, ymax, zmin, zmax) of the whole mesh, every rank's piece
+        /// under MPI.
+        whole_bounds: [f64; 6],
     }
 
     /// A plane: a point on it and its normal (any length > 0).
@@ -779,12 +782,19 @@ mod ffi {
         /// Prepares the simplification of the tetrahedra (`tets`: 4 point indices each, positively
         /// oriented) of `points` (3 coordinates each), the field error measured on `scalars` (one
         /// per point); no collapse is made yet (`reduce_for`), the current level is the original.
+        /// For a piece of a distributed mesh, `seam_with` holds the other pieces' boundary points
+        /// (`progressive_boundary_points`, 3 coordinates each; empty when serial): the piece's
+        /// boundary points at those positions are never removed, so the pieces stay conforming.
         fn build_progressive(
             points: &[f64],
             tets: &[i64],
             scalars: &[f64],
             spec: &ProgressiveSpec,
+            seam_with: &[f64],
         ) -> Result<Box<Progressive>>;
+        /// The coordinates (3 each) of the points on the boundary of the tetrahedra `tets` (4
+        /// indices into `points` each), for `build_progressive`'s `seam_with` on the other ranks.
+        fn progressive_boundary_points(points: &[f64], tets: &[i64]) -> Result<Vec<f64>>;
         /// Continues the collapse sequence, if it has not gone that far, until its base mesh has
         /// at most `(1 - target_reduction)` of the original's tetrahedra or no collapse is left,
         /// with progress and abort (the collapses made until an abort are kept); the levels already
@@ -901,7 +911,7 @@ pub use ffi::{
 };
 
 pub mod progressive;
-pub use progressive::{build_progressive, Progressive};
+pub use progressive::{build_progressive, progressive_boundary_points, Progressive};
 
 pub mod interval;
 pub use interval::IntervalVolume;

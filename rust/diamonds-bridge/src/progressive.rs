@@ -35,19 +35,37 @@ pub fn build_progressive(
     tets: &[i64],
     scalars: &[f64],
     spec: &ProgressiveSpec,
+    seam_with: &[f64],
 ) -> Result<Box<Progressive>, String> {
     guard("building the progressive mesh", || {
-        build_with(points, tets, scalars, spec).map(Box::new)
+        build_with(points, tets, scalars, spec, seam_with).map(Box::new)
     })
 }
 
-/// [`build_progressive`] without the guard.
-pub fn build_with(
-    points: &[f64],
-    tets: &[i64],
-    scalars: &[f64],
-    spec: &ProgressiveSpec,
-) -> Result<Progressive, String> {
+/// The coordinates of the boundary points of the tetrahedra (see
+/// [`ffi::progressive_boundary_points`]).
+pub fn progressive_boundary_points(points: &[f64], tets: &[i64]) -> Result<Vec<f64>, String> {
+    guard("finding the boundary of the tetrahedra", || {
+        let (xyz, corners) = mesh_of(points, tets)?;
+        let input = TetInput {
+            points: &xyz,
+            tets: &corners,
+            scalars: &[],
+        };
+        Ok(input
+            .boundary_points()
+            .into_iter()
+            .flat_map(|v| xyz[v as usize])
+            .collect())
+    })
+}
+
+/// Points and tetrahedra as the core takes them.
+type Tetrahedra = (Vec<[f64; 3]>, Vec<[u32; 4]>);
+
+/// The points (3 coordinates each) and tetrahedra (4 point indices each, inside the points) of
+/// C++'s flat arrays.
+fn mesh_of(points: &[f64], tets: &[i64]) -> Result<Tetrahedra, String> {
     if !points.chunks_exact(3).remainder().is_empty()
         || !tets.chunks_exact(4).remainder().is_empty()
     {
@@ -72,19 +90,25 @@ pub fn build_with(
             Ok(c)
         })
         .collect::<Result<_, String>>()?;
-    let diagonal = {
-        let (lo, hi) = xyz.iter().fold(
-            ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]),
-            |(mut lo, mut hi), p| {
-                for a in 0..3 {
-                    lo[a] = lo[a].min(p[a]);
-                    hi[a] = hi[a].max(p[a]);
-                }
-                (lo, hi)
-            },
-        );
-        diamonds::volume::bounds_diagonal(&[lo[0], hi[0], lo[1], hi[1], lo[2], hi[2]])
-    };
+    Ok((xyz, corners))
+}
+
+/// [`build_progressive`] without the guard.
+pub fn build_with(
+    points: &[f64],
+    tets: &[i64],
+    scalars: &[f64],
+    spec: &ProgressiveSpec,
+    seam_with: &[f64],
+) -> Result<Progressive, String> {
+    let (xyz, corners) = mesh_of(points, tets)?;
+    if !seam_with.chunks_exact(3).remainder().is_empty() {
+        return Err(format!(
+            "{} coordinates of other pieces' boundary points: not whole points",
+            seam_with.len()
+        ));
+    }
+    let diagonal = diamonds::volume::bounds_diagonal(&spec.whole_bounds);
     let params = Params {
         target_tets: 0,
         max_field_error: 0.0,
@@ -94,15 +118,21 @@ pub fn build_with(
         preserve_boundary: spec.preserve_boundary,
         boundary_tolerance: spec.boundary_tolerance * diagonal,
     };
-    let reduction = Reduction::new(
-        TetInput {
-            points: &xyz,
-            tets: &corners,
-            scalars,
-        },
-        &params,
-    )
-    .map_err(|e| e.to_string())?;
+    let input = TetInput {
+        points: &xyz,
+        tets: &corners,
+        scalars,
+    };
+    let others: Vec<[f64; 3]> = seam_with
+        .chunks_exact(3)
+        .map(|p| [p[0], p[1], p[2]])
+        .collect();
+    let seam = if others.is_empty() {
+        Vec::new()
+    } else {
+        input.seam_points(&others)
+    };
+    let reduction = Reduction::keeping(input, &params, &seam).map_err(|e| e.to_string())?;
     let replay = Replay::new(reduction.mesh());
     let mut p = Progressive {
         reduction,
@@ -401,6 +431,7 @@ mod tests {
             shape_weight: 0.0,
             preserve_boundary: true,
             boundary_tolerance: 1e-9,
+            whole_bounds: [0.0, 2.0, 0.0, 1.0, 0.0, 1.0],
         }
     }
 
@@ -419,7 +450,7 @@ mod tests {
     #[test]
     fn levels_are_replayed_and_read_as_slices() {
         let (points, tets, scalars) = cubes();
-        let mut p = build_with(&points, &tets, &scalars, &spec()).unwrap();
+        let mut p = build_with(&points, &tets, &scalars, &spec(), &[]).unwrap();
         assert_eq!(p.number_of_levels(), 0);
         // Half way first: the level asked, then the rest of the sequence below it, the current
         // level keeping its mesh (numbered higher).
@@ -493,14 +524,36 @@ mod tests {
     #[test]
     fn bad_input_is_an_error() {
         let (points, mut tets, scalars) = cubes();
-        assert!(build_with(&points[1..], &tets, &scalars, &spec()).is_err());
+        assert!(build_with(&points[1..], &tets, &scalars, &spec(), &[]).is_err());
         tets[0] = 99;
-        let e = build_with(&points, &tets, &scalars, &spec()).err().unwrap();
+        let e = build_with(&points, &tets, &scalars, &spec(), &[])
+            .err()
+            .unwrap();
         assert!(e.contains("point 99"), "{e}");
         let (points, tets, scalars) = cubes();
-        let mut p = build_with(&points, &tets, &scalars, &spec()).unwrap();
+        let mut p = build_with(&points, &tets, &scalars, &spec(), &[]).unwrap();
         assert!(p.reduce_with(1.5, &mut |_| true).is_err());
         assert!(p.level_for(1.5, 0.0).is_err());
         assert!(p.level_for(0.5, f64::NAN).is_err());
+    }
+
+    /// The second cube as a piece of its own: its boundary points are its 8 corners, and the first
+    /// cube's piece reduced as far as it goes with them as `seam_with` keeps the 4 it shares.
+    #[test]
+    fn a_piece_keeps_the_points_it_shares_with_another() {
+        let (points, tets, scalars) = cubes();
+        let (first, second) = tets.split_at(4 * 6);
+        let boundary = progressive_boundary_points(&points, second).unwrap();
+        assert_eq!(boundary.len(), 3 * 8);
+        assert!(boundary.chunks_exact(3).all(|p| p[0] >= 1.0));
+        let mut piece = build_with(&points, first, &scalars, &spec(), &boundary).unwrap();
+        piece.reduce_with(1.0, &mut |_| true).unwrap();
+        let level = piece.level_for(1.0, 0.0).unwrap();
+        piece.set_level(level).unwrap();
+        let (xyz, _, _) = self::level(&piece);
+        let shared = xyz.chunks_exact(3).filter(|p| p[0] == 1.0).count();
+        assert_eq!(shared, 4, "the points at x = 1 stay");
+        assert!(build_with(&points, first, &scalars, &spec(), &boundary[1..]).is_err());
+        assert!(progressive_boundary_points(&points, &second[1..]).is_err());
     }
 }

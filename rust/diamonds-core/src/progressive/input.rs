@@ -58,9 +58,11 @@ impl TetInput<'_> {
     }
 
     /// Checks and cleans the input: at least one tetrahedron, fewer than 2^32 points, one finite
-    /// value and finite coordinates per point, distinct corners inside the points; coincident points
-    /// merged and the tetrahedra they flatten dropped; then a manifold tetrahedralisation with
-    /// positive volumes ([`check_manifold_tets`]).
+    /// value and finite coordinates per point, corners inside the points; coincident points merged
+    /// and the tetrahedra that repeat a corner then (flat ones) dropped; then a manifold
+    /// tetrahedralisation with positive volumes ([`check_manifold_tets`]). Tetrahedra that repeat a
+    /// corner in the input are flat too: ParaView's redistribution merges the coincident points of
+    /// the blunt fin's pieces and leaves such tetrahedra.
     pub(super) fn clean(&self) -> Result<Cleaned> {
         let n = self.points.len();
         if self.tets.is_empty() {
@@ -95,16 +97,6 @@ impl TetInput<'_> {
         {
             return Err(Error::Mesh(format!(
                 "point {k} has non-finite coordinates {p:?}"
-            )));
-        }
-        if let Some((c, t)) = self
-            .tets
-            .iter()
-            .enumerate()
-            .find(|(_, t)| (0..4).any(|a| (a + 1..4).any(|b| t[a] == t[b])))
-        {
-            return Err(Error::Mesh(format!(
-                "tetrahedron {c} {t:?} repeats a corner"
             )));
         }
         if let Some((c, t)) = self
