@@ -48,7 +48,7 @@ pub fn progressive_boundary_points(points: &[f64], tets: &[i64]) -> Result<Vec<f
     guard("finding the boundary of the tetrahedra", || {
         let (xyz, corners) = mesh_of(points, tets)?;
         let input = TetInput {
-            points: &xyz,
+            points: xyz,
             tets: &corners,
             scalars: &[],
         };
@@ -60,25 +60,22 @@ pub fn progressive_boundary_points(points: &[f64], tets: &[i64]) -> Result<Vec<f
     })
 }
 
-/// Points and tetrahedra as the core takes them.
-type Tetrahedra = (Vec<[f64; 3]>, Vec<[u32; 4]>);
+/// Points (borrowed from C++) and tetrahedra as the core takes them.
+type Tetrahedra<'a> = (&'a [[f64; 3]], Vec<[u32; 4]>);
 
 /// The points (3 coordinates each) and tetrahedra (4 point indices each, inside the points) of
 /// C++'s flat arrays.
-fn mesh_of(points: &[f64], tets: &[i64]) -> Result<Tetrahedra, String> {
-    if !points.chunks_exact(3).remainder().is_empty()
-        || !tets.chunks_exact(4).remainder().is_empty()
-    {
+fn mesh_of<'a>(points: &'a [f64], tets: &[i64]) -> Result<Tetrahedra<'a>, String> {
+    let ((xyz, []), (quads, [])) = (points.as_chunks::<3>(), tets.as_chunks::<4>()) else {
         return Err(format!(
             "{} coordinates and {} tetrahedron corners: not whole points and tetrahedra",
             points.len(),
             tets.len()
         ));
-    }
-    let n = points.len() / 3;
-    let xyz: Vec<[f64; 3]> = points.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect();
-    let corners: Vec<[u32; 4]> = tets
-        .chunks_exact(4)
+    };
+    let n = xyz.len();
+    let corners: Vec<[u32; 4]> = quads
+        .iter()
         .map(|t| {
             let mut c = [0u32; 4];
             for (k, &v) in t.iter().enumerate() {
@@ -102,12 +99,12 @@ pub fn build_with(
     seam_with: &[f64],
 ) -> Result<Progressive, String> {
     let (xyz, corners) = mesh_of(points, tets)?;
-    if !seam_with.chunks_exact(3).remainder().is_empty() {
+    let (others, []) = seam_with.as_chunks::<3>() else {
         return Err(format!(
             "{} coordinates of other pieces' boundary points: not whole points",
             seam_with.len()
         ));
-    }
+    };
     let diagonal = diamonds::volume::bounds_diagonal(&spec.whole_bounds);
     let params = Params {
         target_tets: 0,
@@ -119,18 +116,14 @@ pub fn build_with(
         boundary_tolerance: spec.boundary_tolerance * diagonal,
     };
     let input = TetInput {
-        points: &xyz,
+        points: xyz,
         tets: &corners,
         scalars,
     };
-    let others: Vec<[f64; 3]> = seam_with
-        .chunks_exact(3)
-        .map(|p| [p[0], p[1], p[2]])
-        .collect();
     let seam = if others.is_empty() {
         Vec::new()
     } else {
-        input.seam_points(&others)
+        input.seam_points(others)
     };
     let reduction = Reduction::keeping(input, &params, &seam).map_err(|e| e.to_string())?;
     let replay = Replay::new(reduction.mesh());

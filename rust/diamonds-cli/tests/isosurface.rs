@@ -406,23 +406,10 @@ fn carrier_tetrahedra_region_of_interest_and_no_normals() {
     let full = dir.join("full.vtp");
     iso(&input, &full, &["--isovalue", "127.5", "--tolerance", "0"]);
     let roi = dir.join("roi.vtp");
-    iso(
-        &input,
-        &roi,
-        &[
-            "--isovalue",
-            "127.5",
-            "--tolerance",
-            "0",
-            "--roi",
-            "0",
-            "1",
-            "-1",
-            "1",
-            "-1",
-            "1",
-        ],
-    );
+    let region = ["--roi", "0", "1", "-1", "1", "-1", "1"];
+    let mut args = vec!["--isovalue", "127.5", "--tolerance", "0"];
+    args.extend(region);
+    iso(&input, &roi, &args);
     let (in_roi, all) = (read_surface(&roi).1, read_surface(&full).1);
     assert!(in_roi < all, "{in_roi} !< {all}");
     verify(&roi, Some(&input));
@@ -442,7 +429,7 @@ fn carrier_tetrahedra_region_of_interest_and_no_normals() {
         args.extend_from_slice(region);
         diamonds(args)
     };
-    let run = bound(&["--roi", "0", "1", "-1", "1", "-1", "1"]);
+    let run = bound(&region);
     assert_eq!(run.code, 0, "{run:#?}");
     assert!(run.stdout.contains("measured inside [0.0, 1.0"), "{run:#?}");
     let run = bound(&[]);
@@ -450,19 +437,9 @@ fn carrier_tetrahedra_region_of_interest_and_no_normals() {
     assert!(bound(&["--roi", "5", "6", "-1", "1", "-1", "1"])
         .user_error()
         .contains("outside the data bounds"));
-    let run = diamonds([
-        "verify-surface",
-        s(&roi),
-        "--image",
-        s(&input),
-        "--roi",
-        "0",
-        "1",
-        "-1",
-        "1",
-        "-1",
-        "1",
-    ]);
+    let mut args = vec!["verify-surface", s(&roi), "--image", s(&input)];
+    args.extend(region);
+    let run = diamonds(args);
     let e = run.user_error();
     assert!(e.contains("--roi needs --isovalue"), "{e}");
 

@@ -18,9 +18,9 @@
 //! carries it. A collapse that changes the boundary (`p_i` on it: the boundary surface undergoes the
 //! edge collapse `p_i → p_j`) can bring a new face nearer to any outside vertex, not only to those
 //! its star carries, so the current boundary faces ([`FaceIndex`]) and the outside vertices (each
-//! with the ball reaching its nearest point) are kept in R-trees: the outside vertices whose ball meets the new
-//! faces are measured again, and the tetrahedra they leave or join outside the collapse's star are
-//! recorded in its split, so a replay keeps every tetrahedron's error.
+//! with the ball reaching its nearest point) are kept in R-trees: the outside vertices whose ball
+//! meets the new faces are measured again, and the tetrahedra they leave or join outside the
+//! collapse's star are recorded in its split, so a replay keeps every tetrahedron's error.
 //!
 //! **Boundary.** Boundary vertices collapse only along boundary edges (§3.2); the geometric error is
 //! the boundary quadric (Eq. 4). With `preserve_boundary`, corners stay, vertices of feature edges
