@@ -2,11 +2,15 @@
 //! before anything is built on them (bad input is an error naming what is wrong, never a panic).
 //! Cleaning is what `vtkCleanUnstructuredGrid` does for exactly coincident points: they are merged
 //! into the first of them, and the tetrahedra that become flat (repeated corners) are dropped —
-//! tetrahedralised curvilinear grids with a singular axis, such as the blunt fin, have them.
+//! tetrahedralised curvilinear grids with a singular axis, such as the blunt fin, have them. Then
+//! the mesh is cut at its pinches ([`cut_pinches`]: parts meeting only at a point or along an edge,
+//! as in the pieces ParaView's redistribution makes), so that the simplifier sees a manifold.
 
 use crate::validate::{boundary_faces, check_manifold_tets};
 use crate::{Error, Result};
+use rayon::prelude::*;
 use rustc_hash::{FxHashMap, FxHashSet};
+use std::borrow::Cow;
 
 /// A tetrahedral mesh with the scalar field that drives the field error.
 #[derive(Clone, Copy, Debug)]
@@ -19,14 +23,152 @@ pub struct TetInput<'a> {
     pub scalars: &'a [f64],
 }
 
-/// The input after cleaning: the tetrahedra on the kept points, and the merged points.
+/// The input after cleaning: the tetrahedra on the kept points, cut at the pinches, and the merged
+/// points.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub(super) struct Cleaned {
+    /// The tetrahedra, on the copies of the pinch points ([`Pinches`]) where they are cut.
     pub(super) tets: Vec<[u32; 4]>,
     /// `(merged point, the point kept at its position)`.
     pub(super) merged: Vec<(u32, u32)>,
     /// Tetrahedra dropped because merging made them flat.
     pub(super) dropped: usize,
+    pub(super) pinches: Pinches,
+}
+
+/// The copies [`cut_pinches`] made: point `points + k` is a copy of the pinch point `copies[k]`.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub(super) struct Pinches {
+    /// The input's number of points.
+    pub(super) points: usize,
+    pub(super) copies: Vec<u32>,
+}
+
+impl Pinches {
+    /// The input point that `v` is (`v` itself, or the pinch point a copy was made of).
+    pub(super) fn original(&self, v: u32) -> u32 {
+        match (v as usize).checked_sub(self.points) {
+            Some(k) => self.copies[k],
+            None => v,
+        }
+    }
+
+    /// Puts `tets` back on the input's points (the cut undone).
+    pub(super) fn uncut(&self, tets: &mut [[u32; 4]]) {
+        if !self.copies.is_empty() {
+            tets.par_iter_mut()
+                .for_each(|t| *t = t.map(|v| self.original(v)));
+        }
+    }
+
+    /// `values`, one per input point, followed by one per copy (its pinch point's).
+    pub(super) fn with_copies<'v, T: Clone>(&self, values: &'v [T]) -> Cow<'v, [T]> {
+        if self.copies.is_empty() {
+            return Cow::Borrowed(values);
+        }
+        let mut all = values.to_vec();
+        all.extend(self.copies.iter().map(|&v| values[v as usize].clone()));
+        Cow::Owned(all)
+    }
+
+    /// The pinch points and their copies, which a reduction keeps: the parts that meet there stay as
+    /// they meet.
+    pub(super) fn points(&self) -> impl Iterator<Item = u32> + '_ {
+        self.copies
+            .iter()
+            .copied()
+            .chain((self.points..self.points + self.copies.len()).map(|v| v as u32))
+    }
+}
+
+/// Cuts `tets` (corners below `n`) at their pinches and returns the pinch point of each copy made
+/// (copy `k` is point `n + k`). A point is a pinch when its tetrahedra fall apart into groups that
+/// share no face at the point: parts of the mesh that meet only there, or only along an edge through
+/// it. Each group after the first (in the order of its first tetrahedron) gets a copy of the point.
+/// The cut mesh then has a manifold boundary wherever the input's parts only touched, and a
+/// reduction that keeps the pinch points and their copies ([`Pinches::points`]) leaves the
+/// parts meeting as they did: mapped back to the input's points, every level is the cut level.
+fn cut_pinches(n: usize, tets: &mut [[u32; 4]]) -> Result<Vec<u32>> {
+    let mut start = vec![0usize; n + 1];
+    for &v in tets.iter().flatten() {
+        start[v as usize + 1] += 1;
+    }
+    for v in 0..n {
+        start[v + 1] += start[v];
+    }
+    let mut star = vec![0u32; start[n]];
+    let mut next = start.clone();
+    for (t, c) in tets.iter().enumerate() {
+        for &v in c {
+            star[next[v as usize]] = t as u32;
+            next[v as usize] += 1;
+        }
+    }
+    // For each pinch point, the groups of its star after the first.
+    let later: Vec<(u32, Vec<Vec<u32>>)> = (0..n)
+        .into_par_iter()
+        .filter_map(|v| {
+            let around = &star[start[v]..start[v + 1]];
+            let mut parent: Vec<usize> = (0..around.len()).collect();
+            fn root(parent: &mut [usize], mut k: usize) -> usize {
+                while parent[k] != k {
+                    parent[k] = parent[parent[k]];
+                    k = parent[k];
+                }
+                k
+            }
+            // Two tetrahedra share a face at `v` when they share an edge of `v`'s link.
+            let mut first: FxHashMap<[u32; 2], usize> = FxHashMap::default();
+            for (k, &t) in around.iter().enumerate() {
+                let o: Vec<u32> = tets[t as usize]
+                    .iter()
+                    .copied()
+                    .filter(|&w| w != v as u32)
+                    .collect();
+                for (a, b) in [(o[0], o[1]), (o[0], o[2]), (o[1], o[2])] {
+                    let at = *first.entry([a.min(b), a.max(b)]).or_insert(k);
+                    let (ra, rb) = (root(&mut parent, at), root(&mut parent, k));
+                    parent[ra.max(rb)] = ra.min(rb);
+                }
+            }
+            let mut groups: Vec<(usize, Vec<u32>)> = Vec::new();
+            for (k, &t) in around.iter().enumerate() {
+                let r = root(&mut parent, k);
+                match groups.iter_mut().find(|(g, _)| *g == r) {
+                    Some((_, g)) => g.push(t),
+                    None => groups.push((r, vec![t])),
+                }
+            }
+            (groups.len() > 1).then(|| {
+                (
+                    v as u32,
+                    groups.into_iter().skip(1).map(|(_, g)| g).collect(),
+                )
+            })
+        })
+        .collect();
+    let mut copies = Vec::new();
+    for (v, groups) in later {
+        for group in groups {
+            let copy = u32::try_from(n + copies.len())
+                .ok()
+                .filter(|&c| c != u32::MAX)
+                .ok_or_else(|| {
+                    Error::Mesh(format!(
+                        "{n} points and the copies of the pinch points: at most 2^32 - 1 are supported"
+                    ))
+                })?;
+            copies.push(v);
+            for t in group {
+                for c in &mut tets[t as usize] {
+                    if *c == v {
+                        *c = copy;
+                    }
+                }
+            }
+        }
+    }
+    Ok(copies)
 }
 
 impl TetInput<'_> {
@@ -60,9 +202,10 @@ impl TetInput<'_> {
     /// Checks and cleans the input: at least one tetrahedron, fewer than 2^32 points, one finite
     /// value and finite coordinates per point, corners inside the points; coincident points merged
     /// and the tetrahedra that repeat a corner then (flat ones) dropped; then a manifold
-    /// tetrahedralisation with positive volumes ([`check_manifold_tets`]). Tetrahedra that repeat a
-    /// corner in the input are flat too: ParaView's redistribution merges the coincident points of
-    /// the blunt fin's pieces and leaves such tetrahedra.
+    /// tetrahedralisation with positive volumes once cut at the pinches ([`cut_pinches`],
+    /// [`check_manifold_tets`]). Tetrahedra that repeat a corner in the input are flat too:
+    /// ParaView's redistribution merges the coincident points of the blunt fin's pieces and leaves
+    /// such tetrahedra.
     pub(super) fn clean(&self) -> Result<Cleaned> {
         let n = self.points.len();
         if self.tets.is_empty() {
@@ -127,7 +270,7 @@ impl TetInput<'_> {
             }
         }
         let before = self.tets.len();
-        let tets: Vec<[u32; 4]> = self
+        let mut tets: Vec<[u32; 4]> = self
             .tets
             .iter()
             .map(|t| t.map(|v| keep[v as usize]))
@@ -138,11 +281,15 @@ impl TetInput<'_> {
                 "every tetrahedron is flat (coincident corners)".into(),
             ));
         }
-        check_manifold_tets(self.points, &tets).map_err(Error::Mesh)?;
+        let dropped = before - tets.len();
+        let copies = cut_pinches(n, &mut tets)?;
+        let pinches = Pinches { points: n, copies };
+        check_manifold_tets(&pinches.with_copies(self.points), &tets).map_err(Error::Mesh)?;
         Ok(Cleaned {
-            dropped: before - tets.len(),
             tets,
             merged,
+            dropped,
+            pinches,
         })
     }
 }

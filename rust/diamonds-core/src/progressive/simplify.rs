@@ -29,6 +29,7 @@
 
 use super::cost::{interpolate, shape_measure, Frame, Quadric};
 use super::faces::{is_closer, BoundaryFace, FaceIndex};
+use super::input::{Cleaned, Pinches};
 use super::record::{LevelError, ProgressiveMesh, VertexSplit};
 use super::validity::{feature_edges_at, is_feature_edge, link_condition_from_star, Link};
 use super::{Params, TetInput};
@@ -351,6 +352,8 @@ pub struct Reduction {
     s: Simplifier,
     pm: ProgressiveMesh,
     exhausted: bool,
+    /// How the simplifier's points map to the input's (copies of the pinch points).
+    pinches: Pinches,
 }
 
 impl Reduction {
@@ -367,18 +370,32 @@ impl Reduction {
     /// seam points, and a collapse changes only the faces at the point it removes).
     pub fn keeping(input: TetInput<'_>, params: &Params, kept: &[u32]) -> Result<Self> {
         params.check()?;
-        let cleaned = input.clean()?;
         if let Some(v) = kept.iter().find(|&&v| v as usize >= input.points.len()) {
             return Err(Error::Parameter(format!(
                 "point {v} is to be kept, but the mesh has {} points",
                 input.points.len()
             )));
         }
-        let mut s = Simplifier::new(input, &cleaned.tets, params)?;
-        for &v in kept {
+        // The simplifier works on the mesh cut at its pinches (the copies after the input's points);
+        // the record names input points only.
+        let Cleaned {
+            mut tets,
+            merged,
+            dropped,
+            pinches,
+        } = input.clean()?;
+        let points = pinches.with_copies(input.points);
+        let scalars = pinches.with_copies(input.scalars);
+        let cut = TetInput {
+            points: &points,
+            tets: &tets,
+            scalars: &scalars,
+        };
+        let mut s = Simplifier::new(cut, &tets, params)?;
+        for v in kept.iter().copied().chain(pinches.points()) {
             s.kept[v as usize] = true;
         }
-        for &(v, kept) in &cleaned.merged {
+        for &(v, kept) in &merged {
             s.seed_merged(v, kept);
         }
         let errors = vec![s.level_error()];
@@ -386,19 +403,21 @@ impl Reduction {
         let all: Vec<u32> = (0..s.pos.len() as u32).collect();
         s.estimate_all(&all);
         memory::check(PREPARING)?;
+        pinches.uncut(&mut tets);
         Ok(Self {
             pm: ProgressiveMesh {
                 points: input.points.to_vec(),
-                tets: cleaned.tets,
+                tets,
                 collapses: Vec::new(),
                 errors,
                 scalars: input.scalars.to_vec(),
-                merged_points: cleaned.merged.iter().map(|&(v, _)| v).collect(),
-                dropped_tets: cleaned.dropped,
+                merged_points: merged.iter().map(|&(v, _)| v).collect(),
+                dropped_tets: dropped,
                 original_tet_errors,
             },
             s,
             exhausted: false,
+            pinches,
         })
     }
 
@@ -466,7 +485,9 @@ impl Reduction {
                 s.measured.push((i, c.target, exact));
                 continue;
             }
-            self.pm.collapses.push(s.collapse(i, c.target, exact));
+            let mut split = s.collapse(i, c.target, exact);
+            split.target = self.pinches.original(split.target);
+            self.pm.collapses.push(split);
             errors.push(s.level_error());
         };
         // Levels go up from the base mesh: the new ones, coarsest first, below the old ones.

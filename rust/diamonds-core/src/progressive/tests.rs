@@ -397,29 +397,6 @@ fn bad_input_is_refused_with_a_message() {
         matches!(&e, Error::Mesh(m) if m.contains("shared by 3")),
         "{e}"
     );
-    // Two tetrahedra touching along an edge only: not manifold.
-    let pts = [
-        [0.0, 0.0, 0.0],
-        [0.0, 0.0, 1.0],
-        [1.0, 0.0, 0.0],
-        [1.0, 1.0, 0.0],
-        [-1.0, 0.0, 0.0],
-        [-1.0, -1.0, 0.0],
-    ];
-    let orient = |t: [u32; 4]| {
-        let x = t.map(|v| DVec3::from_array(pts[v as usize]));
-        if cost::volume6(&x) < 0.0 {
-            [t[0], t[1], t[3], t[2]]
-        } else {
-            t
-        }
-    };
-    let tets = [orient([0, 1, 2, 3]), orient([0, 1, 4, 5])];
-    let e = run(&pts, &tets, &[0.0; 6], &p);
-    assert!(
-        matches!(&e, Error::Mesh(m) if m.contains("not manifold")),
-        "{e}"
-    );
     for bad in [
         Params {
             field_weight: f64::NAN,
@@ -697,4 +674,79 @@ fn pieces_reduced_apart_keeping_their_seam_points_stay_conforming() {
         conforming_union(&g, &[level_tets(&apart[0], 0), level_tets(&apart[1], 0)]).is_err(),
         "without their seam points kept the pieces crack apart: the test tests nothing"
     );
+}
+
+/// Three grids of cubes, the second meeting the first only along an edge and the third only at a
+/// corner (their coincident points merged by the cleaning): the input is not manifold there. The
+/// reduction cuts it at these pinches and keeps the pinch points, so every level is the three parts,
+/// each a manifold mesh of its unit cube, meeting as they did; the errors bound every removed vertex.
+#[test]
+fn parts_meeting_at_an_edge_or_a_corner_are_reduced_apart() {
+    let cube = grid(3, smooth);
+    let shifts = [DVec3::ZERO, DVec3::new(1.0, 1.0, 0.0), DVec3::splat(-1.0)];
+    let mut g = Generated {
+        points: Vec::new(),
+        tets: Vec::new(),
+        scalars: Vec::new(),
+    };
+    for shift in shifts {
+        let base = g.points.len() as u32;
+        for p in &cube.points {
+            let p = DVec3::from_array(*p) + shift;
+            g.points.push(p.to_array());
+            g.scalars.push(smooth(p));
+        }
+        g.tets.extend(cube.tets.iter().map(|t| t.map(|v| v + base)));
+    }
+    // Without the cut, the mesh is refused as it was before pinches were handled.
+    assert!(check_manifold_tets(&g.points, &merged_tets(&g)).is_err());
+    let pm = g.simplify(&params(0)).unwrap();
+    assert!(pm.levels() > 100, "{} levels", pm.levels());
+    let pinch = |p: &[f64; 3]| (p[0] == 1.0 && p[1] == 1.0) || *p == [0.0; 3];
+    let part = |c: DVec3| {
+        shifts
+            .iter()
+            .position(|&s| (c - s).cmpge(DVec3::ZERO).all() && (c - s).cmple(DVec3::ONE).all())
+            .expect("a centroid outside the three cubes")
+    };
+    for l in [0, pm.levels() / 3, pm.levels()] {
+        let (points, tets, _) = level(&pm, l);
+        let mut parts = vec![Vec::new(); 3];
+        for t in &tets {
+            let c = t
+                .iter()
+                .map(|&v| DVec3::from_array(points[v as usize]))
+                .sum::<DVec3>()
+                / 4.0;
+            parts[part(c)].push(*t);
+        }
+        for (part, pinches) in parts.iter().zip([5, 4, 1]) {
+            let mut corners: Vec<u32> = part.iter().flatten().copied().collect();
+            corners.sort_unstable();
+            corners.dedup();
+            let kept = corners
+                .iter()
+                .filter(|&&v| pinch(&points[v as usize]))
+                .count();
+            assert_eq!(kept, pinches, "level {l}: each part keeps its pinch points");
+            check_manifold_tets(&points, part).unwrap_or_else(|e| panic!("level {l}: {e}"));
+            let x = |t: &[u32; 4]| t.map(|v| DVec3::from_array(points[v as usize]));
+            let volume: f64 = part.iter().map(|t| cost::volume6(&x(t)) / 6.0).sum();
+            assert!((volume - 1.0).abs() < 1e-9, "level {l}: volume {volume}");
+        }
+        check_no_overlap(&points, &tets, &g.points).unwrap_or_else(|e| panic!("level {l}: {e}"));
+        check_errors(&g, &pm, l);
+    }
+}
+
+/// `g`'s tetrahedra with coincident points merged into the first.
+fn merged_tets(g: &Generated) -> Vec<[u32; 4]> {
+    let mut first: FxHashMap<[u64; 3], u32> = FxHashMap::default();
+    let keep: Vec<u32> = g
+        .points
+        .iter()
+        .enumerate()
+        .map(|(v, p)| *first.entry(p.map(f64::to_bits)).or_insert(v as u32))
+        .collect();
+    g.tets.iter().map(|t| t.map(|v| keep[v as usize])).collect()
 }
