@@ -34,6 +34,7 @@
 #include <cstdint>
 #include <functional>
 #include <limits>
+#include <new>
 #include <optional>
 #include <string>
 #include <vector>
@@ -135,7 +136,26 @@ std::string Distributed(vtkMultiProcessController* controller, bool ok, vtkIdTyp
   {
     offsets[r] = offsets[r - 1] + lengths[r - 1];
   }
-  std::vector<double> all(static_cast<std::size_t>(offsets.back() + lengths.back()));
+  // Every rank allocates what it receives before any sends: a rank that cannot stops them all.
+  const vtkIdType gathered = offsets.back() + lengths.back();
+  std::vector<double> all;
+  int cannot = 0;
+  try
+  {
+    all.resize(static_cast<std::size_t>(gathered));
+    seamWith.reserve(static_cast<std::size_t>(gathered - length));
+  }
+  catch (const std::bad_alloc&)
+  {
+    cannot = 1;
+  }
+  int anyCannot = 0;
+  controller->AllReduce(&cannot, &anyCannot, 1, vtkCommunicator::MAX_OP);
+  if (anyCannot)
+  {
+    return "the boundary points of every piece (" + std::to_string(gathered / 3) +
+      ") did not fit in memory on " + (cannot ? "this rank." : "another rank.");
+  }
   controller->AllGatherV(mine.data(), all.data(), length, lengths.data(), offsets.data());
   seamWith.assign(all.begin(), all.begin() + offsets[me]);
   seamWith.insert(seamWith.end(), all.begin() + offsets[me] + lengths[me], all.end());
@@ -150,6 +170,10 @@ public:
   vtkDiamonds::AbortLatch Abort;
   std::optional<rust::Box<bridge::Progressive>> Progressive;
   Key Built;
+  // The last build that failed, and why: the same input and settings report it again without
+  // another attempt (under MPI, without making every rank rebuild).
+  std::optional<Key> Failed;
+  std::string FailedWhy;
   // The tetrahedralised input when the input had other cells (kept: the key points at it).
   vtkSmartPointer<vtkUnstructuredGrid> Tetrahedra;
   vtkUnstructuredGrid* TetrahedralisedFrom = nullptr;
@@ -330,7 +354,8 @@ try
     key.Preserve = this->PreserveBoundary != 0;
     key.Tolerance = this->BoundaryTolerance;
   }
-  bool build = ok && cells > 0 && (!in.Progressive || !(in.Built == key));
+  const bool failedBefore = ok && cells > 0 && in.Failed && *in.Failed == key;
+  bool build = ok && cells > 0 && !failedBefore && (!in.Progressive || !(in.Built == key));
 
   // ---- What the sequence is computed from: the points, tetrahedra and scalars as the core takes
   // them, the whole mesh's bounds and, under MPI, the other pieces' boundary points.
@@ -391,6 +416,11 @@ try
   {
     return 0;
   }
+  if (failedBefore && !build)
+  {
+    vtkErrorMacro(<< in.FailedWhy);
+    return 0;
+  }
 
   // ---- The sequence: computed once per input and settings (under MPI, and whenever another
   // rank's piece changed).
@@ -414,10 +444,13 @@ try
     }
     catch (const rust::Error& e)
     {
-      vtkErrorMacro(<< "Progressive Tetrahedral Mesh failed on '" << array->GetName()
-                    << "': " << e.what());
+      in.Failed = key;
+      in.FailedWhy =
+        std::string("Progressive Tetrahedral Mesh failed on '") + array->GetName() + "': " + e.what();
+      vtkErrorMacro(<< in.FailedWhy);
       return 0;
     }
+    in.Failed.reset();
     in.Built = key;
     // The copies the core took are no longer needed while the output is built.
     std::vector<double>().swap(flatPoints);
