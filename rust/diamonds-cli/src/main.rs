@@ -259,7 +259,8 @@ enum Command {
         /// Field tolerance in data units (required with --fields or --material-fields).
         #[arg(long, value_name = "T", allow_hyphen_values = true)]
         field_tolerance: Option<f64>,
-        /// Plain linear interpolation of the mixed fields instead of one field per material.
+        /// Plain linear interpolation of the mixed fields instead of one field per material (the
+        /// interfaces are not refined for: their error is reported, not bounded).
         #[arg(long)]
         no_ghost_values: bool,
         /// The slice plane: origin and normal [default: through the centre, normal along x].

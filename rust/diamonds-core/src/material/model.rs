@@ -640,15 +640,6 @@ impl MaterialModel {
             });
             (complete || uniform.is_none() || e > field_limit).then_some((e, mask))
         };
-        if !ghost_values {
-            let vals = self.vertex_values(&wt, |f| &self.fields[f]);
-            let (field, materials) = field_error(&|f, _| vals[f], None).unwrap_or_default();
-            return TetEval {
-                interface: 0.0,
-                field,
-                materials,
-            };
-        }
         let (lo, hi) = wt.bounds();
         let (c0, c1) = (self.cell_corner(lo), self.cell_corner(hi));
         let interface_vertices = (c0[2]..=c1[2]).flat_map(|k| {
@@ -689,6 +680,17 @@ impl MaterialModel {
                     ..TetEval::default()
                 };
             }
+        }
+        // Plain interpolation of the mixed fields: the interfaces are measured (the mesh carries
+        // them all the same), not refined for.
+        if !ghost_values {
+            let vals = self.vertex_values(&wt, |f| &self.fields[f]);
+            let (field, materials) = field_error(&|f, _| vals[f], None).unwrap_or_default();
+            return TetEval {
+                interface,
+                field,
+                materials,
+            };
         }
         // The cheap case: one material around every vertex and at every sample, no interface inside.
         if v.is_none() {
@@ -960,8 +962,10 @@ impl MaterialMesh {
     /// error is above its tolerance: a miss means the next finer lattice would exceed
     /// `MAX_LATTICE_POINTS` (2³⁰ points).
     pub fn tolerance_warning(&self, query: &MaterialQuery) -> Option<String> {
-        (self.max_interface_error > query.interface_tolerance
-            || self.max_field_error > query.field_tolerance)
+        // Plain interpolation does not refine for the interfaces (their error is only reported).
+        let interface_missed =
+            query.ghost_values && self.max_interface_error > query.interface_tolerance;
+        (interface_missed || self.max_field_error > query.field_tolerance)
             .then(|| {
                 format!(
                     "the finest tetrahedra cannot meet the tolerances everywhere: interface error {} \
