@@ -148,17 +148,6 @@ mod tests {
         total * (1.0 - below)
     }
 
-    /// A small deterministic generator (xorshift), values in [0, 1).
-    struct Rng(u64);
-    impl Rng {
-        fn next(&mut self) -> f64 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            (self.0 >> 11) as f64 / (1u64 << 53) as f64
-        }
-    }
-
     #[test]
     fn patches_have_positive_volumes_summing_to_the_closed_form() {
         let x = [
@@ -168,10 +157,10 @@ mod tests {
             DVec3::new(0.3, 0.2, 1.0),
         ];
         let total = volume(x);
-        let mut rng = Rng(0x9e3779b97f4a7c15);
+        let mut rng = fastrand::Rng::with_seed(0x9e3779b97f4a7c15);
         for case in 0..20000 {
-            let f = [0; 4].map(|_| rng.next());
-            let (a, b) = (rng.next(), rng.next());
+            let f = [0; 4].map(|_| rng.f64());
+            let (a, b) = (rng.f64(), rng.f64());
             let range = [a.min(b), a.max(b)];
             let mut out = Vec::new();
             clip([0, 1, 2, 3], f, range, &mut out);
@@ -221,13 +210,13 @@ mod tests {
     fn shared_faces_are_split_alike() {
         // Two tetrahedra sharing the face (1, 2, 3) with random values and names: the triangles of
         // their patches in that face are the same.
-        let mut rng = Rng(12345);
+        let mut rng = fastrand::Rng::with_seed(12345);
         for case in 0..5000 {
-            let f: [f64; 5] = [0; 5].map(|_| (rng.next() * 8.0).floor() / 4.0);
+            let f: [f64; 5] = [0; 5].map(|_| (rng.f64() * 8.0).floor() / 4.0);
             let range = [0.5, 1.25];
             let mut names: Vec<u32> = (0..5).collect();
             for k in (1..5).rev() {
-                names.swap(k, (rng.next() * (k + 1) as f64) as usize);
+                names.swap(k, (rng.f64() * (k + 1) as f64) as usize);
             }
             let shared: Vec<u32> = names[1..4].to_vec();
             let faces = |ids: [u32; 4], values: [f64; 4]| {

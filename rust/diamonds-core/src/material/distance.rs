@@ -182,24 +182,9 @@ impl InterfaceIndex {
 mod tests {
     use super::*;
 
-    struct Rng(u64);
-
-    impl Rng {
-        fn next(&mut self) -> f64 {
-            self.0 = self
-                .0
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (self.0 >> 11) as f64 / (1u64 << 53) as f64
-        }
-
-        fn range(&mut self, lo: f64, hi: f64) -> f64 {
-            lo + (hi - lo) * self.next()
-        }
-
-        fn point(&mut self, lo: f64, hi: f64) -> [f64; 3] {
-            [self.range(lo, hi), self.range(lo, hi), self.range(lo, hi)]
-        }
+    /// A point with coordinates uniform in `[lo, hi)`.
+    fn point(rng: &mut fastrand::Rng, lo: f64, hi: f64) -> [f64; 3] {
+        [0; 3].map(|_| lo + (hi - lo) * rng.f64())
     }
 
     /// A closed, outward-oriented, star-shaped bumpy sphere (UV sphere with radius `r(θ, φ)`).
@@ -323,10 +308,10 @@ mod tests {
 
     #[test]
     fn closest_point_on_triangle_is_the_minimum() {
-        let mut rng = Rng(7);
+        let mut rng = fastrand::Rng::with_seed(7);
         for _ in 0..300 {
-            let [a, b, c] = [0; 3].map(|_| DVec3::from_array(rng.point(-1.0, 1.0)));
-            let p = DVec3::from_array(rng.point(-2.0, 2.0));
+            let [a, b, c] = [0; 3].map(|_| DVec3::from_array(point(&mut rng, -1.0, 1.0)));
+            let p = DVec3::from_array(point(&mut rng, -2.0, 2.0));
             let (q, _) = closest_point_on_triangle(p, a, b, c);
             // q lies in the triangle (barycentric coordinates in [0, 1]).
             let n = (b - a).cross(c - a);
@@ -364,10 +349,10 @@ mod tests {
         open.triangles.truncate(open.triangles.len() / 2);
         open.pair = (1, 2);
         let index = InterfaceIndex::new(&[closed.clone(), open.clone()]);
-        let mut rng = Rng(42);
+        let mut rng = fastrand::Rng::with_seed(42);
         for (m, mesh) in [&closed, &open].into_iter().enumerate() {
             for _ in 0..2000 {
-                let p = rng.point(-1.8, 1.8);
+                let p = point(&mut rng, -1.8, 1.8);
                 let c = index.closest(m, p).unwrap();
                 let brute = brute_distance(mesh, DVec3::from_array(p));
                 assert!(
@@ -392,17 +377,17 @@ mod tests {
     fn side_is_correct_near_vertices_and_edges() {
         let mesh = bumpy_sphere(0.25);
         let index = InterfaceIndex::new(std::slice::from_ref(&mesh));
-        let mut rng = Rng(3);
+        let mut rng = fastrand::Rng::with_seed(3);
         let mut checked = 0;
         // Points near the vertices (where the closest feature is often a vertex or an edge, and
         // concave regions where face normals disagree) and random points.
         for round in 0..6000 {
             let p = if round % 2 == 0 {
-                let v = mesh.points[(rng.next() * mesh.points.len() as f64) as usize];
-                let o = rng.point(-0.08, 0.08);
+                let v = mesh.points[(rng.f64() * mesh.points.len() as f64) as usize];
+                let o = point(&mut rng, -0.08, 0.08);
                 [v[0] + o[0], v[1] + o[1], v[2] + o[2]]
             } else {
-                rng.point(-1.5, 1.5)
+                point(&mut rng, -1.5, 1.5)
             };
             let c = index.closest(0, p).unwrap();
             if c.distance < 1e-6 {
@@ -452,10 +437,10 @@ mod tests {
             assert!((c.distance - q.distance(DVec3::from_array(p))).abs() < 1e-12);
         }
         // A dense shell of points around the corners.
-        let mut rng = Rng(11);
+        let mut rng = fastrand::Rng::with_seed(11);
         for _ in 0..3000 {
-            let corner = [rng.next().round(), rng.next().round(), rng.next().round()];
-            let o = rng.point(-0.2, 0.2);
+            let corner = [rng.f64().round(), rng.f64().round(), rng.f64().round()];
+            let o = point(&mut rng, -0.2, 0.2);
             let p = [corner[0] + o[0], corner[1] + o[1], corner[2] + o[2]];
             let inside = p.iter().all(|&x| x > 0.0 && x < 1.0);
             let c = index.closest(0, p).unwrap();
