@@ -105,47 +105,54 @@ fn cut_pinches(n: usize, tets: &mut [[u32; 4]]) -> Result<Vec<u32>> {
         }
     }
     // For each pinch point, the groups of its star after the first.
+    fn root(parent: &mut [usize], mut k: usize) -> usize {
+        while parent[k] != k {
+            parent[k] = parent[parent[k]];
+            k = parent[k];
+        }
+        k
+    }
     let later: Vec<(u32, Vec<Vec<u32>>)> = (0..n)
         .into_par_iter()
-        .filter_map(|v| {
-            let around = &star[start[v]..start[v + 1]];
-            let mut parent: Vec<usize> = (0..around.len()).collect();
-            fn root(parent: &mut [usize], mut k: usize) -> usize {
-                while parent[k] != k {
-                    parent[k] = parent[parent[k]];
-                    k = parent[k];
+        .map_init(
+            || (Vec::new(), Vec::new()),
+            |(parent, edges): &mut (Vec<usize>, Vec<([u32; 2], usize)>), v| {
+                let around = &star[start[v]..start[v + 1]];
+                // Two tetrahedra share a face at `v` when they share an edge of `v`'s link.
+                edges.clear();
+                for (k, &t) in around.iter().enumerate() {
+                    let c = tets[t as usize];
+                    let at = c.iter().position(|&w| w == v as u32).unwrap_or(0);
+                    let o = [c[(at + 1) % 4], c[(at + 2) % 4], c[(at + 3) % 4]];
+                    for (a, b) in [(o[0], o[1]), (o[0], o[2]), (o[1], o[2])] {
+                        edges.push(([a.min(b), a.max(b)], k));
+                    }
                 }
-                k
-            }
-            // Two tetrahedra share a face at `v` when they share an edge of `v`'s link.
-            let mut first: FxHashMap<[u32; 2], usize> = FxHashMap::default();
-            for (k, &t) in around.iter().enumerate() {
-                let o: Vec<u32> = tets[t as usize]
-                    .iter()
-                    .copied()
-                    .filter(|&w| w != v as u32)
-                    .collect();
-                for (a, b) in [(o[0], o[1]), (o[0], o[2]), (o[1], o[2])] {
-                    let at = *first.entry([a.min(b), a.max(b)]).or_insert(k);
-                    let (ra, rb) = (root(&mut parent, at), root(&mut parent, k));
+                edges.sort_unstable();
+                parent.clear();
+                parent.extend(0..around.len());
+                for pair in edges.windows(2).filter(|w| w[0].0 == w[1].0) {
+                    let (ra, rb) = (root(parent, pair[0].1), root(parent, pair[1].1));
                     parent[ra.max(rb)] = ra.min(rb);
                 }
-            }
-            let mut groups: Vec<(usize, Vec<u32>)> = Vec::new();
-            for (k, &t) in around.iter().enumerate() {
-                let r = root(&mut parent, k);
-                match groups.iter_mut().find(|(g, _)| *g == r) {
-                    Some((_, g)) => g.push(t),
-                    None => groups.push((r, vec![t])),
+                if (1..around.len()).all(|k| root(parent, k) == 0) {
+                    return None;
                 }
-            }
-            (groups.len() > 1).then(|| {
-                (
+                let mut groups: Vec<(usize, Vec<u32>)> = Vec::new();
+                for (k, &t) in around.iter().enumerate() {
+                    let r = root(parent, k);
+                    match groups.iter_mut().find(|(g, _)| *g == r) {
+                        Some((_, g)) => g.push(t),
+                        None => groups.push((r, vec![t])),
+                    }
+                }
+                Some((
                     v as u32,
                     groups.into_iter().skip(1).map(|(_, g)| g).collect(),
-                )
-            })
-        })
+                ))
+            },
+        )
+        .flatten()
         .collect();
     let mut copies = Vec::new();
     for (v, groups) in later {
