@@ -170,8 +170,9 @@ public:
   vtkDiamonds::AbortLatch Abort;
   std::optional<rust::Box<bridge::Progressive>> Progressive;
   Key Built;
-  // The last build that failed, and why: the same input and settings report it again without
-  // another attempt (under MPI, without making every rank rebuild).
+  // The last build that failed on its input, and why: the same input and settings report it again
+  // without another attempt (under MPI, without making every rank rebuild). A build that ran out of
+  // memory is not remembered: it may succeed once memory is free.
   std::optional<Key> Failed;
   std::string FailedWhy;
   // The tetrahedralised input when the input had other cells (kept: the key points at it).
@@ -444,9 +445,16 @@ try
     }
     catch (const rust::Error& e)
     {
-      in.Failed = key;
+      const std::string why = e.what();
       in.FailedWhy =
-        std::string("Progressive Tetrahedral Mesh failed on '") + array->GetName() + "': " + e.what();
+        std::string("Progressive Tetrahedral Mesh failed on '") + array->GetName() + "': " + why;
+      // Out of memory: the bridge's guard says "out of memory while …", the core's
+      // Error::OutOfMemory "not enough memory for …".
+      if (why.find("out of memory") == std::string::npos &&
+        why.find("not enough memory") == std::string::npos)
+      {
+        in.Failed = key;
+      }
       vtkErrorMacro(<< in.FailedWhy);
       return 0;
     }
