@@ -448,10 +448,7 @@ try
       const std::string why = e.what();
       in.FailedWhy =
         std::string("Progressive Tetrahedral Mesh failed on '") + array->GetName() + "': " + why;
-      // Out of memory: the bridge's guard says "out of memory while …", the core's
-      // Error::OutOfMemory "not enough memory for …".
-      if (why.find("out of memory") == std::string::npos &&
-        why.find("not enough memory") == std::string::npos)
+      if (!bridge::ran_out_of_memory())
       {
         in.Failed = key;
       }

@@ -291,6 +291,10 @@ mod ffi {
         /// hierarchy: [`isosurface`] forgets it when handed another one.
         type IsoState;
 
+        /// Whether memory ran short during the last call on this thread: when that call failed,
+        /// it may succeed once memory is free (not a failure to remember).
+        fn ran_out_of_memory() -> bool;
+
         /// Builds the full hierarchy of `samples` (raw bytes of `scalar_type` values, x fastest) on
         /// `grid`: per-diamond records (2 bytes per point) computed with progress and abort.
         fn build_hierarchy(
@@ -994,6 +998,9 @@ pub fn guard<T>(what: &str, body: impl FnOnce() -> Result<T, String>) -> Result<
         ))
     });
     GUARD_DEPTH.with(|depth| depth.set(depth.get() - 1));
+    if outermost {
+        RAN_OUT_OF_MEMORY.with(|short| short.set(diamonds::memory::ran_short()));
+    }
     if outermost && diamonds::memory::exhausted() {
         drop(result);
         return Err(format!(
@@ -1008,6 +1015,15 @@ pub fn guard<T>(what: &str, body: impl FnOnce() -> Result<T, String>) -> Result<
 thread_local! {
     /// Nesting depth of [`guard`] on this thread (bridge functions may call each other).
     static GUARD_DEPTH: std::cell::Cell<u32> = const { std::cell::Cell::new(0) };
+    /// Whether memory ran short during the last outermost [`guard`] on this thread.
+    static RAN_OUT_OF_MEMORY: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Whether memory ran short during the last bridge call on this thread
+/// ([`diamonds::memory::ran_short`]): when that call failed, it may succeed once memory is free,
+/// so a filter does not remember the failure as it remembers one of its input.
+pub fn ran_out_of_memory() -> bool {
+    RAN_OUT_OF_MEMORY.with(|short| short.get())
 }
 
 /// The global allocator of the plugin's Rust code: the system's, with an emergency reserve, so

@@ -3,7 +3,7 @@
 //! running at the same time would see them.
 
 use diamonds::memory::{exhausted, reserve_held, Reserving};
-use diamonds_bridge::guard;
+use diamonds_bridge::{guard, ran_out_of_memory};
 use std::alloc::{GlobalAlloc, Layout};
 
 #[test]
@@ -32,13 +32,28 @@ fn a_failed_allocation_fails_the_call_and_the_next_call_rearms() {
         msg.starts_with("out of memory while testing memory"),
         "{msg}"
     );
-    assert!(!reserve_held());
+    assert!(!reserve_held() && ran_out_of_memory());
     // ...and the next call takes the reserve again and runs normally.
     assert_eq!(
         guard("testing memory again", || Ok(vec![1u8; 1000].len())),
         Ok(1000)
     );
-    assert!(reserve_held() && !exhausted());
+    assert!(reserve_held() && !exhausted() && !ran_out_of_memory());
+    // A buffer the core cannot even ask for (its size overflows) fails the call with the core's
+    // message, and memory is known to have run short although no allocation failed.
+    let r: Result<(), String> = guard("testing a refused buffer", || {
+        diamonds::memory::with_capacity::<u64>(usize::MAX / 4, "a test buffer")
+            .map(drop)
+            .map_err(|e| e.to_string())
+    });
+    assert!(r
+        .unwrap_err()
+        .starts_with("not enough memory for a test buffer"));
+    assert!(ran_out_of_memory() && !exhausted());
+    // Any other failure is not memory running short.
+    let r: Result<(), String> = guard("testing a failure", || Err("bad input".into()));
+    assert_eq!(r, Err("bad input".into()));
+    assert!(!ran_out_of_memory());
     // A large buffer the core reserves fallibly is refused while memory is exhausted.
     let r: Result<(), String> = guard("testing the core's buffers", || {
         assert!(unsafe { Reserving.alloc(huge) }.is_null());

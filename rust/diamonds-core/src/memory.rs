@@ -40,11 +40,13 @@ pub fn copied<T: Clone>(values: &[T], what: &str) -> Result<Vec<T>> {
 /// that ran out of memory stops at its next large buffer.
 pub fn reserve<T>(v: &mut Vec<T>, additional: usize, what: &str) -> Result<()> {
     check(what)?;
-    v.try_reserve_exact(additional)
-        .map_err(|_| Error::OutOfMemory {
+    v.try_reserve_exact(additional).map_err(|_| {
+        REFUSED.store(true, Ordering::Release);
+        Error::OutOfMemory {
             what: what.to_string(),
             bytes: (additional as u64).saturating_mul(std::mem::size_of::<T>() as u64),
-        })
+        }
+    })
 }
 
 /// Bytes of the emergency reserve: enough address space for the work running when memory ran
@@ -56,6 +58,8 @@ pub const RESERVE_BYTES: usize = 128 << 20;
 static RESERVE: AtomicPtr<u8> = AtomicPtr::new(std::ptr::null_mut());
 /// Set when an allocation failed since the last [`arm`].
 static EXHAUSTED: AtomicBool = AtomicBool::new(false);
+/// Set when [`reserve`] could not have a large buffer since the last [`arm`].
+static REFUSED: AtomicBool = AtomicBool::new(false);
 
 fn reserve_layout() -> Layout {
     Layout::from_size_align(RESERVE_BYTES, 4096).expect("a valid layout")
@@ -244,12 +248,20 @@ pub fn arm() {
         }
     }
     EXHAUSTED.store(false, Ordering::Release);
+    REFUSED.store(false, Ordering::Release);
 }
 
 /// Whether an allocation failed since the last [`arm`]: the work running must stop and report an
 /// out-of-memory error (its results may be incomplete).
 pub fn exhausted() -> bool {
     EXHAUSTED.load(Ordering::Acquire)
+}
+
+/// Whether memory ran short since the last [`arm`]: an allocation failed ([`exhausted`]) or a
+/// large buffer was refused ([`Error::OutOfMemory`] from [`reserve`]). A unit of work that failed
+/// then may succeed later, once memory is free, so its failure is not one to remember.
+pub fn ran_short() -> bool {
+    exhausted() || REFUSED.load(Ordering::Acquire)
 }
 
 /// Fails with [`Error::OutOfMemory`] for `what` when [`exhausted`]: long loops call it between
@@ -281,6 +293,7 @@ mod tests {
             }
             other => panic!("expected OutOfMemory, got {other:?}"),
         }
+        assert!(ran_short(), "a refused buffer is memory running short");
         assert_eq!(filled(3, 7u8, "x").unwrap(), vec![7, 7, 7]);
         assert_eq!(copied(&[1, 2], "x").unwrap(), vec![1, 2]);
     }

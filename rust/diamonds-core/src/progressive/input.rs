@@ -26,9 +26,11 @@ pub struct TetInput<'a> {
 /// The input after cleaning: the tetrahedra on the kept points, cut at the pinches, and the merged
 /// points.
 #[derive(Clone, Debug, Default, PartialEq)]
-pub(super) struct Cleaned {
+pub(super) struct Cleaned<'a> {
     /// The tetrahedra, on the copies of the pinch points ([`Pinches`]) where they are cut.
     pub(super) tets: Vec<[u32; 4]>,
+    /// The input's points followed by the copies of the pinch points ([`Pinches::with_copies`]).
+    pub(super) points: Cow<'a, [[f64; 3]]>,
     /// `(merged point, the point kept at its position)`.
     pub(super) merged: Vec<(u32, u32)>,
     /// Tetrahedra dropped because merging made them flat.
@@ -178,7 +180,7 @@ fn cut_pinches(n: usize, tets: &mut [[u32; 4]]) -> Result<Vec<u32>> {
     Ok(copies)
 }
 
-impl TetInput<'_> {
+impl<'a> TetInput<'a> {
     /// The corners of the mesh's boundary faces (faces of one tetrahedron), ascending.
     pub fn boundary_points(&self) -> Vec<u32> {
         let mut points: Vec<u32> = boundary_faces(self.tets).into_iter().flatten().collect();
@@ -213,7 +215,7 @@ impl TetInput<'_> {
     /// [`check_manifold_tets`]). Tetrahedra that repeat a corner in the input are flat too:
     /// ParaView's redistribution merges the coincident points of the blunt fin's pieces and leaves
     /// such tetrahedra.
-    pub(super) fn clean(&self) -> Result<Cleaned> {
+    pub(super) fn clean(&self) -> Result<Cleaned<'a>> {
         let n = self.points.len();
         if self.tets.is_empty() {
             return Err(Error::Mesh("the mesh has no tetrahedra".into()));
@@ -291,9 +293,11 @@ impl TetInput<'_> {
         let dropped = before - tets.len();
         let copies = cut_pinches(n, &mut tets)?;
         let pinches = Pinches { points: n, copies };
-        check_manifold_tets(&pinches.with_copies(self.points), &tets).map_err(Error::Mesh)?;
+        let points = pinches.with_copies(self.points);
+        check_manifold_tets(&points, &tets).map_err(Error::Mesh)?;
         Ok(Cleaned {
             tets,
+            points,
             merged,
             dropped,
             pinches,

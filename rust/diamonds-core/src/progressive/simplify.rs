@@ -380,11 +380,11 @@ impl Reduction {
         // the record names input points only.
         let Cleaned {
             mut tets,
+            points,
             merged,
             dropped,
             pinches,
         } = input.clean()?;
-        let points = pinches.with_copies(input.points);
         let scalars = pinches.with_copies(input.scalars);
         let cut = TetInput {
             points: &points,
