@@ -815,109 +815,181 @@ fn pieces_together_are_the_whole_approximation() {
 /// error of 0 whatever the interfaces' real error: 3.70 against the tolerance 1.20 in case 1.)
 #[test]
 fn random_tissue_maps_meet_both_tolerances() {
-    let seed = std::env::var("DIAMONDS_FUZZ_SEED").map_or(20261205, |s| s.parse().expect("a seed"));
-    let mut rng = fastrand::Rng::with_seed(seed);
+    let mut rng = fuzz_rng(20261205);
     for case_number in 0..24 {
-        let dims = [0; 3].map(|_| match rng.u32(0..8) {
-            0 => rng.usize(2..=3),
-            _ => rng.usize(4..=24),
-        });
-        let grid = Grid {
-            dims,
-            origin: [0; 3].map(|_| rng.f64() * 20.0 - 10.0),
-            spacing: [0; 3].map(|_| 0.4 + 2.0 * rng.f64()),
-        };
-        let materials = rng.usize(2..=4);
-        // A smooth score per material: a few random plane waves over world positions.
-        let waves: Vec<Vec<([f64; 3], f64, f64)>> = (0..materials)
-            .map(|_| {
-                (0..3)
-                    .map(|_| {
-                        let k = [0; 3].map(|_| (rng.f64() - 0.5) * 0.8);
-                        (k, rng.f64() * 6.3, 0.5 + rng.f64())
+        let (case, q) = random_tissue(&mut rng, false);
+        check_random_case(&format!("case {case_number}"), &case, &q);
+    }
+}
+
+/// As [`random_tissue_maps_meet_both_tolerances`], with a second mixed field of another scale and
+/// per-material fields (each material's own value, absent where the material is: 0 there, as
+/// per-material densities come) for a random part of the materials of each field: the field
+/// tolerance holds for every field, against each material's own values where ghost values give
+/// them.
+#[test]
+fn random_tissue_maps_with_several_and_per_material_fields_meet_both_tolerances() {
+    let mut rng = fuzz_rng(20261206);
+    for case_number in 0..16 {
+        let (case, q) = random_tissue(&mut rng, true);
+        check_random_case(&format!("case {case_number}"), &case, &q);
+    }
+}
+
+/// The random generator of the fuzzing tests: `DIAMONDS_FUZZ_SEED` picks another seed than `seed`.
+fn fuzz_rng(seed: u64) -> fastrand::Rng {
+    let seed = std::env::var("DIAMONDS_FUZZ_SEED").map_or(seed, |s| s.parse().expect("a seed"));
+    fastrand::Rng::with_seed(seed)
+}
+
+/// A random tissue-map case and query ([`random_tissue_maps_meet_both_tolerances`]); with
+/// `more_fields`, a second mixed field and per-material fields too.
+fn random_tissue(rng: &mut fastrand::Rng, more_fields: bool) -> (Case, MaterialQuery) {
+    let dims = [0; 3].map(|_| match rng.u32(0..8) {
+        0 => rng.usize(2..=3),
+        _ => rng.usize(4..=24),
+    });
+    let grid = Grid {
+        dims,
+        origin: [0; 3].map(|_| rng.f64() * 20.0 - 10.0),
+        spacing: [0; 3].map(|_| 0.4 + 2.0 * rng.f64()),
+    };
+    let materials = rng.usize(2..=4);
+    // A smooth score per material: a few random plane waves over world positions.
+    let waves: Vec<Vec<([f64; 3], f64, f64)>> = (0..materials)
+        .map(|_| {
+            (0..3)
+                .map(|_| {
+                    let k = [0; 3].map(|_| (rng.f64() - 0.5) * 0.8);
+                    (k, rng.f64() * 6.3, 0.5 + rng.f64())
+                })
+                .collect()
+        })
+        .collect();
+    let sharpness = 2.0 + 10.0 * rng.f64();
+    let noise = 0.3 * rng.f64();
+    let mut fractions = vec![Vec::with_capacity(grid.len()); materials];
+    let mut field = Vec::with_capacity(grid.len());
+    for p in 0..grid.len() {
+        let x = grid.point(grid.ijk(p));
+        let scores: Vec<f64> = waves
+            .iter()
+            .map(|w| {
+                w.iter()
+                    .map(|(k, phase, a)| {
+                        a * (k[0] * x[0] + k[1] * x[1] + k[2] * x[2] + phase).sin()
                     })
-                    .collect()
+                    .sum::<f64>()
+                    * sharpness
+                    + noise * sharpness * (rng.f64() - 0.5)
             })
             .collect();
-        let sharpness = 2.0 + 10.0 * rng.f64();
-        let noise = 0.3 * rng.f64();
-        let mut fractions = vec![Vec::with_capacity(grid.len()); materials];
-        let mut field = Vec::with_capacity(grid.len());
-        for p in 0..grid.len() {
-            let x = grid.point(grid.ijk(p));
-            let scores: Vec<f64> = waves
-                .iter()
-                .map(|w| {
-                    w.iter()
-                        .map(|(k, phase, a)| {
-                            a * (k[0] * x[0] + k[1] * x[1] + k[2] * x[2] + phase).sin()
-                        })
-                        .sum::<f64>()
-                        * sharpness
-                        + noise * sharpness * (rng.f64() - 0.5)
-                })
-                .collect();
-            let top = scores.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-            let e: Vec<f64> = scores.iter().map(|s| (s - top).exp()).collect();
-            let sum: f64 = e.iter().sum();
-            for (m, f) in fractions.iter_mut().enumerate() {
-                f.push((e[m] / sum) as f32);
-            }
-            let tissue: f64 = (0..materials).map(|m| e[m] / sum * 60.0 * m as f64).sum();
-            field.push((tissue + 20.0 * (x[0] * 0.3).sin() + 8.0 * rng.f64()) as f32);
+        let top = scores.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let e: Vec<f64> = scores.iter().map(|s| (s - top).exp()).collect();
+        let sum: f64 = e.iter().sum();
+        for (m, f) in fractions.iter_mut().enumerate() {
+            f.push((e[m] / sum) as f32);
         }
-        let case = Case {
-            grid,
-            fractions,
-            fields: vec![field],
-            material_fields: Vec::new(),
-        };
-        let (lo, hi) = case.fields[0]
-            .iter()
-            .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| {
-                (a.min(v), b.max(v))
-            });
-        let cell = grid.spacing.iter().copied().fold(f64::INFINITY, f64::min);
-        let q = MaterialQuery {
-            interface_tolerance: cell * (0.1 + 3.0 * rng.f64()),
-            field_tolerance: (hi - lo) as f64 * (0.005 + 0.145 * rng.f64()),
-            ghost_values: rng.u32(0..4) > 0,
-        };
-        let what = format!("case {case_number}: {grid:?}, {materials} materials, {q:?}");
-        let model = case.model();
-        let mesh = model
-            .refine(&q, &mut noop())
-            .unwrap_or_else(|e| panic!("{what}: {e}"));
-        assert_conforming(&mesh, grid.bounds());
-        // Plain interpolation (no ghost values) does not refine for the interfaces: their error is
-        // reported, not bounded.
-        assert!(
-            (mesh.max_interface_error <= q.interface_tolerance || !q.ghost_values)
-                && mesh.max_field_error <= q.field_tolerance,
-            "{what}: reported errors {} / {}",
-            mesh.max_interface_error,
-            mesh.max_field_error
-        );
-        assert_eq!(mesh.tolerance_warning(&q), None, "{what}");
-        let fe = measured_field_error(&mesh, &case, model.labels());
-        assert!(
-            fe <= mesh.max_field_error + 1e-4,
-            "{what}: field error {fe} at a sample, reported {}",
-            mesh.max_field_error
-        );
-        let ie = measured_interface_error(&mesh, model.interfaces());
-        assert!(
-            ie <= mesh.max_interface_error + 1e-4,
-            "{what}: interface error {ie} at an interface vertex, reported {}",
-            mesh.max_interface_error
-        );
-        check_crack_free(&mesh.interface_polygons(), grid.bounds())
-            .unwrap_or_else(|e| panic!("{what}: {e}"));
-        eprintln!(
-            "{what}: {} tets, errors {:.3} / {:.3}",
-            mesh.tets.len(),
-            mesh.max_interface_error,
-            mesh.max_field_error
-        );
+        let tissue: f64 = (0..materials).map(|m| e[m] / sum * 60.0 * m as f64).sum();
+        field.push((tissue + 20.0 * (x[0] * 0.3).sin() + 8.0 * rng.f64()) as f32);
     }
+    let mut fields = vec![field];
+    let mut material_fields = Vec::new();
+    if more_fields {
+        // A second field of 0.3 to 3 times the first's scale: pressure-like, smooth with a step.
+        let scale = 0.3 + 2.7 * rng.f64();
+        let k = [0; 3].map(|_| (rng.f64() - 0.5) * 0.6);
+        fields.push(
+            (0..grid.len())
+                .map(|p| {
+                    let x = grid.point(grid.ijk(p));
+                    let t = k[0] * x[0] + k[1] * x[1] + k[2] * x[2];
+                    (scale * (30.0 * t.sin() + if t > 0.5 { 25.0 } else { 0.0 })) as f32
+                })
+                .collect(),
+        );
+        for (f, mixed) in fields.iter().enumerate() {
+            for (m, fraction) in fractions.iter().enumerate() {
+                if rng.bool() {
+                    let offset = 40.0 * rng.f32();
+                    let values = mixed
+                        .iter()
+                        .zip(fraction)
+                        .map(|(&v, &x)| {
+                            if x < 0.01 {
+                                0.0
+                            } else {
+                                v + offset + 4.0 * rng.f32()
+                            }
+                        })
+                        .collect();
+                    material_fields.push((f, m as u8, values));
+                }
+            }
+        }
+    }
+    let (lo, hi) = fields[0]
+        .iter()
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
+        });
+    let cell = grid.spacing.iter().copied().fold(f64::INFINITY, f64::min);
+    let q = MaterialQuery {
+        interface_tolerance: cell * (0.1 + 3.0 * rng.f64()),
+        field_tolerance: (hi - lo) as f64 * (0.005 + 0.145 * rng.f64()),
+        ghost_values: rng.u32(0..4) > 0,
+    };
+    let case = Case {
+        grid,
+        fractions,
+        fields,
+        material_fields,
+    };
+    (case, q)
+}
+
+/// Refines `case` for `q` and checks what [`random_tissue_maps_meet_both_tolerances`] asks.
+fn check_random_case(case_number: &str, case: &Case, q: &MaterialQuery) {
+    let grid = case.grid;
+    let what = format!(
+        "{case_number}: {grid:?}, {} materials, {} fields, {} per-material fields, {q:?}",
+        case.fractions.len(),
+        case.fields.len(),
+        case.material_fields.len()
+    );
+    let model = case.model();
+    let mesh = model
+        .refine(q, &mut noop())
+        .unwrap_or_else(|e| panic!("{what}: {e}"));
+    assert_conforming(&mesh, grid.bounds());
+    // Plain interpolation (no ghost values) does not refine for the interfaces: their error is
+    // reported, not bounded.
+    assert!(
+        (mesh.max_interface_error <= q.interface_tolerance || !q.ghost_values)
+            && mesh.max_field_error <= q.field_tolerance,
+        "{what}: reported errors {} / {}",
+        mesh.max_interface_error,
+        mesh.max_field_error
+    );
+    assert_eq!(mesh.tolerance_warning(q), None, "{what}");
+    let fe = measured_field_error(&mesh, case, model.labels());
+    assert!(
+        fe <= mesh.max_field_error + 1e-4,
+        "{what}: field error {fe} at a sample, reported {}",
+        mesh.max_field_error
+    );
+    let ie = measured_interface_error(&mesh, model.interfaces());
+    assert!(
+        ie <= mesh.max_interface_error + 1e-4,
+        "{what}: interface error {ie} at an interface vertex, reported {}",
+        mesh.max_interface_error
+    );
+    check_crack_free(&mesh.interface_polygons(), grid.bounds())
+        .unwrap_or_else(|e| panic!("{what}: {e}"));
+    eprintln!(
+        "{what}: {} tets, errors {:.3} / {:.3}",
+        mesh.tets.len(),
+        mesh.max_interface_error,
+        mesh.max_field_error
+    );
 }
