@@ -405,7 +405,9 @@ int vtkAdaptiveTetrahedra::RequestDistributed(vtkMultiProcessController* control
     std::vector<std::int32_t> received;
     std::string error;
     bool moved = false;
-    ok = pieces.Exchange(*outgoing, received, moved, error);
+    ok = pieces.Exchange(
+      rust::Slice<const std::size_t>(outgoing->counts.data(), outgoing->counts.size()),
+      outgoing->centers.data(), received, moved, error);
     if (!ok)
     {
       vtkErrorMacro(<< "Adaptive Tetrahedra " << refinementFailed << ": " << error);

@@ -94,7 +94,7 @@ void Pair(vtkMultiProcessController* c, int me, int q, const T* out, vtkIdType n
 } // namespace
 
 //------------------------------------------------------------------------------
-bool Pieces::Swap(int q, const void* out, vtkIdType bytes,
+bool Ranks::Swap(int q, const void* out, vtkIdType bytes,
   const std::function<void*(vtkIdType)>& receive, std::string& error)
 {
   vtkIdType theirs = 0;
@@ -147,7 +147,7 @@ vtkSmartPointer<vtkIdList> IdList(vtkIdType first, vtkIdType count)
 }
 
 //------------------------------------------------------------------------------
-vtkMultiProcessController* Pieces::DistributedController()
+vtkMultiProcessController* Ranks::DistributedController()
 {
   vtkMultiProcessController* c = vtkMultiProcessController::GetGlobalController();
   return c && c->GetNumberOfProcesses() > 1 ? c : nullptr;
@@ -179,11 +179,17 @@ bridge::PointFrame Pieces::Frame() const
 }
 
 //------------------------------------------------------------------------------
-Pieces::Pieces(vtkMultiProcessController* controller, const int wholeExtent[6],
-  const int extent[6], const double origin[3], const double spacing[3])
+Ranks::Ranks(vtkMultiProcessController* controller)
   : Controller(controller)
   , Me(controller->GetLocalProcessId())
-  , Ranks(controller->GetNumberOfProcesses())
+  , Count(controller->GetNumberOfProcesses())
+{
+}
+
+//------------------------------------------------------------------------------
+Pieces::Pieces(vtkMultiProcessController* controller, const int wholeExtent[6],
+  const int extent[6], const double origin[3], const double spacing[3])
+  : Ranks(controller)
 {
   std::copy(wholeExtent, wholeExtent + 6, this->WholeExtent);
   std::copy(origin, origin + 3, this->Origin);
@@ -200,7 +206,7 @@ Pieces::Pieces(vtkMultiProcessController* controller, const int wholeExtent[6],
   {
     own[i] = extent[i] - this->WholeLo[i / 2];
   }
-  std::vector<vtkIdType> all(6 * this->Ranks);
+  std::vector<vtkIdType> all(6 * this->Count);
   this->Controller->AllGather(own, all.data(), 6);
   this->Sent += 6 * sizeof(vtkIdType);
   this->All.assign(all.begin(), all.end());
@@ -357,8 +363,8 @@ bool Pieces::GatherWhole(vtkDataSet* input, const std::vector<vtkDataArray*>& po
   // The first rank with a piece describes the arrays; the others must hold the same kinds.
   int first = -1;
   std::size_t start = 0;
-  std::vector<std::size_t> starts(this->Ranks);
-  for (int r = 0; r < this->Ranks; ++r)
+  std::vector<std::size_t> starts(this->Count);
+  for (int r = 0; r < this->Count; ++r)
   {
     starts[r] = start;
     start += static_cast<std::size_t>(lengths[r]);
@@ -373,7 +379,7 @@ bool Pieces::GatherWhole(vtkDataSet* input, const std::vector<vtkDataArray*>& po
     return ok; // no rank has a piece: nothing to put together
   }
   const std::size_t n = static_cast<std::size_t>(lengths[first]);
-  for (int r = 0; r < this->Ranks && ok; ++r)
+  for (int r = 0; r < this->Count && ok; ++r)
   {
     const std::int64_t* e = this->All.data() + 6 * r;
     if (e[1] < e[0] || e[3] < e[2] || e[5] < e[4])
@@ -412,10 +418,10 @@ bool Pieces::GatherWhole(vtkDataSet* input, const std::vector<vtkDataArray*>& po
     vtkSmartPointer<vtkDataArray> out =
       vtkSmartPointer<vtkDataArray>::Take(vtkDataArray::CreateDataArray(kind[1]));
     const vtkIdType tupleBytes = kind[2] * out->GetDataTypeSize();
-    std::vector<vtkIdType> counts(this->Ranks);
-    std::vector<vtkIdType> offsets(this->Ranks, 0);
+    std::vector<vtkIdType> counts(this->Count);
+    std::vector<vtkIdType> offsets(this->Count, 0);
     vtkIdType total = 0;
-    for (int r = 0; r < this->Ranks; ++r)
+    for (int r = 0; r < this->Count; ++r)
     {
       counts[r] = 3 * k < static_cast<std::size_t>(lengths[r])
         ? TupleCount(layout, this->All.data() + 6 * r) * tupleBytes
@@ -459,7 +465,7 @@ bool Pieces::GatherWhole(vtkDataSet* input, const std::vector<vtkDataArray*>& po
       continue;
     }
     auto* target = static_cast<unsigned char*>(out->GetVoidPointer(0));
-    for (int r = 0; r < this->Ranks; ++r)
+    for (int r = 0; r < this->Count; ++r)
     {
       const std::int64_t* e = this->All.data() + 6 * r;
       const unsigned char* source = received.data() + offsets[r];
@@ -547,7 +553,7 @@ bool Pieces::GatherWhole(vtkDataSet* input, const std::vector<vtkDataArray*>& po
 }
 
 //------------------------------------------------------------------------------
-void Pieces::AddFigures(vtkFieldData* fieldData, const char* cellsName, vtkIdType cells,
+void Ranks::AddFigures(vtkFieldData* fieldData, const char* cellsName, vtkIdType cells,
   std::chrono::steady_clock::time_point started)
 {
   const double seconds =
@@ -571,7 +577,7 @@ void Pieces::AddFigures(vtkFieldData* fieldData, const char* cellsName, vtkIdTyp
 }
 
 //------------------------------------------------------------------------------
-void Pieces::ReportCaught(vtkAlgorithm* filter, const char* name, const char* failure)
+void Ranks::ReportCaught(vtkAlgorithm* filter, const char* name, const char* failure)
 {
   try
   {
@@ -592,7 +598,7 @@ void Pieces::ReportCaught(vtkAlgorithm* filter, const char* name, const char* fa
 }
 
 //------------------------------------------------------------------------------
-bool Pieces::AllOk(bool ok)
+bool Ranks::AllOk(bool ok)
 {
   Clock clock{ this->Seconds };
   const int mine = ok ? 1 : 0;
@@ -602,7 +608,7 @@ bool Pieces::AllOk(bool ok)
   return all == 1;
 }
 
-bool Pieces::Agree(vtkAlgorithm* filter, const char* name, bool ok, const char* what)
+bool Ranks::Agree(vtkAlgorithm* filter, const char* name, bool ok, const char* what)
 {
   // 0: done, 1: failed, 2: aborted (CheckAbort sets AbortOutput; the executive sets it too when
   // an input arrived ABORTED). The maximum over the ranks decides.
@@ -634,7 +640,7 @@ bool Pieces::Agree(vtkAlgorithm* filter, const char* name, bool ok, const char* 
   return false;
 }
 
-bool Pieces::Allocated(
+bool Ranks::Allocated(
   const std::function<void()>& allocate, const std::string& what, std::string& error)
 {
   bool allocated = true;
@@ -658,7 +664,7 @@ bool Pieces::Allocated(
   return false;
 }
 
-bool Pieces::MaxInPlace(std::vector<double>& values, std::string& error)
+bool Ranks::MaxInPlace(std::vector<double>& values, std::string& error)
 {
   std::vector<double> out;
   if (!this->Allocated([&] { out.resize(values.size()); },
@@ -674,7 +680,7 @@ bool Pieces::MaxInPlace(std::vector<double>& values, std::string& error)
   return true;
 }
 
-vtkIdType Pieces::Sum(vtkIdType value)
+vtkIdType Ranks::Sum(vtkIdType value)
 {
   Clock clock{ this->Seconds };
   vtkIdType out = 0;
@@ -683,18 +689,18 @@ vtkIdType Pieces::Sum(vtkIdType value)
   return out;
 }
 
-bool Pieces::Concatenate(
+bool Ranks::Concatenate(
   const std::vector<std::int32_t>& values, std::vector<std::int32_t>& all, std::string& error)
 {
   static_assert(std::is_same_v<std::int32_t, int>, "vtkCommunicator exchanges int");
   const vtkIdType mine = static_cast<vtkIdType>(values.size());
-  std::vector<vtkIdType> lengths(this->Ranks);
+  std::vector<vtkIdType> lengths(this->Count);
   {
     Clock clock{ this->Seconds };
     this->Controller->AllGather(&mine, lengths.data(), 1);
   }
-  std::vector<vtkIdType> offsets(this->Ranks, 0);
-  for (int r = 1; r < this->Ranks; ++r)
+  std::vector<vtkIdType> offsets(this->Count, 0);
+  for (int r = 1; r < this->Count; ++r)
   {
     offsets[r] = offsets[r - 1] + lengths[r - 1];
   }
@@ -710,50 +716,43 @@ bool Pieces::Concatenate(
   return true;
 }
 
-bool Pieces::Exchange(const bridge::SplitMessages& outgoing, std::vector<std::int32_t>& received,
-  bool& moved, std::string& error)
+bool Ranks::ExchangeBytes(rust::Slice<const std::size_t> counts, std::size_t size,
+  const void* values, const std::function<void*(vtkIdType)>& receive, bool& moved,
+  std::string& error)
 {
-  const auto& counts = outgoing.counts;
-  const std::int32_t* values = outgoing.centers.data();
   Clock clock{ this->Seconds };
-  received.clear();
-  bool ok = counts.size() == static_cast<std::size_t>(this->Ranks);
+  bool ok = counts.size() == static_cast<std::size_t>(this->Count);
   if (!ok)
   {
     // Send nothing, but take part in the exchange: the other ranks wait for it.
-    error = std::to_string(counts.size()) + " lists to send for " + std::to_string(this->Ranks) +
+    error = std::to_string(counts.size()) + " lists to send for " + std::to_string(this->Count) +
       " ranks";
   }
   // Who sends to whom: row p holds a bit per rank q that p has a list for.
-  const std::size_t row = (static_cast<std::size_t>(this->Ranks) + 7) / 8;
+  const std::size_t row = (static_cast<std::size_t>(this->Count) + 7) / 8;
   std::vector<unsigned char> mine(row, 0);
-  for (int q = 0; q < this->Ranks && ok; ++q)
+  for (int q = 0; q < this->Count && ok; ++q)
   {
     if (q != this->Me && counts[q] > 0)
     {
       mine[q / 8] |= static_cast<unsigned char>(1u << (q % 8));
     }
   }
-  std::vector<unsigned char> all(row * this->Ranks);
+  std::vector<unsigned char> all(row * this->Count);
   this->Controller->AllGather(mine.data(), all.data(), static_cast<vtkIdType>(row));
   this->Sent += row;
   const auto sends = [&](int p, int q) { return (all[p * row + q / 8] >> (q % 8)) & 1u; };
   moved = std::any_of(all.begin(), all.end(), [](unsigned char b) { return b != 0; });
+  const auto* bytes = static_cast<const unsigned char*>(values);
   std::size_t offset = 0;
-  for (int q = 0; q < this->Ranks; ++q)
+  for (int q = 0; q < this->Count; ++q)
   {
-    const std::size_t n = ok ? counts[q] : 0;
+    const std::size_t n = ok ? counts[q] * size : 0;
     if (q != this->Me && (sends(this->Me, q) || sends(q, this->Me)))
     {
       std::string swapError;
-      const bool swapped = this->Swap(
-        q, values + offset, static_cast<vtkIdType>(n * sizeof(std::int32_t)),
-        [&](vtkIdType bytes) -> void* {
-          const std::size_t old = received.size();
-          received.resize(old + static_cast<std::size_t>(bytes) / sizeof(std::int32_t));
-          return received.data() + old;
-        },
-        swapError);
+      const bool swapped =
+        this->Swap(q, bytes + offset, static_cast<vtkIdType>(n), receive, swapError);
       if (!swapped && ok)
       {
         error = swapError;
@@ -765,10 +764,10 @@ bool Pieces::Exchange(const bridge::SplitMessages& outgoing, std::vector<std::in
   return ok;
 }
 
-std::vector<double> Pieces::PerRank(double value)
+std::vector<double> Ranks::PerRank(double value)
 {
   Clock clock{ this->Seconds };
-  std::vector<double> out(this->Ranks);
+  std::vector<double> out(this->Count);
   this->Controller->AllGather(&value, out.data(), 1);
   this->Sent += sizeof(double);
   return out;
@@ -783,8 +782,8 @@ bool Pieces::Fetch(rust::Slice<const std::uint64_t> ids, const std::vector<vtkDa
   const vtkIdType n = static_cast<vtkIdType>(ids.size());
   // Which rank holds each point; what to ask each rank for, and where the answers go.
   bool ok = true;
-  std::vector<std::vector<std::uint64_t>> want(this->Ranks);
-  std::vector<std::vector<vtkIdType>> slots(this->Ranks);
+  std::vector<std::vector<std::uint64_t>> want(this->Count);
+  std::vector<std::vector<vtkIdType>> slots(this->Count);
   try
   {
     for (vtkDataArray* a : arrays)
@@ -796,7 +795,7 @@ bool Pieces::Fetch(rust::Slice<const std::uint64_t> ids, const std::vector<vtkDa
     for (vtkIdType k = 0; k < n; ++k)
     {
       const std::uint32_t o = owners[k];
-      if (static_cast<int>(o) >= this->Ranks || static_cast<int>(o) == this->Me)
+      if (static_cast<int>(o) >= this->Count || static_cast<int>(o) == this->Me)
       {
         error = "point " + std::to_string(ids[k]) + " of the whole image is held by no other rank";
         ok = false;
@@ -816,8 +815,8 @@ bool Pieces::Fetch(rust::Slice<const std::uint64_t> ids, const std::vector<vtkDa
     error = "out of memory for the points to fetch: " + OutOfMemoryMessage(e);
     ok = false;
   }
-  std::vector<std::size_t> tuples(this->Ranks, 0);
-  for (int q = 0; q < this->Ranks && ok; ++q)
+  std::vector<std::size_t> tuples(this->Count, 0);
+  for (int q = 0; q < this->Count && ok; ++q)
   {
     tuples[q] = want[q].size();
   }
@@ -843,20 +842,20 @@ bool Pieces::FetchBoxes(const bridge::SampleRequests& requests,
   fetched.clear();
   // The words (seven per box) to send each rank, how many tuples it answers, and where they go:
   // rank after rank.
-  bool ok = requests.counts.size() == static_cast<std::size_t>(this->Ranks) &&
+  bool ok = requests.counts.size() == static_cast<std::size_t>(this->Count) &&
     requests.points.size() == requests.counts.size() && requests.counts[this->Me] == 0;
   if (!ok)
   {
     error = "the samples to fetch are not asked of the other ranks";
   }
-  std::vector<std::vector<std::uint64_t>> want(this->Ranks);
-  std::vector<std::size_t> tuples(this->Ranks, 0);
-  std::vector<vtkIdType> offsets(this->Ranks, 0);
+  std::vector<std::vector<std::uint64_t>> want(this->Count);
+  std::vector<std::size_t> tuples(this->Count, 0);
+  std::vector<vtkIdType> offsets(this->Count, 0);
   try
   {
     std::size_t words = 0;
     vtkIdType total = 0;
-    for (int q = 0; q < this->Ranks && ok; ++q)
+    for (int q = 0; q < this->Count && ok; ++q)
     {
       const std::size_t n = 7 * requests.counts[q];
       if (words + n > requests.boxes.size())
@@ -929,10 +928,10 @@ bool Pieces::Ask(std::vector<std::vector<std::uint64_t>>& want,
   // Requests: this rank's number of arrays, then the words it sends each rank. How many words
   // each rank sends is known even when they could not be received: the messages of the
   // responses depend on it alone, so that both ranks of a pair exchange as many.
-  std::vector<std::vector<std::uint64_t>> asked(this->Ranks);
-  std::vector<std::size_t> askedCount(this->Ranks, 0);
-  std::vector<vtkIdType> theirArrays(this->Ranks, 0);
-  for (int q = 0; q < this->Ranks; ++q)
+  std::vector<std::vector<std::uint64_t>> asked(this->Count);
+  std::vector<std::size_t> askedCount(this->Count, 0);
+  std::vector<vtkIdType> theirArrays(this->Count, 0);
+  for (int q = 0; q < this->Count; ++q)
   {
     if (q == this->Me)
     {
@@ -957,7 +956,7 @@ bool Pieces::Ask(std::vector<std::vector<std::uint64_t>>& want,
   }
 
   // Responses: one message per array of the responding rank.
-  for (int q = 0; q < this->Ranks; ++q)
+  for (int q = 0; q < this->Count; ++q)
   {
     if (q == this->Me)
     {

@@ -37,34 +37,20 @@ namespace vtkDiamonds
 vtkSmartPointer<vtkIdList> IdList(const std::vector<vtkIdType>& ids);
 vtkSmartPointer<vtkIdList> IdList(vtkIdType first, vtkIdType count);
 
-class Pieces
+// The ranks of a distributed execution and what passes between them, whatever the data: agreement
+// on failures, reductions, and lists exchanged between the ranks that have something for each
+// other. Every step is collective (all ranks call it, in the same order) and counts the bytes this
+// rank sent and the seconds it spent.
+class Ranks
 {
 public:
   // The controller of a run on more than one rank, else nullptr (a serial run).
   static vtkMultiProcessController* DistributedController();
 
-  // Collective: gathers every rank's extent. `wholeExtent`, `origin` and `spacing` describe the
-  // whole image (the same on every rank); `extent` is this rank's piece (empty: any max < min).
-  Pieces(vtkMultiProcessController* controller, const int wholeExtent[6], const int extent[6],
-    const double origin[3], const double spacing[3]);
-  // Collective: the same for a filter's input `input` (its piece, a vtkImageData or a
-  // vtkRectilinearGrid; empty when it has no points) and its pipeline information `inInfo` (whole
-  // extent, and an image's origin and spacing when given). A rectilinear grid's geometry is its
-  // coordinates (GatherWhole gathers them): Whole() then has origin 0 and spacing 1.
-  Pieces(vtkMultiProcessController* controller, vtkInformation* inInfo, vtkDataSet* input);
+  explicit Ranks(vtkMultiProcessController* controller);
 
   int Rank() const { return this->Me; }
-  int Size() const { return this->Ranks; }
-  // The whole grid (origin at its first point).
-  const bridge::GridSpec& Whole() const { return this->WholeGrid; }
-  // Length of the whole grid's diagonal: what relative tolerances are relative to.
-  double WholeDiagonal() const;
-  // Where the whole grid's points are, by vtkImageData's formula (the origin, the whole extent's
-  // minima and the spacing), as the serial filters place them.
-  bridge::PointFrame Frame() const;
-  // Every rank's extent, six values each (VTK order), relative to the whole extent's first point.
-  rust::Slice<const std::int64_t> Extents() const { return { this->All.data(), this->All.size() }; }
-  rust::Slice<const std::int64_t> OwnExtent() const { return { this->All.data() + 6 * this->Me, 6 }; }
+  int Size() const { return this->Count; }
 
   // Collective: true on every rank when `ok` is true on every rank.
   bool AllOk(bool ok);
@@ -108,19 +94,101 @@ public:
   // on as MaxInPlace.
   bool Concatenate(
     const std::vector<std::int32_t>& values, std::vector<std::int32_t>& all, std::string& error);
-  // Collective: sends each rank q its list of `outgoing` (`counts[q]` values of `centers`, the
-  // lists in rank order, this rank's own skipped) and receives into `received` what every other rank sent this one,
-  // in rank order. First every rank learns who sends to whom (an all-gather of one bit per rank
-  // pair, P²/8 bytes in all); then only the pairs with a list in either direction exchange,
+  // Collective: sends each rank q its list of `counts[q]` values of `values` (the lists in rank
+  // order, this rank's own skipped) and receives into `received` what every other rank sent this
+  // one, in rank order. First every rank learns who sends to whom (an all-gather of one bit per
+  // rank pair, P²/8 bytes in all); then only the pairs with a list in either direction exchange,
   // pairwise in one global pair order (as Fetch), so a rank receives only what is addressed to
-  // it and talks only to the ranks its diamonds reach or that reach it (before, every pair of
-  // ranks exchanged three messages per round, empty or not). `moved` tells every rank alike
-  // whether any rank sent anything. False with `error` set when a rank could not allocate what
-  // it receives (every pair still completes its exchange).
-  bool Exchange(const bridge::SplitMessages& outgoing, std::vector<std::int32_t>& received,
-    bool& moved, std::string& error);
+  // it and talks only to the ranks that have something for it or it for them (before, every pair
+  // of ranks exchanged three messages per round, empty or not). `moved` tells every rank alike
+  // whether any rank sent anything. False with `error` set when `counts` is not one per rank (this
+  // rank then sends nothing but takes part) or a rank could not allocate what it receives (every
+  // pair still completes its exchange; only the two ranks of the pair know).
+  template <class T>
+  bool Exchange(rust::Slice<const std::size_t> counts, const T* values, std::vector<T>& received,
+    bool& moved, std::string& error)
+  {
+    received.clear();
+    return this->ExchangeBytes(
+      counts, sizeof(T), values,
+      [&](vtkIdType bytes) -> void* {
+        const std::size_t old = received.size();
+        received.resize(old + static_cast<std::size_t>(bytes) / sizeof(T));
+        return received.data() + old;
+      },
+      moved, error);
+  }
   // Collective: one value per rank.
   std::vector<double> PerRank(double value);
+
+  // Collective: the per-rank figures of a distributed execution, added to `fieldData`:
+  // `cellsName` (this rank's `cells`, e.g. TetrahedraPerRank), SecondsPerRank (since `started`),
+  // BytesSentPerRank, ExchangeSecondsPerRank and PeakMemoryPerRank (bytes, the process's peak
+  // resident set), one value per rank.
+  void AddFigures(vtkFieldData* fieldData, const char* cellsName, vtkIdType cells,
+    std::chrono::steady_clock::time_point started);
+
+  // Bytes this rank sent so far (point-to-point and collective contributions), and seconds spent
+  // in the steps above (exchanging and waiting for the other ranks).
+  double BytesSent() const { return this->Sent; }
+  double ExchangeSeconds() const { return this->Seconds; }
+
+protected:
+  // Reports the exception being handled (see Run).
+  static void ReportCaught(vtkAlgorithm* filter, const char* name, const char* failure);
+
+  // Collective: runs `allocate` (which may throw std::bad_alloc) and agrees that every rank
+  // could, before a collective that uses its buffers: a rank out of memory fails here with the
+  // others, never inside the exchange. Otherwise false on every rank, with `error` saying that
+  // this rank, or another one, ran out of memory for `what`.
+  bool Allocated(const std::function<void()>& allocate, const std::string& what, std::string& error);
+
+  // Point-to-point with rank `q` in the global pair order (the lower rank sends first): sends
+  // `bytes` bytes at `out` and receives what `q` sends into the buffer `receive(size)` gives (of
+  // `size` bytes; it may throw std::bad_alloc). The sizes go first, then whether each rank has its
+  // buffer, and the payloads only when both have: a rank out of memory never leaves the other
+  // blocked in a send or a receive. Returns false, with `error` set, when either could not allocate.
+  bool Swap(int q, const void* out, vtkIdType bytes, const std::function<void*(vtkIdType)>& receive,
+    std::string& error);
+
+  // Exchange of `counts[q]` elements of `size` bytes at `values`, received where `receive(bytes)`
+  // says (appended).
+  bool ExchangeBytes(rust::Slice<const std::size_t> counts, std::size_t size, const void* values,
+    const std::function<void*(vtkIdType)>& receive, bool& moved, std::string& error);
+
+  vtkMultiProcessController* Controller;
+  int Me = 0;
+  int Count = 1;
+  double Sent = 0.0;
+  double Seconds = 0.0;
+  bool Aborted = false; // an Agree found a rank aborted
+};
+
+// The pieces of a distributed image (or rectilinear grid): every rank's extent in the whole one,
+// and the exchanges of point data between them.
+class Pieces : public Ranks
+{
+public:
+  // Collective: gathers every rank's extent. `wholeExtent`, `origin` and `spacing` describe the
+  // whole image (the same on every rank); `extent` is this rank's piece (empty: any max < min).
+  Pieces(vtkMultiProcessController* controller, const int wholeExtent[6], const int extent[6],
+    const double origin[3], const double spacing[3]);
+  // Collective: the same for a filter's input `input` (its piece, a vtkImageData or a
+  // vtkRectilinearGrid; empty when it has no points) and its pipeline information `inInfo` (whole
+  // extent, and an image's origin and spacing when given). A rectilinear grid's geometry is its
+  // coordinates (GatherWhole gathers them): Whole() then has origin 0 and spacing 1.
+  Pieces(vtkMultiProcessController* controller, vtkInformation* inInfo, vtkDataSet* input);
+
+  // The whole grid (origin at its first point).
+  const bridge::GridSpec& Whole() const { return this->WholeGrid; }
+  // Length of the whole grid's diagonal: what relative tolerances are relative to.
+  double WholeDiagonal() const;
+  // Where the whole grid's points are, by vtkImageData's formula (the origin, the whole extent's
+  // minima and the spacing), as the serial filters place them.
+  bridge::PointFrame Frame() const;
+  // Every rank's extent, six values each (VTK order), relative to the whole extent's first point.
+  rust::Slice<const std::int64_t> Extents() const { return { this->All.data(), this->All.size() }; }
+  rust::Slice<const std::int64_t> OwnExtent() const { return { this->All.data() + 6 * this->Me, 6 }; }
 
   // Collective: the tuples of `arrays` (point arrays over this rank's extent) at the
   // whole-grid point indices `ids` (none of them in this rank's extent), fetched from the first
@@ -149,36 +217,7 @@ public:
     const std::vector<vtkDataArray*>& cellArrays, vtkSmartPointer<vtkDataSet>& whole,
     std::string& error);
 
-  // Collective: the per-rank figures of a distributed execution, added to `fieldData`:
-  // `cellsName` (this rank's `cells`, e.g. TetrahedraPerRank), SecondsPerRank (since `started`),
-  // BytesSentPerRank, ExchangeSecondsPerRank and PeakMemoryPerRank (bytes, the process's peak
-  // resident set), one value per rank.
-  void AddFigures(vtkFieldData* fieldData, const char* cellsName, vtkIdType cells,
-    std::chrono::steady_clock::time_point started);
-
-  // Bytes this rank sent so far (point-to-point and collective contributions), and seconds spent
-  // in the steps above (exchanging and waiting for the other ranks).
-  double BytesSent() const { return this->Sent; }
-  double ExchangeSeconds() const { return this->Seconds; }
-
 private:
-  // Reports the exception being handled (see Run).
-  static void ReportCaught(vtkAlgorithm* filter, const char* name, const char* failure);
-
-  // Collective: runs `allocate` (which may throw std::bad_alloc) and agrees that every rank
-  // could, before a collective that uses its buffers: a rank out of memory fails here with the
-  // others, never inside the exchange. Otherwise false on every rank, with `error` saying that
-  // this rank, or another one, ran out of memory for `what`.
-  bool Allocated(const std::function<void()>& allocate, const std::string& what, std::string& error);
-
-  // Point-to-point with rank `q` in the global pair order (the lower rank sends first): sends
-  // `bytes` bytes at `out` and receives what `q` sends into the buffer `receive(size)` gives (of
-  // `size` bytes; it may throw std::bad_alloc). The sizes go first, then whether each rank has its
-  // buffer, and the payloads only when both have: a rank out of memory never leaves the other
-  // blocked in a send or a receive. Returns false, with `error` set, when either could not allocate.
-  bool Swap(int q, const void* out, vtkIdType bytes, const std::function<void*(vtkIdType)>& receive,
-    std::string& error);
-
   // Collective, Fetch's and FetchBoxes' exchange: sends each rank q the words `want[q]` (point
   // indices, or boxes), for `tuples[q]` tuples of each of `arrays`, and hands each rank's answer
   // for array m to `place(q, m, answer)`; answers what the others ask with the tuples at the
@@ -193,17 +232,11 @@ private:
   struct InputGeometry;
   Pieces(vtkMultiProcessController* controller, const InputGeometry& geometry);
 
-  vtkMultiProcessController* Controller;
-  int Me = 0;
-  int Ranks = 1;
   int WholeLo[3] = { 0, 0, 0 };
   int WholeExtent[6] = { 0, -1, 0, -1, 0, -1 };
   double Origin[3] = { 0.0, 0.0, 0.0 };
   bridge::GridSpec WholeGrid{};
   std::vector<std::int64_t> All;
-  double Sent = 0.0;
-  double Seconds = 0.0;
-  bool Aborted = false; // an Agree found a rank aborted
 };
 
 // The whole image a distributed image filter puts together on every rank with a piece (Adaptive

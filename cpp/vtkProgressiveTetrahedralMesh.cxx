@@ -69,13 +69,16 @@ struct Key
 // checks failed (`ok` false: then every rank stops, and the message is for the others) and
 // whether some rank must compute its sequence (`build`: then every rank with cells computes it
 // again, since a changed piece may change its neighbours' seams, and `flatten` fills `points` and
-// `corners` when they are empty). Then `bounds` become the whole mesh's, and `seamWith` the other
-// pieces' boundary points (the core keeps this piece's points at those positions, so the pieces
-// stay conforming). Returns why every rank stops, or nothing.
+// `corners` when they are empty). Then `bounds` become the whole mesh's, `boundary` this piece's
+// boundary points and `seamWith` the boundary points of the other pieces near it: each rank sends
+// each other rank its boundary points inside that rank's bounds (bridge::progressive_seam_messages;
+// the core keeps this piece's points at those positions, so the pieces stay conforming), so a
+// rank receives only from its neighbours, not every piece's boundary. Returns why every rank
+// stops, or nothing.
 std::string Distributed(vtkMultiProcessController* controller, bool ok, vtkIdType cells,
   bool& build, std::array<double, 6>& bounds, const std::function<void()>& flatten,
   const std::vector<double>& points, const std::vector<std::int64_t>& corners,
-  std::vector<double>& seamWith)
+  rust::Vec<std::uint32_t>& boundary, std::vector<double>& seamWith)
 {
   const int flags[2] = { ok ? 0 : 1, build ? 1 : 0 };
   int any[2] = { 0, 0 };
@@ -99,66 +102,71 @@ std::string Distributed(vtkMultiProcessController* controller, bool ok, vtkIdTyp
   {
     flatten();
   }
-  double lo[3], hi[3], whole[6];
+  // Every piece's bounds (an empty piece's minima above its maxima), and the whole mesh's.
+  vtkDiamonds::Ranks ranks(controller);
+  std::array<double, 6> mine = bounds;
+  if (cells == 0)
+  {
+    for (int a = 0; a < 3; ++a)
+    {
+      mine[2 * a] = std::numeric_limits<double>::infinity();
+      mine[2 * a + 1] = -std::numeric_limits<double>::infinity();
+    }
+  }
+  std::vector<double> boxes(6 * static_cast<std::size_t>(ranks.Size()));
+  controller->AllGather(mine.data(), boxes.data(), 6);
   for (int a = 0; a < 3; ++a)
   {
-    lo[a] = cells > 0 ? bounds[2 * a] : std::numeric_limits<double>::infinity();
-    hi[a] = cells > 0 ? bounds[2 * a + 1] : -std::numeric_limits<double>::infinity();
+    bounds[2 * a] = std::numeric_limits<double>::infinity();
+    bounds[2 * a + 1] = -std::numeric_limits<double>::infinity();
+    for (int r = 0; r < ranks.Size(); ++r)
+    {
+      bounds[2 * a] = std::min(bounds[2 * a], boxes[6 * r + 2 * a]);
+      bounds[2 * a + 1] = std::max(bounds[2 * a + 1], boxes[6 * r + 2 * a + 1]);
+    }
   }
-  controller->AllReduce(lo, whole, 3, vtkCommunicator::MIN_OP);
-  controller->AllReduce(hi, whole + 3, 3, vtkCommunicator::MAX_OP);
-  for (int a = 0; a < 3; ++a)
-  {
-    bounds[2 * a] = whole[a];
-    bounds[2 * a + 1] = whole[3 + a];
-  }
-  std::vector<double> mine;
+  std::optional<bridge::SeamMessages> messages;
   if (build)
   {
     try
     {
-      const rust::Vec<double> boundary = bridge::progressive_boundary_points(
+      messages.emplace(bridge::progressive_seam_messages(
         rust::Slice<const double>(points.data(), points.size()),
-        rust::Slice<const std::int64_t>(corners.data(), corners.size()));
-      mine.assign(boundary.begin(), boundary.end());
+        rust::Slice<const std::int64_t>(corners.data(), corners.size()),
+        rust::Slice<const double>(boxes.data(), boxes.size()),
+        static_cast<std::size_t>(ranks.Rank())));
     }
     catch (const rust::Error&)
     {
-      // Bad tetrahedra: the build reports it. This rank still takes part in the gather.
+      // Bad tetrahedra: the build reports it. This rank sends nothing but takes part.
     }
   }
-  const int ranks = controller->GetNumberOfProcesses();
-  const int me = controller->GetLocalProcessId();
-  const vtkIdType length = static_cast<vtkIdType>(mine.size());
-  std::vector<vtkIdType> lengths(ranks), offsets(ranks, 0);
-  controller->AllGather(&length, lengths.data(), 1);
-  for (int r = 1; r < ranks; ++r)
+  const std::vector<std::size_t> none(static_cast<std::size_t>(ranks.Size()), 0);
+  const rust::Slice<const std::size_t> counts = messages
+    ? rust::Slice<const std::size_t>(messages->counts.data(), messages->counts.size())
+    : rust::Slice<const std::size_t>(none.data(), none.size());
+  const double* coordinates = messages ? messages->coordinates.data() : nullptr;
+  // Three coordinates per point: the exchange counts values.
+  std::vector<std::size_t> values(counts.begin(), counts.end());
+  for (std::size_t& v : values)
   {
-    offsets[r] = offsets[r - 1] + lengths[r - 1];
+    v *= 3;
   }
-  // Every rank allocates what it receives before any sends: a rank that cannot stops them all.
-  const vtkIdType gathered = offsets.back() + lengths.back();
-  std::vector<double> all;
-  int cannot = 0;
-  try
+  std::string error;
+  bool moved = false;
+  const bool exchanged = ranks.Exchange(
+    rust::Slice<const std::size_t>(values.data(), values.size()), coordinates, seamWith, moved,
+    error);
+  if (!ranks.AllOk(exchanged))
   {
-    all.resize(static_cast<std::size_t>(gathered));
-    seamWith.reserve(static_cast<std::size_t>(gathered - length));
+    return exchanged ? "another rank ran out of memory for the boundary points of the pieces near "
+                       "it (see its error)."
+                     : "the boundary points of the pieces near this one: " + error;
   }
-  catch (const std::bad_alloc&)
+  if (messages)
   {
-    cannot = 1;
+    boundary = std::move(messages->boundary);
   }
-  int anyCannot = 0;
-  controller->AllReduce(&cannot, &anyCannot, 1, vtkCommunicator::MAX_OP);
-  if (anyCannot)
-  {
-    return "the boundary points of every piece (" + std::to_string(gathered / 3) +
-      ") did not fit in memory on " + (cannot ? "this rank." : "another rank.");
-  }
-  controller->AllGatherV(mine.data(), all.data(), length, lengths.data(), offsets.data());
-  seamWith.assign(all.begin(), all.begin() + offsets[me]);
-  seamWith.insert(seamWith.end(), all.begin() + offsets[me] + lengths[me], all.end());
   return {};
 }
 } // namespace
@@ -395,11 +403,13 @@ try
   {
     tets->GetBounds(bounds.data());
   }
+  rust::Vec<std::uint32_t> boundary;
   std::vector<double> seamWith;
   if (controller)
   {
     const std::string stopped =
-      Distributed(controller, ok, cells, build, bounds, flatten, flatPoints, flatCorners, seamWith);
+      Distributed(controller, ok, cells, build, bounds, flatten, flatPoints, flatCorners, boundary,
+        seamWith);
     if (!stopped.empty())
     {
       if (ok)
@@ -441,6 +451,7 @@ try
         rust::Slice<const double>(flatPoints.data(), flatPoints.size()),
         rust::Slice<const std::int64_t>(flatCorners.data(), flatCorners.size()),
         rust::Slice<const double>(flatScalars.data(), flatScalars.size()), spec,
+        rust::Slice<const std::uint32_t>(boundary.data(), boundary.size()),
         rust::Slice<const double>(seamWith.data(), seamWith.size())));
     }
     catch (const rust::Error& e)

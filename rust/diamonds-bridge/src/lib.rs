@@ -68,6 +68,16 @@ mod ffi {
     /// The split diamonds one piece sends in a round of a distributed refinement: one list per
     /// piece (`counts[q]` values for piece `q`: its central vertices, three coordinates each; its
     /// own list empty), the lists concatenated in piece order in `centers`.
+    /// What a piece of a distributed tetrahedral mesh sends the others
+    /// (`progressive_seam_messages`): its boundary points (indices into its points, for
+    /// `build_progressive`), and for each rank `q`, `counts[q]` of them (its own none) inside rank
+    /// `q`'s bounds, their coordinates (3 each) rank after rank in `coordinates`.
+    struct SeamMessages {
+        boundary: Vec<u32>,
+        counts: Vec<usize>,
+        coordinates: Vec<f64>,
+    }
+
     struct SplitMessages {
         counts: Vec<usize>,
         centers: Vec<i32>,
@@ -786,19 +796,27 @@ mod ffi {
         /// Prepares the simplification of the tetrahedra (`tets`: 4 point indices each, positively
         /// oriented) of `points` (3 coordinates each), the field error measured on `scalars` (one
         /// per point); no collapse is made yet (`reduce_for`), the current level is the original.
-        /// For a piece of a distributed mesh, `seam_with` holds the other pieces' boundary points
-        /// (`progressive_boundary_points`, 3 coordinates each; empty when serial): the piece's
-        /// boundary points at those positions are never removed, so the pieces stay conforming.
+        /// For a piece of a distributed mesh, `boundary` is its boundary points and `seam_with`
+        /// the boundary points the other pieces sent it (`progressive_seam_messages`; both empty
+        /// when serial): the piece's boundary points at those positions are never removed, so the
+        /// pieces stay conforming.
         fn build_progressive(
             points: &[f64],
             tets: &[i64],
             scalars: &[f64],
             spec: &ProgressiveSpec,
+            boundary: &[u32],
             seam_with: &[f64],
         ) -> Result<Box<Progressive>>;
-        /// The coordinates (3 each) of the points on the boundary of the tetrahedra `tets` (4
-        /// indices into `points` each), for `build_progressive`'s `seam_with` on the other ranks.
-        fn progressive_boundary_points(points: &[f64], tets: &[i64]) -> Result<Vec<f64>>;
+        /// What the piece `rank` of a distributed mesh (tetrahedra `tets`, 4 indices into
+        /// `points` each) sends the other pieces, whose bounds are `boxes` (6 values per rank, VTK
+        /// order; an empty piece's minima above its maxima): its boundary points inside each.
+        fn progressive_seam_messages(
+            points: &[f64],
+            tets: &[i64],
+            boxes: &[f64],
+            rank: usize,
+        ) -> Result<SeamMessages>;
         /// Continues the collapse sequence, if it has not gone that far, until its base mesh has
         /// at most `(1 - target_reduction)` of the original's tetrahedra or no collapse is left,
         /// with progress and abort (the collapses made until an abort are kept); the levels already
@@ -915,7 +933,7 @@ pub use ffi::{
 };
 
 pub mod progressive;
-pub use progressive::{build_progressive, progressive_boundary_points, Progressive};
+pub use progressive::{build_progressive, progressive_seam_messages, Progressive};
 
 pub mod interval;
 pub use interval::IntervalVolume;

@@ -35,28 +35,42 @@ pub fn build_progressive(
     tets: &[i64],
     scalars: &[f64],
     spec: &ProgressiveSpec,
+    boundary: &[u32],
     seam_with: &[f64],
 ) -> Result<Box<Progressive>, String> {
     guard("building the progressive mesh", || {
-        build_with(points, tets, scalars, spec, seam_with).map(Box::new)
+        build_with(points, tets, scalars, spec, boundary, seam_with).map(Box::new)
     })
 }
 
-/// The coordinates of the boundary points of the tetrahedra (see
-/// [`ffi::progressive_boundary_points`]).
-pub fn progressive_boundary_points(points: &[f64], tets: &[i64]) -> Result<Vec<f64>, String> {
+/// What a piece of a distributed mesh sends the other pieces (see
+/// [`ffi::progressive_seam_messages`]).
+pub fn progressive_seam_messages(
+    points: &[f64],
+    tets: &[i64],
+    boxes: &[f64],
+    rank: usize,
+) -> Result<ffi::SeamMessages, String> {
     guard("finding the boundary of the tetrahedra", || {
         let (xyz, corners) = mesh_of(points, tets)?;
+        let (boxes, []) = boxes.as_chunks::<6>() else {
+            return Err(format!(
+                "{} values of bounds: not six per rank",
+                boxes.len()
+            ));
+        };
         let input = TetInput {
             points: xyz,
             tets: &corners,
             scalars: &[],
         };
-        Ok(input
-            .boundary_points()
-            .into_iter()
-            .flat_map(|v| xyz[v as usize])
-            .collect())
+        let boundary = input.boundary_points();
+        let (counts, coordinates) = input.seam_messages(&boundary, boxes, rank);
+        Ok(ffi::SeamMessages {
+            boundary,
+            counts,
+            coordinates: coordinates.into_iter().flatten().collect(),
+        })
     })
 }
 
@@ -96,6 +110,7 @@ pub fn build_with(
     tets: &[i64],
     scalars: &[f64],
     spec: &ProgressiveSpec,
+    boundary: &[u32],
     seam_with: &[f64],
 ) -> Result<Progressive, String> {
     let (xyz, corners) = mesh_of(points, tets)?;
@@ -120,11 +135,7 @@ pub fn build_with(
         tets: &corners,
         scalars,
     };
-    let seam = if others.is_empty() {
-        Vec::new()
-    } else {
-        input.seam_points(others)
-    };
+    let seam = input.seam_points(boundary, others);
     let reduction = Reduction::keeping(input, &params, &seam).map_err(|e| e.to_string())?;
     let replay = Replay::new(reduction.mesh());
     let mut p = Progressive {
@@ -443,7 +454,7 @@ mod tests {
     #[test]
     fn levels_are_replayed_and_read_as_slices() {
         let (points, tets, scalars) = cubes();
-        let mut p = build_with(&points, &tets, &scalars, &spec(), &[]).unwrap();
+        let mut p = build_with(&points, &tets, &scalars, &spec(), &[], &[]).unwrap();
         assert_eq!(p.number_of_levels(), 0);
         // Half way first: the level asked, then the rest of the sequence below it, the current
         // level keeping its mesh (numbered higher).
@@ -517,36 +528,57 @@ mod tests {
     #[test]
     fn bad_input_is_an_error() {
         let (points, mut tets, scalars) = cubes();
-        assert!(build_with(&points[1..], &tets, &scalars, &spec(), &[]).is_err());
+        assert!(build_with(&points[1..], &tets, &scalars, &spec(), &[], &[]).is_err());
         tets[0] = 99;
-        let e = build_with(&points, &tets, &scalars, &spec(), &[])
+        let e = build_with(&points, &tets, &scalars, &spec(), &[], &[])
             .err()
             .unwrap();
         assert!(e.contains("point 99"), "{e}");
         let (points, tets, scalars) = cubes();
-        let mut p = build_with(&points, &tets, &scalars, &spec(), &[]).unwrap();
+        let mut p = build_with(&points, &tets, &scalars, &spec(), &[], &[]).unwrap();
         assert!(p.reduce_with(1.5, &mut |_| true).is_err());
         assert!(p.level_for(1.5, 0.0).is_err());
         assert!(p.level_for(0.5, f64::NAN).is_err());
     }
 
-    /// The second cube as a piece of its own: its boundary points are its 8 corners, and the first
-    /// cube's piece reduced as far as it goes with them as `seam_with` keeps the 4 it shares.
+    /// The two cubes as two pieces (x in [0, 1] and [1, 2]): each sends the other its boundary points
+    /// inside the other's bounds, the 4 corners at x = 1 (the second cube's other corners lie
+    /// outside the first's bounds), and the first cube's piece reduced as far as it goes keeps them.
     #[test]
     fn a_piece_keeps_the_points_it_shares_with_another() {
         let (points, tets, scalars) = cubes();
         let (first, second) = tets.split_at(4 * 6);
-        let boundary = progressive_boundary_points(&points, second).unwrap();
-        assert_eq!(boundary.len(), 3 * 8);
-        assert!(boundary.chunks_exact(3).all(|p| p[0] >= 1.0));
-        let mut piece = build_with(&points, first, &scalars, &spec(), &boundary).unwrap();
+        let boxes = [0.0, 1.0, 0.0, 1.0, 0.0, 1.0, 1.0, 2.0, 0.0, 1.0, 0.0, 1.0];
+        let mine = progressive_seam_messages(&points, first, &boxes, 0).unwrap();
+        let theirs = progressive_seam_messages(&points, second, &boxes, 1).unwrap();
+        assert_eq!(
+            mine.boundary.len(),
+            8,
+            "a cube's boundary points are its corners"
+        );
+        assert_eq!(
+            (mine.counts.as_slice(), theirs.counts.as_slice()),
+            (&[0, 4][..], &[4, 0][..])
+        );
+        assert!(theirs.coordinates.chunks_exact(3).all(|p| p[0] == 1.0));
+        let mut piece = build_with(
+            &points,
+            first,
+            &scalars,
+            &spec(),
+            &mine.boundary,
+            &theirs.coordinates,
+        )
+        .unwrap();
         piece.reduce_with(1.0, &mut |_| true).unwrap();
         let level = piece.level_for(1.0, 0.0).unwrap();
         piece.set_level(level).unwrap();
         let (xyz, _, _) = self::level(&piece);
         let shared = xyz.chunks_exact(3).filter(|p| p[0] == 1.0).count();
         assert_eq!(shared, 4, "the points at x = 1 stay");
-        assert!(build_with(&points, first, &scalars, &spec(), &boundary[1..]).is_err());
-        assert!(progressive_boundary_points(&points, &second[1..]).is_err());
+        let bad = &theirs.coordinates[1..];
+        assert!(build_with(&points, first, &scalars, &spec(), &mine.boundary, bad).is_err());
+        assert!(progressive_seam_messages(&points, &second[1..], &boxes, 1).is_err());
+        assert!(progressive_seam_messages(&points, second, &boxes[1..], 1).is_err());
     }
 }

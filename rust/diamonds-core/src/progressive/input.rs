@@ -189,17 +189,49 @@ impl<'a> TetInput<'a> {
         points
     }
 
-    /// The boundary points at the position of one of `others` (equal coordinates, bit for bit
-    /// up to the sign of 0). For a piece of a distributed mesh with `others` the boundary points
-    /// of the other pieces, these are where the piece meets another: every point two pieces share
-    /// is on both pieces' boundaries. A reduction that keeps them ([`super::Reduction::keeping`])
-    /// changes no face between pieces, so the pieces' meshes stay conforming together.
-    pub fn seam_points(&self, others: &[[f64; 3]]) -> Vec<u32> {
+    /// For a piece of a distributed mesh, what it sends each other piece so that their shared
+    /// points are found ([`Self::seam_points`]): its `boundary` points ([`Self::boundary_points`])
+    /// inside the bounds of piece `q` (`boxes[q]`: min and max per axis, VTK order; an empty piece's
+    /// minima above its maxima), for every `q` but `me`. Returns how many go to each piece and
+    /// their coordinates, piece after piece. A point two pieces share lies in both pieces' bounds,
+    /// so nothing a piece needs is left out, and a piece receives only its neighbours' points near
+    /// it, not every piece's whole boundary.
+    pub fn seam_messages(
+        &self,
+        boundary: &[u32],
+        boxes: &[[f64; 6]],
+        me: usize,
+    ) -> (Vec<usize>, Vec<[f64; 3]>) {
+        let inside =
+            |b: &[f64; 6], p: &[f64; 3]| (0..3).all(|a| b[2 * a] <= p[a] && p[a] <= b[2 * a + 1]);
+        let mut counts = vec![0; boxes.len()];
+        let mut coordinates = Vec::new();
+        for (q, b) in boxes.iter().enumerate().filter(|&(q, _)| q != me) {
+            let before = coordinates.len();
+            coordinates.extend(
+                boundary
+                    .iter()
+                    .filter_map(|&v| self.points.get(v as usize))
+                    .filter(|p| inside(b, p)),
+            );
+            counts[q] = coordinates.len() - before;
+        }
+        (counts, coordinates)
+    }
+
+    /// The points of `boundary` ([`Self::boundary_points`]) at the position of one of `others`
+    /// (equal coordinates, bit for bit up to the sign of 0). For a piece of a distributed mesh
+    /// with `others` the boundary points the other pieces sent it ([`Self::seam_messages`]), these
+    /// are where the piece meets another: every point two pieces share is on both pieces'
+    /// boundaries. A reduction that keeps them ([`super::Reduction::keeping`]) changes no face
+    /// between pieces, so the pieces' meshes stay conforming together.
+    pub fn seam_points(&self, boundary: &[u32], others: &[[f64; 3]]) -> Vec<u32> {
         // `+ 0.0` makes -0 into +0.
         let key = |p: &[f64; 3]| p.map(|c| (c + 0.0).to_bits());
         let others: FxHashSet<[u64; 3]> = others.iter().map(key).collect();
-        self.boundary_points()
-            .into_iter()
+        boundary
+            .iter()
+            .copied()
             .filter(|&v| {
                 self.points
                     .get(v as usize)

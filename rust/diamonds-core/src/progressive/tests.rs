@@ -628,21 +628,51 @@ fn pieces_reduced_apart_keeping_their_seam_points_stay_conforming() {
             scalars: &g.scalars,
         }
     }
-    let boundary = |tets: &[[u32; 4]]| -> Vec<[f64; 3]> {
-        piece(&g, tets)
-            .boundary_points()
-            .iter()
-            .map(|&v| g.points[v as usize])
-            .collect()
-    };
+    // What each piece sends the other: its boundary points inside the other's bounds (on this
+    // grid, the points at x = 0.5 and, from the right piece, nothing beyond).
+    let pieces = [piece(&g, &left), piece(&g, &right)];
+    let boundaries = pieces.map(|p| p.boundary_points());
+    let boxes: Vec<[f64; 6]> = pieces
+        .iter()
+        .map(|p| {
+            let mut b = [f64::INFINITY, f64::NEG_INFINITY].repeat(3);
+            for t in p.tets {
+                for &v in t {
+                    for a in 0..3 {
+                        b[2 * a] = b[2 * a].min(g.points[v as usize][a]);
+                        b[2 * a + 1] = b[2 * a + 1].max(g.points[v as usize][a]);
+                    }
+                }
+            }
+            b.try_into().unwrap()
+        })
+        .collect();
+    let sent = [0, 1].map(|k| pieces[k].seam_messages(&boundaries[k], &boxes, k));
+    for (k, (counts, coordinates)) in sent.iter().enumerate() {
+        assert_eq!(counts[k], 0, "a piece sends itself nothing");
+        assert_eq!(counts.iter().sum::<usize>(), coordinates.len());
+        assert!(
+            coordinates.len() < boundaries[k].len(),
+            "only the boundary points near the other piece are sent"
+        );
+    }
     let seams = [
-        piece(&g, &left).seam_points(&boundary(&right)),
-        piece(&g, &right).seam_points(&boundary(&left)),
+        pieces[0].seam_points(&boundaries[0], &sent[1].1),
+        pieces[1].seam_points(&boundaries[1], &sent[0].1),
     ];
     assert!(
         !seams[0].is_empty() && seams[0] == seams[1],
         "the pieces share their seam"
     );
+    // Everything both pieces' whole boundaries have in common is found from the messages.
+    let all = |k: usize| -> Vec<[f64; 3]> {
+        boundaries[k]
+            .iter()
+            .map(|&v| g.points[v as usize])
+            .collect()
+    };
+    assert_eq!(seams[0], pieces[0].seam_points(&boundaries[0], &all(1)));
+    assert_eq!(seams[1], pieces[1].seam_points(&boundaries[1], &all(0)));
     let reduce = |tets: &[[u32; 4]], kept: &[u32]| {
         let mut r = Reduction::keeping(piece(&g, tets), &params(0), kept).unwrap();
         r.reduce_to(tets.len() / 5, &mut |_| true).unwrap();
