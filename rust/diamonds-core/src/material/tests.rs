@@ -815,11 +815,7 @@ fn pieces_together_are_the_whole_approximation() {
 /// error of 0 whatever the interfaces' real error: 3.70 against the tolerance 1.20 in case 1.)
 #[test]
 fn random_tissue_maps_meet_both_tolerances() {
-    let mut rng = fuzz_rng(20261205);
-    for case_number in 0..24 {
-        let (case, q) = random_tissue(&mut rng, false);
-        check_random_case(&format!("case {case_number}"), &case, &q);
-    }
+    fuzz_tissue_maps(20261205, 24, false);
 }
 
 /// As [`random_tissue_maps_meet_both_tolerances`], with a second mixed field of another scale and
@@ -829,17 +825,18 @@ fn random_tissue_maps_meet_both_tolerances() {
 /// them.
 #[test]
 fn random_tissue_maps_with_several_and_per_material_fields_meet_both_tolerances() {
-    let mut rng = fuzz_rng(20261206);
-    for case_number in 0..16 {
-        let (case, q) = random_tissue(&mut rng, true);
-        check_random_case(&format!("case {case_number}"), &case, &q);
-    }
+    fuzz_tissue_maps(20261206, 16, true);
 }
 
-/// The random generator of the fuzzing tests: `DIAMONDS_FUZZ_SEED` picks another seed than `seed`.
-fn fuzz_rng(seed: u64) -> fastrand::Rng {
+/// Checks `cases` random tissue maps ([`random_tissue`], with `more_fields`) drawn from `seed`, or
+/// from the seed `DIAMONDS_FUZZ_SEED` gives.
+fn fuzz_tissue_maps(seed: u64, cases: usize, more_fields: bool) {
     let seed = std::env::var("DIAMONDS_FUZZ_SEED").map_or(seed, |s| s.parse().expect("a seed"));
-    fastrand::Rng::with_seed(seed)
+    let mut rng = fastrand::Rng::with_seed(seed);
+    for case_number in 0..cases {
+        let (case, q) = random_tissue(&mut rng, more_fields);
+        check_random_case(&format!("case {case_number}"), &case, &q);
+    }
 }
 
 /// A random tissue-map case and query ([`random_tissue_maps_meet_both_tolerances`]); with
