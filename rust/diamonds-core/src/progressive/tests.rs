@@ -632,7 +632,7 @@ fn pieces_reduced_apart_keeping_their_seam_points_stay_conforming() {
     // grid, the points at x = 0.5 and, from the right piece, nothing beyond).
     let pieces = [piece(&g, &left), piece(&g, &right)];
     let boundaries = pieces.map(|p| p.boundary_points());
-    let boxes: Vec<[f64; 6]> = pieces
+    let mut boxes: Vec<[f64; 6]> = pieces
         .iter()
         .map(|p| {
             let mut b = [f64::INFINITY, f64::NEG_INFINITY].repeat(3);
@@ -647,9 +647,19 @@ fn pieces_reduced_apart_keeping_their_seam_points_stay_conforming() {
             b.try_into().unwrap()
         })
         .collect();
+    // Two more ranks: one whose piece is far away, one with an empty piece.
+    boxes.push([5.0, 6.0, 0.0, 1.0, 0.0, 1.0]);
+    boxes.push(
+        [f64::INFINITY, f64::NEG_INFINITY]
+            .repeat(3)
+            .try_into()
+            .unwrap(),
+    );
     let sent = [0, 1].map(|k| pieces[k].seam_messages(&boundaries[k], &boxes, k));
     for (k, (counts, coordinates)) in sent.iter().enumerate() {
+        assert_eq!(counts.len(), 4, "a count per rank");
         assert_eq!(counts[k], 0, "a piece sends itself nothing");
+        assert_eq!(counts[2..], [0, 0], "nor the far and the empty pieces");
         assert_eq!(counts.iter().sum::<usize>(), coordinates.len());
         assert!(
             coordinates.len() < boundaries[k].len(),
