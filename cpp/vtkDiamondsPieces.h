@@ -1,9 +1,11 @@
 // Internal to the Diamonds VTK module (not installed, not wrapped): the ranks of a distributed
 // pipeline (ParaView's MPI engine, pvbatch or pvserver) and what the filters move between them.
 //
-// The core decides what is needed (diamonds::hierarchy::piece); this class only moves it, over the
-// global vtkMultiProcessController: the extents of all pieces, agreement on success, point tuples
-// fetched from the ranks that hold them (asked for by point ids or by boxes), element-wise maxima and concatenations. Point-to-point
+// The core decides what is needed (diamonds::hierarchy::piece, diamonds::progressive's seams); these
+// classes only move it, over the global vtkMultiProcessController. Ranks: agreement on success,
+// element-wise maxima and concatenations, lists exchanged between the ranks that have something
+// for each other. Pieces (an image's): the extents of all pieces, point tuples fetched from the
+// ranks that hold them (asked for by point ids or by boxes). Point-to-point
 // messages go pair by pair in one global order (every rank handles its pairs (a, b), a < b, sorted),
 // so that blocking sends never deadlock.
 #ifndef vtkDiamondsPieces_h
