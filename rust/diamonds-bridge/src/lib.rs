@@ -65,9 +65,6 @@ mod ffi {
         F64,
     }
 
-    /// The split diamonds one piece sends in a round of a distributed refinement: one list per
-    /// piece (`counts[q]` values for piece `q`: its central vertices, three coordinates each; its
-    /// own list empty), the lists concatenated in piece order in `centers`.
     /// What a piece of a distributed tetrahedral mesh sends the others
     /// (`progressive_seam_messages`): its boundary points (indices into its points, for
     /// `build_progressive`), and for each rank `q`, `counts[q]` of them (its own none) inside rank
@@ -78,6 +75,9 @@ mod ffi {
         coordinates: Vec<f64>,
     }
 
+    /// The split diamonds one piece sends in a round of a distributed refinement: one list per
+    /// piece (`counts[q]` values for piece `q`: its central vertices, three coordinates each; its
+    /// own list empty), the lists concatenated in piece order in `centers`.
     struct SplitMessages {
         counts: Vec<usize>,
         centers: Vec<i32>,
