@@ -146,17 +146,9 @@ std::string Distributed(vtkMultiProcessController* controller, bool ok, vtkIdTyp
     ? rust::Slice<const std::size_t>(messages->counts.data(), messages->counts.size())
     : rust::Slice<const std::size_t>(none.data(), none.size());
   const double* coordinates = messages ? messages->coordinates.data() : nullptr;
-  // Three coordinates per point: the exchange counts values.
-  std::vector<std::size_t> values(counts.begin(), counts.end());
-  for (std::size_t& v : values)
-  {
-    v *= 3;
-  }
   std::string error;
   bool moved = false;
-  const bool exchanged = ranks.Exchange(
-    rust::Slice<const std::size_t>(values.data(), values.size()), coordinates, seamWith, moved,
-    error);
+  const bool exchanged = ranks.Exchange(counts, coordinates, seamWith, moved, error);
   if (!ranks.AllOk(exchanged))
   {
     return exchanged ? "another rank ran out of memory for the boundary points of the pieces near "

@@ -67,8 +67,9 @@ mod ffi {
 
     /// What a piece of a distributed tetrahedral mesh sends the others
     /// (`progressive_seam_messages`): its boundary points (indices into its points, for
-    /// `build_progressive`), and for each rank `q`, `counts[q]` of them (its own none) inside rank
-    /// `q`'s bounds, their coordinates (3 each) rank after rank in `coordinates`.
+    /// `build_progressive`), and for each rank `q` those inside rank `q`'s bounds (its own none):
+    /// `counts[q]` values of `coordinates` (3 per point), the lists in rank order, as
+    /// `SplitMessages`.
     struct SeamMessages {
         boundary: Vec<u32>,
         counts: Vec<usize>,

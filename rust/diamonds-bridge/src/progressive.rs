@@ -68,7 +68,7 @@ pub fn progressive_seam_messages(
         let (counts, coordinates) = input.seam_messages(&boundary, boxes, rank);
         Ok(ffi::SeamMessages {
             boundary,
-            counts,
+            counts: counts.into_iter().map(|points| 3 * points).collect(),
             coordinates: coordinates.into_iter().flatten().collect(),
         })
     })
@@ -556,9 +556,10 @@ mod tests {
             8,
             "a cube's boundary points are its corners"
         );
+        // 4 points each way, 3 coordinates each.
         assert_eq!(
             (mine.counts.as_slice(), theirs.counts.as_slice()),
-            (&[0, 4][..], &[4, 0][..])
+            (&[0, 12][..], &[12, 0][..])
         );
         assert!(theirs.coordinates.chunks_exact(3).all(|p| p[0] == 1.0));
         let mut piece = build_with(
