@@ -56,18 +56,24 @@ without_progressive_errors() {
   return "$rc"
 }
 
+# Each step's output is kept so that the summary at the end can repeat a failed step's failed
+# checks and last lines (CI shows only the tail of the run).
+STEP_LOGS="$(mktemp -d)"
+trap 'rm -rf "$STEP_LOGS"' EXIT
 step() {
   local name="$1"
   shift
   echo
   echo "=== $name"
   local start=$SECONDS
-  if "$@"; then
+  local log="$STEP_LOGS/$((passed + failed)).log"
+  "$@" 2>&1 | tee "$log"
+  if [ "${PIPESTATUS[0]}" -eq 0 ]; then
     passed=$((passed + 1))
     echo "--- $name: passed ($((SECONDS - start)) s)"
   else
     failed=$((failed + 1))
-    failed_steps+=("$name")
+    failed_steps+=("$name"$'\n'"$(grep -E -A8 "^(FAIL |error|Traceback)" "$log" | grep -v "Broken pipe" | head -40 | cut -c1-300 | sed 's/^/    /')"$'\n'"    last lines:"$'\n'"$(grep -v "Broken pipe" "$log" | tail -12 | cut -c1-300 | sed 's/^/    /')")
     echo "--- $name: FAILED ($((SECONDS - start)) s)"
   fi
 }
