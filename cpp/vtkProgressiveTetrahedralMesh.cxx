@@ -87,7 +87,7 @@ std::string Distributed(vtkMultiProcessController* controller, bool ok, vtkIdTyp
   controller->AllReduce(&cells, &total, 1, vtkCommunicator::SUM_OP);
   if (any[0])
   {
-    return "stopped because the piece of another rank failed its checks (that rank reported why).";
+    return "stopped because the piece of another rank failed (that rank reported why).";
   }
   if (total == 0)
   {
@@ -97,10 +97,21 @@ std::string Distributed(vtkMultiProcessController* controller, bool ok, vtkIdTyp
   {
     return {};
   }
+  // A failure of this rank from here on (out of memory for its copies or its messages) is agreed
+  // on after the exchange, in which it still takes part (sending nothing).
+  std::string failed;
   build = cells > 0;
   if (build && points.empty())
   {
-    flatten();
+    try
+    {
+      flatten();
+    }
+    catch (const std::bad_alloc& e)
+    {
+      failed = "out of memory for this piece's points and tetrahedra: " +
+        vtkDiamonds::OutOfMemoryMessage(e) + ".";
+    }
   }
   // Every piece's bounds (an empty piece's minima above its maxima), and the whole mesh's.
   vtkDiamonds::Ranks ranks(controller);
@@ -126,7 +137,7 @@ std::string Distributed(vtkMultiProcessController* controller, bool ok, vtkIdTyp
     }
   }
   std::optional<bridge::SeamMessages> messages;
-  if (build)
+  if (build && failed.empty())
   {
     try
     {
@@ -136,9 +147,14 @@ std::string Distributed(vtkMultiProcessController* controller, bool ok, vtkIdTyp
         rust::Slice<const double>(boxes.data(), boxes.size()),
         static_cast<std::size_t>(ranks.Rank())));
     }
-    catch (const rust::Error&)
+    catch (const rust::Error& e)
     {
-      // Bad tetrahedra: the build reports it. This rank sends nothing but takes part.
+      // Out of memory stops every rank: the neighbours would not keep this piece's seam points.
+      // Bad tetrahedra: the build reports it; this rank sends nothing but takes part.
+      if (bridge::ran_out_of_memory())
+      {
+        failed = std::string("the boundary points this piece sends its neighbours: ") + e.what();
+      }
     }
   }
   const std::vector<std::size_t> none(static_cast<std::size_t>(ranks.Size()), 0);
@@ -149,10 +165,13 @@ std::string Distributed(vtkMultiProcessController* controller, bool ok, vtkIdTyp
   std::string error;
   bool moved = false;
   const bool exchanged = ranks.Exchange(counts, coordinates, seamWith, moved, error);
-  if (!ranks.AllOk(exchanged))
+  if (!ranks.AllOk(exchanged && failed.empty()))
   {
-    return exchanged ? "another rank ran out of memory for the boundary points of the pieces near "
-                       "it (see its error)."
+    if (!failed.empty())
+    {
+      return failed;
+    }
+    return exchanged ? "another rank ran out of memory (see its error)."
                      : "the boundary points of the pieces near this one: " + error;
   }
   if (messages)
@@ -341,7 +360,7 @@ try
     }
     return true;
   };
-  const bool ok = cells == 0 || check();
+  bool ok = cells == 0 || check();
   Key key;
   if (ok && cells > 0)
   {
@@ -388,7 +407,21 @@ try
   };
   if (build)
   {
-    flatten();
+    try
+    {
+      flatten();
+    }
+    catch (const std::bad_alloc& e)
+    {
+      if (!controller)
+      {
+        throw;
+      }
+      // Under MPI this rank still takes part in the collective steps (every rank stops there).
+      vtkDiamonds::ReportOutOfMemory(this, "Progressive Tetrahedral Mesh", e);
+      ok = false;
+      build = false;
+    }
   }
   std::array<double, 6> bounds{};
   if (cells > 0 && ok)

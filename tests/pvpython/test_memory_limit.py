@@ -62,6 +62,7 @@ def make(simple, name, extent, impact):
         tets = simple.AdaptiveTetrahedra(Input=source, Tolerance=0.0)
         tets.UpdatePipeline()
         filt = simple.ProgressiveTetrahedralMesh(Input=tets, TargetReduction=0.9)
+        filt.Scalars = ["POINTS", "RTData"]  # pvbatch --symmetric sets no default
     else:
         raise ValueError(name)
     return source, filt
