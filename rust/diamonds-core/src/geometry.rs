@@ -1,9 +1,72 @@
 //! Exact point–triangle geometry shared by the material distances and the isosurface bound: the
 //! closest point on a triangle by Voronoi regions (Ericson, *Real-Time Collision Detection*, §5.1.5),
-//! and triangles as [`rstar`] R-tree objects whose distance is that exact one.
+//! and triangles as [`rstar`] R-tree objects whose distance is that exact one; points merged when
+//! they coincide up to rounding ([`NearPoints`]).
 
 use glam::DVec3;
 use rstar::{PointDistance, RTree, RTreeObject, AABB};
+use rustc_hash::FxHashMap;
+use std::hash::Hash;
+
+/// Points closer than this fraction of their set's bounding diagonal are one point: the same
+/// position reached by different computations (a polygon vertex through an edge and through a face
+/// of the tetrahedron) differs by a few ulps.
+pub const COINCIDENT: f64 = 1e-12;
+
+/// Merges points that coincide up to `q` (in every coordinate) and share a tag: a hash grid of
+/// cell size `q`, each point looked for in the 27 cells around its own.
+pub struct NearPoints<T> {
+    q: f64,
+    /// Per cell and tag: the points in it, with their ids.
+    cells: FxHashMap<Cell<T>, Vec<(DVec3, u32)>>,
+}
+
+type Cell<T> = ([i64; 3], T);
+
+impl<T: Copy + Eq + Hash> NearPoints<T> {
+    /// For points within `bounds` (`[xmin, xmax, ymin, …]`): `q` is [`COINCIDENT`] of its diagonal.
+    pub fn within(bounds: &[f64; 6]) -> Self {
+        let q = COINCIDENT * crate::volume::bounds_diagonal(bounds);
+        Self {
+            q: if q.is_finite() && q > 0.0 { q } else { 1.0 },
+            cells: FxHashMap::default(),
+        }
+    }
+
+    /// The id of a point with `tag` within `q` of `p` merged before, or else `id` (remembered).
+    pub fn merge(&mut self, p: DVec3, tag: T, id: u32) -> u32 {
+        let cell = (p / self.q).floor().as_i64vec3().to_array();
+        for dz in -1..=1 {
+            for dy in -1..=1 {
+                for dx in -1..=1 {
+                    let near = [cell[0] + dx, cell[1] + dy, cell[2] + dz];
+                    if let Some(points) = self.cells.get(&(near, tag)) {
+                        if let Some(&(_, found)) = points
+                            .iter()
+                            .find(|(x, _)| (*x - p).abs().max_element() <= self.q)
+                        {
+                            return found;
+                        }
+                    }
+                }
+            }
+        }
+        self.cells.entry((cell, tag)).or_default().push((p, id));
+        id
+    }
+}
+
+/// The bounding box `[xmin, xmax, ymin, …]` of `points` (minima above maxima when there are none).
+pub fn bounds_of<'a>(points: impl IntoIterator<Item = &'a [f64; 3]>) -> [f64; 6] {
+    let mut b = [f64::INFINITY, f64::NEG_INFINITY].repeat(3);
+    for p in points {
+        for a in 0..3 {
+            b[2 * a] = b[2 * a].min(p[a]);
+            b[2 * a + 1] = b[2 * a + 1].max(p[a]);
+        }
+    }
+    b.try_into().expect("six bounds")
+}
 
 /// Which part of a triangle holds a closest point.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

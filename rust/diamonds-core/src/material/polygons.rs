@@ -11,6 +11,7 @@
 
 use super::model::WorldTet;
 use super::{MaterialMesh, PolygonMesh};
+use crate::geometry::{bounds_of, NearPoints};
 use crate::{Error, Result};
 use arrayvec::ArrayVec;
 use glam::DVec3;
@@ -250,16 +251,29 @@ impl Functions<'_> {
 
 /// Accumulates deduplicated polygons: one point per identity ([`Key`]) and per position and owner
 /// (identities that meet at one position, as equalities holding at a mesh vertex reached through
-/// different carriers, share the point), no repeated consecutive corners.
-#[derive(Default)]
+/// different carriers, share the point; positions computed through different carriers differ by a
+/// few ulps, so "one position" is [`NearPoints`]'), no repeated consecutive corners. (Until session
+/// 32 positions were compared bit for bit: a junction on the box's edge gave two points 1 ulp apart
+/// and a polygon edge of that length.)
 struct Builder {
     out: PolygonMesh,
     ids: FxHashMap<Key, u32>,
-    at: FxHashMap<([u64; 3], u8), u32>,
+    at: NearPoints<u8>,
     corners: Vec<u32>,
 }
 
 impl Builder {
+    fn new(mesh: &MaterialMesh) -> Self {
+        let mut out = PolygonMesh::default();
+        out.offsets.push(0);
+        Self {
+            out,
+            ids: FxHashMap::default(),
+            at: NearPoints::within(&bounds_of(&mesh.points)),
+            corners: Vec::new(),
+        }
+    }
+
     fn push(&mut self, f: &Functions<'_>, poly: &[PolyPoint], label: [u8; 2], owner: u8) {
         let mesh = f.mesh;
         self.corners.clear();
@@ -269,9 +283,7 @@ impl Builder {
                 None => {
                     let x = f.position(p);
                     let next = self.out.points.len() as u32;
-                    // + 0 makes −0 and +0 one position.
-                    let position = (x + DVec3::ZERO).to_array().map(f64::to_bits);
-                    let id = *self.at.entry((position, owner)).or_insert(next);
+                    let id = self.at.merge(x, owner, next);
                     if id == next {
                         self.out.points.push(x.to_array());
                         for (field, column) in self.out.values.iter_mut().enumerate() {
@@ -324,8 +336,7 @@ impl MaterialMesh {
             mesh: self,
             plane: None,
         };
-        let mut b = Builder::default();
-        b.out.offsets.push(0);
+        let mut b = Builder::new(self);
         for t in &self.tets {
             let w = t.map(|p| self.winner(p));
             if w.iter().all(|&x| x == w[0]) {
@@ -372,8 +383,7 @@ impl MaterialMesh {
             mesh: self,
             plane: Some((o, n)),
         };
-        let mut b = Builder::default();
-        b.out.offsets.push(0);
+        let mut b = Builder::new(self);
         b.out.values = vec![Vec::new(); self.fields];
         let plane = |p: u32| f.plane(p);
         for t in &self.tets {

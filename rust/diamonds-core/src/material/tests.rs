@@ -314,6 +314,20 @@ fn field_tolerance_zero_reproduces_every_sample_without_refining_for_rounding() 
     }
 }
 
+/// Junctions on the box's edges on thin grids (found by `scripts/fuzz_mpi_layouts.py mpi_material`):
+/// a polygon vertex reached through an edge and through a face of a tetrahedron is one point, not
+/// two points a few ulps apart joined by a polygon edge of that length.
+#[test]
+fn interface_points_reached_through_different_carriers_are_one_point() {
+    for (dims, (ti, tf)) in [([2, 2, 36], (0.0, 10.0)), ([4, 11, 4], (0.05, 0.5))] {
+        let case = Case::impact(dims);
+        let mesh = case.model().refine(&query(ti, tf), &mut noop()).unwrap();
+        let poly = mesh.interface_polygons();
+        assert!(!poly.labels.is_empty(), "{dims:?}: interfaces");
+        check_crack_free(&poly, case.grid.bounds()).unwrap_or_else(|e| panic!("{dims:?}: {e}"));
+    }
+}
+
 /// Tissue maps on grids that are not `2^k + 1` points (anisotropic spacing, and resampled with
 /// spacing 1): every sample is a lattice vertex, so both tolerances are reached at every sample and
 /// every interface-mesh vertex; the interface polygons are crack-free with one point per position.

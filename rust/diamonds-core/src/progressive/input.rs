@@ -206,13 +206,9 @@ impl<'a> TetInput<'a> {
             |b: &[f64; 6], p: &[f64; 3]| (0..3).all(|a| b[2 * a] <= p[a] && p[a] <= b[2 * a + 1]);
         // The boundary's own bounds: the pieces whose bounds miss them (most, on many ranks) are
         // skipped without a look at each point.
-        let mut own = [f64::INFINITY, f64::NEG_INFINITY].repeat(3);
-        for p in boundary.iter().filter_map(|&v| self.points.get(v as usize)) {
-            for a in 0..3 {
-                own[2 * a] = own[2 * a].min(p[a]);
-                own[2 * a + 1] = own[2 * a + 1].max(p[a]);
-            }
-        }
+        let own = crate::geometry::bounds_of(
+            boundary.iter().filter_map(|&v| self.points.get(v as usize)),
+        );
         let meets =
             |b: &[f64; 6]| (0..3).all(|a| b[2 * a] <= own[2 * a + 1] && own[2 * a] <= b[2 * a + 1]);
         let mut counts = vec![0; boxes.len()];

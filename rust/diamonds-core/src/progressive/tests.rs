@@ -635,16 +635,7 @@ fn pieces_reduced_apart_keeping_their_seam_points_stay_conforming() {
     let mut boxes: Vec<[f64; 6]> = pieces
         .iter()
         .map(|p| {
-            let mut b = [f64::INFINITY, f64::NEG_INFINITY].repeat(3);
-            for t in p.tets {
-                for &v in t {
-                    for a in 0..3 {
-                        b[2 * a] = b[2 * a].min(g.points[v as usize][a]);
-                        b[2 * a + 1] = b[2 * a + 1].max(g.points[v as usize][a]);
-                    }
-                }
-            }
-            b.try_into().unwrap()
+            crate::geometry::bounds_of(p.tets.iter().flatten().map(|&v| &g.points[v as usize]))
         })
         .collect();
     // Two more ranks: one whose piece is far away, one with an empty piece.

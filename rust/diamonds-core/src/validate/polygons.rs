@@ -1,7 +1,9 @@
 //! Polygons (material interfaces and cuts): crack-free interfaces ([`check_crack_free`]) and the array
 //! consistency of a [`PolygonMesh`] ([`check_polygon_arrays`]).
 
+use crate::geometry::NearPoints;
 use crate::material::PolygonMesh;
+use glam::DVec3;
 use rayon::prelude::*;
 
 /// Checks that the offsets run from 0 to the connectivity's length, non-decreasing with at least 3
@@ -85,25 +87,23 @@ pub fn check_polygon_arrays(
     Ok(())
 }
 
-/// Checks that the (interface) polygons have no crack: one point per position (no two points with
-/// the same coordinates, where polygons meeting there would not connect), no polygon edge from a point
+/// Checks that the (interface) polygons have no crack: one point per position (no two points within
+/// [`COINCIDENT`] of the diagonal of `bounds`, where polygons meeting there would not connect; a
+/// point 1 ulp from another is the same position computed twice), no polygon edge from a point
 /// to itself, and every polygon edge shared by at least two polygons (more where interfaces meet)
 /// unless its two ends lie on one face of `bounds` (`[xmin, xmax, ymin, …]`, within a millionth of its
 /// diagonal). Returns the number of distinct edges.
 pub fn check_crack_free(polygons: &PolygonMesh, bounds: [f64; 6]) -> Result<usize, String> {
     check_connectivity(polygons)?;
-    let mut positions: Vec<([u64; 3], usize)> = polygons
-        .points
-        .par_iter()
-        .enumerate()
-        .map(|(i, p)| (p.map(|c| (c + 0.0).to_bits()), i))
-        .collect();
-    positions.par_sort_unstable();
-    if let Some(w) = positions.windows(2).find(|w| w[0].0 == w[1].0) {
-        return Err(format!(
-            "points {} and {} are both at {:?}: two points at one position",
-            w[0].1, w[1].1, polygons.points[w[0].1]
-        ));
+    let mut positions = NearPoints::within(&bounds);
+    for (i, p) in polygons.points.iter().enumerate() {
+        let first = positions.merge(DVec3::from_array(*p), (), i as u32) as usize;
+        if first != i {
+            return Err(format!(
+                "points {first} and {i} are both at {:?} (up to rounding: {:?}): two points at one position",
+                polygons.points[first], p
+            ));
+        }
     }
     let faces = super::faces_of_bounds(&polygons.points, &bounds, super::bounds_eps(&bounds));
     let edges = super::sorted_edges(
