@@ -226,8 +226,14 @@ def check_case(source, path, label, fractions, fields, material_fields, interfac
             merged_keys += [[k[v] for v in t] for t in tets.tolist()]
             merged_ids += [[g[v] for v in t] for t in tets.tolist()]
     dc.check(all(len(s) == 1 for s in by_gid.values()), f"{label}: one position per global id, on every port")
-    dc.check(all(len(s) == 1 for (port, _), s in by_key.items() if port < 2),
-             f"{label}: one global id per position of the tetrahedra and of the interfaces")
+    # Serially distinct points can share a key (interface junctions computed through different
+    # carriers 1e-10 of the diagonal apart): as many ids per key as the serial output has points there.
+    serial_points = {}
+    for port in (0, 1):
+        for k in keys.of(vtk_to_numpy(ref[port].GetPoints().GetData()).astype(np.float64)) if ref[port].GetNumberOfPoints() else []:
+            serial_points[(port, k)] = serial_points.get((port, k), 0) + 1
+    dc.check(all(len(s) == serial_points.get(key, 0) for key, s in by_key.items() if key[0] < 2),
+             f"{label}: one global id per position of the tetrahedra and of the interfaces (per serial point there)")
     hang_k, over_k = hanging_faces(merged_keys, keys)
     dc.check(hang_k == 0 and over_k == 0, f"{label}: merged by coordinates, no hanging face ({hang_k} off the box, {over_k} in 3+)")
     id_keys = {}
