@@ -493,7 +493,8 @@ impl MaterialModel {
                         Some(l) if l == mesh.pair.1 => 1.0,
                         _ => c.side,
                     };
-                    (side * c.distance) as f32
+                    // + 0.0: a point on the interface has distance +0, never −0 (see `phi`).
+                    (side * c.distance) as f32 + 0.0
                 }
             })
             .collect();
@@ -526,7 +527,12 @@ impl MaterialModel {
                         None if self.interfaces[i].pair.0 as usize == m => c.side,
                         None => -c.side,
                     };
-                    (outside * c.distance) as f32
+                    // + 0.0 turns −0 into +0: the materials' order at a point on their interface
+                    // is a tie (the lowest index wins, as `g ≤ 0` puts such points on the first
+                    // material's side); with −0 below +0 (`total_cmp`) the interface polygons
+                    // skipped the tetrahedra whose face lies on the interface (a crack: until
+                    // session 32, 8 open edges on the 28×38×3 impact grid).
+                    (outside * c.distance) as f32 + 0.0
                 }
             };
         }
