@@ -360,7 +360,7 @@ try
     }
     return true;
   };
-  bool ok = cells == 0 || check();
+  const bool ok = cells == 0 || check();
   Key key;
   if (ok && cells > 0)
   {
@@ -405,23 +405,11 @@ try
       }
     }
   };
-  if (build)
+  // Under MPI, Distributed flattens (it must also when only another rank builds, and a rank out
+  // of memory for it still takes part in the collective steps).
+  if (build && !controller)
   {
-    try
-    {
-      flatten();
-    }
-    catch (const std::bad_alloc& e)
-    {
-      if (!controller)
-      {
-        throw;
-      }
-      // Under MPI this rank still takes part in the collective steps (every rank stops there).
-      vtkDiamonds::ReportOutOfMemory(this, "Progressive Tetrahedral Mesh", e);
-      ok = false;
-      build = false;
-    }
+    flatten();
   }
   std::array<double, 6> bounds{};
   if (cells > 0 && ok)

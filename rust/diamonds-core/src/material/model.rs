@@ -204,9 +204,7 @@ impl MaterialModel {
         }
         // Refuses grids whose lattice would be too large.
         lattice_of(&grid, 1)?;
-        let b = grid.bounds();
-        let far =
-            2.0 * ((b[1] - b[0]).powi(2) + (b[3] - b[2]).powi(2) + (b[5] - b[4]).powi(2)).sqrt();
+        let far = 2.0 * crate::volume::bounds_diagonal(&grid.bounds());
         let largest = |v: &[f32]| v.iter().fold(0.0f64, |a, &x| a.max((x as f64).abs()));
         let rounding = (0..fields.len())
             .map(|f| {

@@ -252,7 +252,7 @@ impl Functions<'_> {
 /// Accumulates deduplicated polygons: one point per identity ([`Key`]) and per position and owner
 /// (identities that meet at one position, as equalities holding at a mesh vertex reached through
 /// different carriers, share the point; positions computed through different carriers differ by a
-/// few ulps, so "one position" is [`NearPoints`]'), no repeated consecutive corners. (Until session
+/// few ulps, so "one position" is up to [`NearPoints`]), no repeated consecutive corners. (Until session
 /// 32 positions were compared bit for bit: a junction on the box's edge gave two points 1 ulp apart
 /// and a polygon edge of that length.)
 struct Builder {

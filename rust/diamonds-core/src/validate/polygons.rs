@@ -88,7 +88,7 @@ pub fn check_polygon_arrays(
 }
 
 /// Checks that the (interface) polygons have no crack: one point per position (no two points within
-/// [`COINCIDENT`] of the diagonal of `bounds`, where polygons meeting there would not connect; a
+/// [`crate::geometry::COINCIDENT`] of the diagonal of `bounds`, where polygons meeting there would not connect; a
 /// point 1 ulp from another is the same position computed twice), no polygon edge from a point
 /// to itself, and every polygon edge shared by at least two polygons (more where interfaces meet)
 /// unless its two ends lie on one face of `bounds` (`[xmin, xmax, ymin, …]`, within a millionth of its
