@@ -23,12 +23,15 @@
 //! are drawn.
 //!
 //! Differences from the paper, and why:
-//! - The mesh is a diamond hierarchy on a lattice `s ≥ 1` levels finer than the data: sample `[i, j, k]`
-//!   is lattice point `2^s [i, j, k]`, the grid at the lattice's corner with a base mesh along the far
-//!   faces as in Adaptive Tetrahedra ([`crate::lattice`]; the same tetrahedra for every `s`). Every
-//!   sample is a vertex, so the field error can reach 0 at the finest tetrahedra on any grid; `s` is 1
-//!   (tetrahedra down to half a cell where interfaces need them) or more while `2^-s` of the widest
-//!   spacing exceeds the interface tolerance, and one more at a time while the finest tetrahedra
+//! - The mesh is a diamond hierarchy on a lattice `s ≥ 1` levels finer than the data along each axis:
+//!   sample `[i, j, k]` is lattice point `[2^s_x i, 2^s_y j, 2^s_z k]`, the grid at the lattice's corner
+//!   with a base mesh along the far faces as in Adaptive Tetrahedra ([`crate::lattice`]). Every
+//!   sample is a vertex, so the field error can reach 0 at the finest tetrahedra on any grid; `s` is
+//!   at least 1 (tetrahedra down to half a cell where interfaces need them), more while the widest
+//!   lattice step exceeds the interface tolerance, and larger along coarse axes so that the steps are
+//!   about equal in world units (longest-edge bisection halves edges in lattice units: on strongly
+//!   anisotropic grids equal shifts left the finest tetrahedra long along the coarse axis), and one
+//!   more on every axis at a time while the finest tetrahedra
 //!   still miss it (near junctions, where the signed distances vary slowly; as far as the split
 //!   sets' memory allows); vertex
 //!   values between samples are resampled from the data (§5.1: "the input datasets are resampled at

@@ -50,7 +50,7 @@ pub struct MaterialModel {
     bucket_items: Vec<(u32, u32)>,
     /// Per lattice of a query ([`MaterialModel::levels`]): where refinement starts, the diamonds
     /// straddling the domain's far faces with their closure (computed once per lattice).
-    bases: Mutex<FxHashMap<u32, Arc<BaseMesh>>>,
+    bases: Mutex<FxHashMap<Shift, Arc<BaseMesh>>>,
     /// The signed distance given to a material without interfaces (twice the diagonal).
     far: f64,
     /// Per field: deviations up to this are rounding (see [`ROUNDOFF`]).
@@ -203,7 +203,7 @@ impl MaterialModel {
             boundary[mesh.pair.1 as usize].push(i);
         }
         // Refuses grids whose lattice would be too large.
-        lattice_of(&grid, 1)?;
+        Shift::first(&grid).lattice(&grid)?;
         let far = 2.0 * crate::volume::bounds_diagonal(&grid.bounds());
         let largest = |v: &[f32]| v.iter().fold(0.0f64, |a, &x| a.max((x as f64).abs()));
         let rounding = (0..fields.len())
@@ -247,14 +247,16 @@ impl MaterialModel {
     }
 
     /// Tetrahedra of the base mesh every query starts from: the refinement forced by the domain's far
-    /// faces alone (0 extra for `2^k + 1` points per axis; see [`crate::lattice`]).
+    /// faces alone (0 extra where the lattice's domain is a cube of `2^k + 1` points per axis; see
+    /// [`crate::lattice`]).
     pub fn base_tetrahedra(&self) -> usize {
-        self.base(1).map_or(0, |(_, b)| b.tets)
+        self.base(Shift::first(&self.grid))
+            .map_or(0, |(_, b)| b.tets)
     }
 
     /// The lattice `shift` levels finer than the data and its base mesh (computed when first asked).
-    fn base(&self, shift: u32) -> Result<(Lattice, Arc<BaseMesh>)> {
-        let lattice = lattice_of(&self.grid, shift)?;
+    fn base(&self, shift: Shift) -> Result<(Lattice, Arc<BaseMesh>)> {
+        let lattice = shift.lattice(&self.grid)?;
         let mut bases = self.bases.lock().unwrap_or_else(PoisonError::into_inner);
         let base = bases
             .entry(shift)
@@ -262,21 +264,14 @@ impl MaterialModel {
         Ok((lattice, base.clone()))
     }
 
-    /// How many levels finer than the data the lattice of `query` is: one, so that interfaces crossing
-    /// a cell and junctions of three materials are approximated to a fraction of a cell, and more while
-    /// the finest tetrahedra would be wider than the interface tolerance along the widest spacing
-    /// (refinement goes that deep only where the interface needs it; the base mesh is the same), as far
-    /// as [`MAX_LATTICE_POINTS`] allows.
-    fn levels(&self, query: &MaterialQuery) -> u32 {
-        let widest = self.grid.spacing.iter().fold(0.0f64, |a, &s| a.max(s));
-        let mut shift = 1;
-        while query.ghost_values
-            && widest / f64::from(1u32 << shift) > query.interface_tolerance
-            && lattice_points(&self.grid, shift + 1) <= MAX_LATTICE_POINTS
-        {
-            shift += 1;
-        }
-        shift
+    /// How many levels finer than the data the lattice of `query` is ([`Shift::for_tolerance`]).
+    fn levels(&self, query: &MaterialQuery) -> Shift {
+        let tolerance = if query.ghost_values {
+            query.interface_tolerance
+        } else {
+            f64::INFINITY
+        };
+        Shift::for_tolerance(&self.grid, tolerance)
     }
 
     fn bucket_interface_vertices(&mut self) {
@@ -341,10 +336,11 @@ impl MaterialModel {
     }
 
     /// World position of a point of the lattice `shift` levels finer than the data (`2^-shift`
-    /// sample spacings per lattice unit; a sample's own position, exactly, at multiples of `2^shift`).
-    pub(super) fn world(&self, p: IVec3, shift: u32) -> DVec3 {
+    /// sample spacings per lattice unit along each axis; a sample's own position, exactly, at
+    /// multiples of `2^shift`).
+    pub(super) fn world(&self, p: IVec3, shift: Shift) -> DVec3 {
         DVec3::from_array(self.grid.origin)
-            + DVec3::from_array(self.grid.spacing) * (p.as_dvec3() / f64::from(1u32 << shift))
+            + DVec3::from_array(self.grid.spacing) * (p.as_dvec3() / shift.scale())
     }
 
     /// The material common to all corners of `x`'s cell, if there is one.
@@ -471,7 +467,7 @@ impl MaterialModel {
 
     /// Everything a vertex at point `p` of the lattice `shift` levels finer than the data needs
     /// (§5.2.1 signed distances, §5.2.3 ghost values).
-    pub(super) fn vertex_info(&self, p: IVec3, shift: u32) -> VertexInfo {
+    pub(super) fn vertex_info(&self, p: IVec3, shift: Shift) -> VertexInfo {
         let x = self.world(p, shift);
         let uniform = self.uniform_label(x);
         let k = self.materials;
@@ -544,8 +540,7 @@ impl MaterialModel {
             .map(|f| self.trilinear(&self.fields[f], x) as f32)
             .collect();
         // The sample at p, if any: its own value is exact there, whatever φ says.
-        let sample = p >> IVec3::splat(shift as i32);
-        let sample_label = (sample << IVec3::splat(shift as i32) == p).then(|| {
+        let sample_label = shift.sample(p).map(|sample| {
             self.labels[self
                 .grid
                 .index(sample.x as usize, sample.y as usize, sample.z as usize)]
@@ -636,7 +631,7 @@ impl MaterialModel {
     /// enough to decide a split.
     fn evaluate(
         &self,
-        (t, shift): (&Tet, u32),
+        (t, shift): (&Tet, Shift),
         ghost_values: bool,
         info: &mut dyn FnMut(IVec3) -> Arc<VertexInfo>,
         limits: Option<(f64, f64)>,
@@ -777,11 +772,11 @@ impl MaterialModel {
             let mesh = self.refine_on(query, shift, progress)?;
             if !query.ghost_values
                 || mesh.max_interface_error <= query.interface_tolerance
-                || lattice_points(&self.grid, shift + 1) > MAX_LATTICE_POINTS
+                || shift.finer().points(&self.grid) > MAX_LATTICE_POINTS
             {
                 return Ok(mesh);
             }
-            shift += 1;
+            shift = shift.finer();
         }
     }
 
@@ -789,7 +784,7 @@ impl MaterialModel {
     fn refine_on(
         &self,
         query: &MaterialQuery,
-        shift: u32,
+        shift: Shift,
         progress: Progress<'_>,
     ) -> Result<MaterialMesh> {
         let (lattice, base) = self.base(shift)?;
@@ -887,7 +882,7 @@ impl MaterialModel {
     /// `evals` where refinement measured them exactly, else measured here).
     fn extract(
         &self,
-        (split, shift): (&SplitSet, u32),
+        (split, shift): (&SplitSet, Shift),
         ghost_values: bool,
         infos: &Memo<usize, Arc<VertexInfo>>,
         evals: &Memo<Diamond, DiamondEval>,
@@ -1012,19 +1007,113 @@ impl MaterialMesh {
     }
 }
 
-/// Points of the domain of the lattice `shift` levels finer than the data of `grid`.
-fn lattice_points(grid: &Grid, shift: u32) -> u64 {
-    grid.dims
-        .iter()
-        .map(|&d| (((d as u64) - 1) << shift) + 1)
-        .product()
-}
+/// How many levels finer than the data a query's lattice is, per axis: sample `[i, j, k]` is
+/// lattice point `[i << s_x, j << s_y, k << s_z]`, the grid at the lattice's corner as in
+/// [`crate::lattice`]. Every sample is a lattice vertex, so the field error can reach 0 at the
+/// finest tetrahedra on any grid. The axes differ by the halvings that make the lattice steps about
+/// equal in world units ([`Shift::first`]): longest-edge bisection halves the longest edge in
+/// lattice units, so with equal shifts on a grid 52 times coarser along z than along x (the impact
+/// case on 31×38×2 points) the finest tetrahedra the memory allowed were still 52 times longer along
+/// z, and an interface tolerance of an eighth of the x spacing was missed 2.3 times over (until
+/// session 33).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub(super) struct Shift([u32; 3]);
 
-/// The lattice `shift` levels finer than the data of `grid`: sample `[i, j, k]` is lattice point
-/// `[i, j, k] << shift`, the grid at the lattice's corner as in [`crate::lattice`]. Every sample is a
-/// lattice vertex, so the field error can reach 0 at the finest tetrahedra on any grid.
-fn lattice_of(grid: &Grid, shift: u32) -> Result<Lattice> {
-    Lattice::new(grid.dims.map(|d| ((d - 1) << shift) + 1))
+impl Shift {
+    /// One level finer than the data along the finest spacing, and along each other axis as many
+    /// more as bring its step nearest to the finest one (axes of one point do not count).
+    fn first(grid: &Grid) -> Self {
+        let spread = (0..3)
+            .filter(|&a| grid.dims[a] > 1)
+            .map(|a| grid.spacing[a]);
+        let finest = spread.fold(f64::INFINITY, f64::min);
+        let mut shift = Self(std::array::from_fn(|a| {
+            let halvings = (grid.spacing[a] / finest).log2().round();
+            // Only finite and at most 30: a degenerate spacing (an axis of one point) adds none.
+            1 + if grid.dims[a] > 1 && halvings.is_finite() {
+                halvings.clamp(0.0, 30.0) as u32
+            } else {
+                0
+            }
+        }));
+        // Extreme ratios: the coarsest axes' extra halvings go first until the lattice fits.
+        while shift.points(grid) > MAX_LATTICE_POINTS && shift.0.iter().any(|&s| s > 1) {
+            let widest = (0..3).max_by_key(|&a| shift.0[a]).unwrap_or(0);
+            shift.0[widest] -= 1;
+        }
+        shift
+    }
+
+    /// The lattice of a query with this interface tolerance: at least one level finer than the data
+    /// (interfaces crossing a cell and junctions of three materials approximated to a fraction of a
+    /// cell), and more on every axis while the widest lattice step exceeds the tolerance
+    /// (refinement goes that deep only where the interface needs it), as far as
+    /// [`MAX_LATTICE_POINTS`] allows, from one shift on every axis and from [`Shift::first`]'s: the
+    /// larger of the two on each axis where that fits (never coarser than one shift for all, which
+    /// also serves junctions, where the signed distances vary slowly: on headsq's own 3.2×3.2×1.5
+    /// cells at tolerance 1, `[2, 2, 1]` missed it and needed `[3, 3, 2]`, 5 times the time of
+    /// `[2, 2, 2]`), else the latter (the one shift for all ran out of memory first).
+    fn for_tolerance(grid: &Grid, tolerance: f64) -> Self {
+        let grow = |mut shift: Self| {
+            while shift.widest_step(grid) > tolerance
+                && shift.finer().points(grid) <= MAX_LATTICE_POINTS
+            {
+                shift = shift.finer();
+            }
+            shift
+        };
+        let per_axis = grow(Self::first(grid));
+        let one = grow(Self([1; 3]));
+        let both = Self(std::array::from_fn(|a| per_axis.0[a].max(one.0[a])));
+        if both.points(grid) <= MAX_LATTICE_POINTS {
+            both
+        } else {
+            per_axis
+        }
+    }
+
+    /// One level finer along every axis.
+    fn finer(self) -> Self {
+        Self(self.0.map(|s| s + 1))
+    }
+
+    /// Lattice points per axis of the domain.
+    fn dims(self, grid: &Grid) -> [usize; 3] {
+        std::array::from_fn(|a| ((grid.dims[a] - 1) << self.0[a]) + 1)
+    }
+
+    /// Points of the lattice's domain (saturating).
+    fn points(self, grid: &Grid) -> u64 {
+        (0..3).fold(1u64, |n, a| {
+            let d = ((grid.dims[a] as u64 - 1) << self.0[a]).saturating_add(1);
+            n.saturating_mul(d)
+        })
+    }
+
+    /// The lattice of the domain.
+    fn lattice(self, grid: &Grid) -> Result<Lattice> {
+        Lattice::new(self.dims(grid))
+    }
+
+    /// Lattice units per sample spacing, per axis.
+    fn scale(self) -> DVec3 {
+        DVec3::from_array(self.0.map(|s| f64::from(s).exp2()))
+    }
+
+    /// The widest lattice step in world units (axes of one point do not count).
+    fn widest_step(self, grid: &Grid) -> f64 {
+        (0..3)
+            .filter(|&a| grid.dims[a] > 1)
+            .map(|a| grid.spacing[a] / f64::from(self.0[a]).exp2())
+            .fold(0.0, f64::max)
+    }
+
+    /// The sample at lattice point `p`, if there is one.
+    fn sample(self, p: IVec3) -> Option<IVec3> {
+        let s = IVec3::from_array(self.0.map(|s| s as i32));
+        let sample = p >> s;
+        (sample << s == p).then_some(sample)
+    }
 }
 
 fn check_length(what: &str, i: usize, len: usize, n: usize, grid: &Grid) -> Result<()> {
@@ -1204,5 +1293,53 @@ impl<K: Hash + Eq + Copy, V: Clone> Memo<K, V> {
         }
         let v = f();
         self.shard(key).entry(key).or_insert(v).clone()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn grid(dims: [usize; 3], spacing: [f64; 3]) -> Grid {
+        Grid {
+            dims,
+            origin: [0.0; 3],
+            spacing,
+        }
+    }
+
+    /// The lattice steps are about equal in world units: one level finer than the data along the
+    /// finest spacing, as many more along the others as bring them nearest to it; an axis of one
+    /// point does not count, and extreme ratios are cut until the lattice fits.
+    #[test]
+    fn shifts_make_the_lattice_steps_about_equal() {
+        let first = |dims, spacing| Shift::first(&grid(dims, spacing)).0;
+        assert_eq!(first([9, 9, 9], [1.0, 1.3, 1.0]), [1, 1, 1]);
+        assert_eq!(first([31, 38, 2], [0.4, 0.324, 20.8]), [1, 1, 7]);
+        assert_eq!(first([64, 64, 93], [3.2, 3.2, 1.5]), [2, 2, 1]);
+        assert_eq!(first([64, 64, 1], [1.0, 1.0, 1e-9]), [1, 1, 1]);
+        let extreme = grid([100, 100, 100], [1.0, 1.0, 1e9]);
+        let shift = Shift::first(&extreme);
+        assert!(
+            shift.points(&extreme) <= MAX_LATTICE_POINTS && shift.0[2] > 1,
+            "{shift:?}"
+        );
+        let s = Shift([1, 2, 3]);
+        assert_eq!(s.sample(IVec3::new(6, 12, 16)), Some(IVec3::new(3, 3, 2)));
+        assert_eq!(s.sample(IVec3::new(6, 14, 16)), None);
+        assert_eq!(s.dims(&grid([3, 3, 3], [1.0; 3])), [5, 9, 17]);
+        // For a tolerance: never coarser than one shift for all where that fits, else per axis.
+        let for_tolerance = |dims, spacing, t| Shift::for_tolerance(&grid(dims, spacing), t).0;
+        assert_eq!(for_tolerance([9, 9, 9], [1.0; 3], 0.3), [2, 2, 2]);
+        assert_eq!(for_tolerance([64, 64, 93], [3.2, 3.2, 1.5], 1.0), [2, 2, 2]);
+        assert_eq!(for_tolerance([9, 9, 9], [1.0, 1.0, 4.0], 1.0), [2, 2, 3]);
+        assert_eq!(
+            for_tolerance([31, 38, 2], [0.4, 0.324, 20.8], 0.05),
+            [3, 3, 9]
+        );
+        assert_eq!(
+            for_tolerance([31, 38, 2], [0.4, 0.324, 20.8], f64::INFINITY),
+            [1, 1, 7]
+        );
     }
 }
