@@ -1010,12 +1010,12 @@ impl MaterialMesh {
 /// How many levels finer than the data a query's lattice is, per axis: sample `[i, j, k]` is
 /// lattice point `[i << s_x, j << s_y, k << s_z]`, the grid at the lattice's corner as in
 /// [`crate::lattice`]. Every sample is a lattice vertex, so the field error can reach 0 at the
-/// finest tetrahedra on any grid. The axes differ by the halvings that make the lattice steps about
-/// equal in world units ([`Shift::first`]): longest-edge bisection halves the longest edge in
-/// lattice units, so with equal shifts on a grid 52 times coarser along z than along x (the impact
-/// case on 31×38×2 points) the finest tetrahedra the memory allowed were still 52 times longer along
-/// z, and an interface tolerance of an eighth of the x spacing was missed 2.3 times over (until
-/// session 33).
+/// finest tetrahedra on any grid. Coarse axes get at least the halvings that make the lattice steps
+/// about equal in world units ([`Shift::for_tolerance`]): longest-edge bisection halves the longest
+/// edge in lattice units, so with equal shifts on a grid 52 times coarser along z than along x (the
+/// impact case on 31×38×2 points) the finest tetrahedra the memory allowed were still 52 times
+/// longer along z, and an interface tolerance of an eighth of the x spacing was missed 2.3 times
+/// over (until session 33).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub(super) struct Shift([u32; 3]);
 
