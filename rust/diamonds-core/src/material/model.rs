@@ -246,9 +246,11 @@ impl MaterialModel {
         &self.grid
     }
 
-    /// Tetrahedra of the base mesh every query starts from: the refinement forced by the domain's far
-    /// faces alone (0 extra where the lattice's domain is a cube of `2^k + 1` points per axis; see
-    /// [`crate::lattice`]).
+    /// Tetrahedra of the base mesh on the lattice of [`Shift::first`]: the refinement forced by the
+    /// domain's far faces alone (0 extra where the lattice's domain is a cube of `2^k + 1` points per
+    /// axis; see [`crate::lattice`]). Every query starts from it, scaled, when its lattice is whole
+    /// levels finer on every axis alike, as on grids of equal spacings; on others a query's lattice
+    /// can be finer along some axes only, with a base mesh of its own.
     pub fn base_tetrahedra(&self) -> usize {
         self.base(Shift::first(&self.grid))
             .map_or(0, |(_, b)| b.tets)
@@ -1084,10 +1086,9 @@ impl Shift {
 
     /// Points of the lattice's domain (saturating).
     fn points(self, grid: &Grid) -> u64 {
-        (0..3).fold(1u64, |n, a| {
-            let d = ((grid.dims[a] as u64 - 1) << self.0[a]).saturating_add(1);
-            n.saturating_mul(d)
-        })
+        self.dims(grid)
+            .iter()
+            .fold(1u64, |n, &d| n.saturating_mul(d as u64))
     }
 
     /// The lattice of the domain.
