@@ -51,28 +51,13 @@ const vtkDiamonds::FilterText Text = { "Adaptive Interval Volume", "extract the 
 void FillVolume(const bridge::IntervalVolume& volume, vtkImageData* input, vtkUnstructuredGrid* output)
 {
   const rust::Slice<const double> weights = volume.weights();
-  const rust::Slice<const std::uint32_t> sources = volume.sources();
   const rust::Slice<const std::uint8_t> levels = volume.levels();
   const vtkIdType numPoints = static_cast<vtkIdType>(weights.size());
   const vtkIdType numTets = static_cast<vtkIdType>(levels.size());
   output->SetPoints(vtkDiamonds::PointsFrom(volume.points()));
   vtkDiamonds::SetTetrahedra(output, FixedSizeCells(4, volume.tets(), numPoints));
-  vtkPointData* in = input->GetPointData();
-  vtkPointData* out = output->GetPointData();
-  vtkDiamonds::AllocateLike(in, out, numPoints, /*interpolate=*/true);
-  for (vtkIdType i = 0; i < numPoints; ++i)
-  {
-    const vtkIdType a = sources[2 * i];
-    const vtkIdType b = sources[2 * i + 1];
-    if (a == b)
-    {
-      out->CopyData(in, a, i);
-    }
-    else
-    {
-      out->InterpolateEdge(in, i, a, b, weights[i]);
-    }
-  }
+  vtkDiamonds::InterpolatePointData(
+    input->GetPointData(), nullptr, volume.sources(), weights, output->GetPointData());
   output->GetCellData()->AddArray(
     NamedArray<vtkUnsignedCharArray>("Level", numTets, levels.data()));
 }
@@ -344,16 +329,7 @@ int vtkAdaptiveIntervalVolume::RequestDistributed(vtkMultiProcessController* con
       // The array processed first (the whole image's active scalars), then every other point
       // array, which new points interpolate as serially.
       pointArrays.push_back(array);
-      vtkPointData* pd = input->GetPointData();
-      for (int i = 0; i < pd->GetNumberOfArrays(); ++i)
-      {
-        vtkDataArray* other = pd->GetArray(i);
-        if (other && other != array && std::string(other->GetName() ? other->GetName() : "") !=
-            vtkDataSetAttributes::GhostArrayName())
-        {
-          pointArrays.push_back(other);
-        }
-      }
+      vtkDiamonds::WholeImage::AddOtherPointArrays(input, array, pointArrays);
       return true;
     });
   }

@@ -62,9 +62,11 @@ public:
 
   // The isovalues, once they, Tolerance and MaximumNumberOfTriangles are checked.
   std::optional<std::vector<double>> CheckParameters(vtkAdaptiveIsosurface* self);
-  // The surface as points, triangles and, when asked for, normals and scalars (of `array`'s type).
+  // The surface as points, triangles, every other point array of `in` (the input's point data)
+  // interpolated as vtkContourFilter does and, when asked for, normals and scalars (of `array`'s
+  // type).
   void FillSurface(vtkAdaptiveIsosurface* self, const bridge::Surface& surface,
-    vtkDataArray* array, vtkPolyData* output);
+    vtkDataArray* array, vtkPointData* in, vtkPolyData* output);
   // The extraction's parameters (tolerance, budget, outputs; not the region of interest).
   bridge::IsoSpec Spec(vtkAdaptiveIsosurface* self) const;
 
@@ -231,7 +233,7 @@ std::optional<std::vector<double>> vtkAdaptiveIsosurface::vtkInternals::CheckPar
 
 //------------------------------------------------------------------------------
 void vtkAdaptiveIsosurface::vtkInternals::FillSurface(vtkAdaptiveIsosurface* self,
-  const bridge::Surface& surface, vtkDataArray* array, vtkPolyData* output)
+  const bridge::Surface& surface, vtkDataArray* array, vtkPointData* in, vtkPolyData* output)
 {
   const rust::Slice<const std::uint32_t> triangles = surface.triangles();
   const rust::Slice<const double> values = surface.values();
@@ -239,6 +241,9 @@ void vtkAdaptiveIsosurface::vtkInternals::FillSurface(vtkAdaptiveIsosurface* sel
   vtkSmartPointer<vtkPoints> points = vtkDiamonds::PointsFrom(surface.points());
   output->SetPoints(points);
   output->SetPolys(FixedSizeCells(3, triangles, numPoints));
+  // The contoured array is the isovalue there: ComputeScalars writes it exactly, or leaves it out.
+  vtkDiamonds::InterpolatePointData(
+    in, array->GetName(), surface.sources(), surface.weights(), output->GetPointData());
   if (self->ComputeNormals)
   {
     const rust::Slice<const float> normals = surface.normals();
@@ -400,7 +405,7 @@ try
   }
 
   // ---- Output port 0: the surface.
-  this->Internals->FillSurface(this, **surface, array, output);
+  this->Internals->FillSurface(this, **surface, array, input->GetPointData(), output);
   this->RelativeTolerance = relativeTolerance;
   vtkFieldData* fieldData = output->GetFieldData();
   fieldData->PassData(input->GetFieldData());
@@ -501,13 +506,15 @@ int vtkAdaptiveIsosurface::RequestDistributed(vtkMultiProcessController* control
   }
 
   // ---- The whole image on every rank with a piece, fetched again when any rank's input changed
-  // (keyed by the array as read; its converted samples are gathered).
+  // (keyed by the array as read; its converted samples are gathered, then every other point
+  // array, which the surface interpolates as serially).
   std::vector<vtkDataArray*> pointArrays;
   if (samples)
   {
     pointArrays.push_back(samples);
+    vtkDiamonds::WholeImage::AddOtherPointArrays(input, array, pointArrays);
   }
-  vtkDiamonds::WholeImage::Key key = vtkDiamonds::WholeImage::KeyOf(pieces, input, {});
+  vtkDiamonds::WholeImage::Key key = vtkDiamonds::WholeImage::KeyOf(pieces, input, pointArrays);
   key.Input = vtkDiamonds::InputKey(input, array);
   if (this->Internals->Whole.Stale(pieces, key))
   {
@@ -565,7 +572,7 @@ int vtkAdaptiveIsosurface::RequestDistributed(vtkMultiProcessController* control
   // ---- Output: this rank's triangles with global point ids, and its carrier tetrahedra.
   std::vector<double> errorBound{ 0.0 };
   ok = !surface || run("could not write its output", [&] {
-    this->Internals->FillSurface(this, **surface, array, output);
+    this->Internals->FillSurface(this, **surface, array, whole->GetPointData(), output);
     output->GetPointData()->SetGlobalIds(vtkDiamonds::GlobalPointIds((*surface)->global_point_ids()));
     errorBound[0] = (*surface)->error_bound();
     if (this->GenerateCarrierTetrahedra)

@@ -14,6 +14,7 @@
 #include "vtkImageData.h"
 #include "vtkInformationVector.h"
 #include "vtkIntArray.h"
+#include "vtkNew.h"
 #include "vtkPointData.h"
 #include "vtkPoints.h"
 #include "vtkStringArray.h"
@@ -77,6 +78,37 @@ void AllocateLike(vtkDataSetAttributes* in, vtkDataSetAttributes* out, vtkIdType
   {
     vtkAbstractArray* array = out->GetAbstractArray(k);
     Allocate(array, tuples * array->GetNumberOfComponents());
+  }
+}
+
+void InterpolatePointData(vtkPointData* in, const char* skip,
+  rust::Slice<const std::uint32_t> sources, rust::Slice<const double> weights, vtkPointData* out)
+{
+  vtkNew<vtkPointData> source;
+  source->ShallowCopy(in);
+  if (skip)
+  {
+    source->RemoveArray(skip);
+  }
+  source->RemoveArray(vtkDataSetAttributes::GhostArrayName());
+  if (source->GetNumberOfArrays() == 0)
+  {
+    return;
+  }
+  const vtkIdType numPoints = static_cast<vtkIdType>(weights.size());
+  AllocateLike(source, out, numPoints, /*interpolate=*/true);
+  for (vtkIdType i = 0; i < numPoints; ++i)
+  {
+    const vtkIdType a = sources[2 * i];
+    const vtkIdType b = sources[2 * i + 1];
+    if (a == b)
+    {
+      out->CopyData(source, a, i);
+    }
+    else
+    {
+      out->InterpolateEdge(source, i, a, b, weights[i]);
+    }
   }
 }
 

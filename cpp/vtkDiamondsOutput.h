@@ -58,6 +58,15 @@ void Allocate(vtkAbstractArray* array, vtkIdType values);
 void AllocateLike(vtkDataSetAttributes* in, vtkDataSetAttributes* out, vtkIdType tuples,
   bool interpolate = false);
 
+// Gives `out` every point array of `in` but the one named `skip` (none when null) and the ghost
+// array, one tuple per point of a result whose points lie on edges between input points (the
+// core's `sources` and `weights`, one pair and one weight per point): the input tuple at a sample
+// (sources i, i), (1 - w) a[i] + w a[j] between samples i and j, as
+// vtkDataSetAttributes::InterpolateEdge computes it (vtkContourFilter's point data). Throws
+// OutOfMemory.
+void InterpolatePointData(vtkPointData* in, const char* skip,
+  rust::Slice<const std::uint32_t> sources, rust::Slice<const double> weights, vtkPointData* out);
+
 // The message of an allocation failure caught as `e`: OutOfMemory's, or a generic one.
 std::string OutOfMemoryMessage(const std::bad_alloc& e);
 

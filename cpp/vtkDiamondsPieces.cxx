@@ -1059,6 +1059,23 @@ WholeImage::Key WholeImage::KeyOf(
 }
 
 //------------------------------------------------------------------------------
+void WholeImage::AddOtherPointArrays(
+  vtkImageData* input, vtkDataArray* processed, std::vector<vtkDataArray*>& pointArrays)
+{
+  vtkPointData* pd = input->GetPointData();
+  for (int i = 0; i < pd->GetNumberOfArrays(); ++i)
+  {
+    vtkDataArray* other = pd->GetArray(i);
+    if (other && other != processed &&
+      std::string(other->GetName() ? other->GetName() : "") !=
+        vtkDataSetAttributes::GhostArrayName())
+    {
+      pointArrays.push_back(other);
+    }
+  }
+}
+
+//------------------------------------------------------------------------------
 bool WholeImage::Stale(Pieces& pieces, const Key& key) const
 {
   return pieces.Sum(this->Built == key ? 0 : 1) > 0;

@@ -262,6 +262,10 @@ public:
   // This rank's key: `pointArrays` of `input` (the processed one first; none on an empty piece).
   static Key KeyOf(const Pieces& pieces, vtkImageData* input,
     const std::vector<vtkDataArray*>& pointArrays);
+  // Appends to `pointArrays` every point array of `input` but `processed` and the ghost array: what
+  // the output interpolates besides the processed array, gathered as the whole image.
+  static void AddOtherPointArrays(
+    vtkImageData* input, vtkDataArray* processed, std::vector<vtkDataArray*>& pointArrays);
 
   // Collective: whether any rank's key differs from the one of its last gather (then every rank
   // gathers again: release what depends on the image first).

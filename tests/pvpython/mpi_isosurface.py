@@ -19,7 +19,8 @@ surface and checks, independently of the filter:
   (where the serial surface is open too), exactly as many as the serial surface has;
 - field data: TrianglesPerRank (one value per rank, summing to NumberOfTriangles), SecondsPerRank,
   BytesSentPerRank, ExchangeSecondsPerRank, PeakMemoryPerRank; ErrorBound the same on every rank;
-  changing the tolerance re-extracts without rebuilding the hierarchy.
+  changing the tolerance re-extracts without rebuilding the hierarchy;
+- every other point array of the input is interpolated onto each rank's points as serially.
 """
 
 import os
@@ -32,7 +33,8 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import diamonds_checks as dc  # noqa: E402
 from paraview import servermanager  # noqa: E402
-from vtkmodules.util.numpy_support import vtk_to_numpy  # noqa: E402
+from vtkmodules.util.numpy_support import numpy_to_vtk, vtk_to_numpy  # noqa: E402
+from vtkmodules.vtkCommonDataModel import vtkImageData  # noqa: E402
 from vtkmodules.vtkIOXML import vtkXMLImageDataWriter, vtkXMLPolyDataReader  # noqa: E402
 
 simple = dc.require_plugin()
@@ -124,7 +126,7 @@ def check_distributed(source, image, scalars, isovalues, tolerance, label, roi=N
     b = np.array(image.GetBounds())
     scale = 1e-9 * max(np.linalg.norm(b[1::2] - b[0::2]), 1.0)
     ref_points, ref_tris = surface_arrays(reference)
-    parts, per_rank, bounds = [], [], set()
+    parts, part_data, per_rank, bounds = [], [], [], set()
     by_gid = {}
     for r in range(ranks):
         piece = servermanager.Fetch(filt, r)
@@ -134,6 +136,7 @@ def check_distributed(source, image, scalars, isovalues, tolerance, label, roi=N
         gids = dc.check_rank_share(piece, points, r, ranks, "TrianglesPerRank", len(ref_tris), by_gid, label)
         if gids is not None:
             parts.append((points, tris, gids))
+            part_data.append(piece.GetPointData())
     print(f"{label}: {len(ref_tris)} serial triangles; per rank {per_rank}")
     dc.check(dc.same_values(bounds), f"{label}: ErrorBound the same on every rank ({bounds})")
     dc.check(sum(per_rank) == len(ref_tris), f"{label}: as many triangles as serial ({sum(per_rank)} vs {len(ref_tris)})")
@@ -156,6 +159,19 @@ def check_distributed(source, image, scalars, isovalues, tolerance, label, roi=N
         for gi, pi in zip(g.tolist(), ids[o:o + len(g)].tolist()):
             gid_positions.setdefault(pi, set()).add(gi)
     dc.check(all(len(s) == 1 for s in gid_positions.values()), f"{label}: one global id per position")
+    # Every other point array interpolated as serially, point for point.
+    ref_pd = reference.GetPointData()
+    ref_index = dict(zip(ids[offsets[-1]:].tolist(), range(len(ref_points))))
+    names = sorted(ref_pd.GetArrayName(i) for i in range(ref_pd.GetNumberOfArrays()) if ref_pd.GetArrayName(i) != "Normals")
+    for (points, _, _), pd, o in zip(parts, part_data, offsets):
+        got_names = sorted(pd.GetArrayName(i) for i in range(pd.GetNumberOfArrays()) if pd.GetArrayName(i) not in ("Normals", "GlobalPointIds"))
+        dc.check(got_names == names, f"{label}: the serial point arrays {names} ({got_names})")
+        at = [ref_index[i] for i in ids[o:o + len(points)].tolist()]
+        for name in set(names) & set(got_names):
+            ref_values = vtk_to_numpy(ref_pd.GetArray(name)).astype(np.float64)[at]
+            values = vtk_to_numpy(pd.GetArray(name)).astype(np.float64)
+            off = float(np.abs(values - ref_values).max()) if len(values) else 0.0
+            dc.check(off <= 1e-9 * max(1.0, float(np.abs(ref_values).max())), f"{label}: \"{name}\" as serially (max difference {off:.3g})")
     # Watertight across the seams, as the serial surface.
     eps = 1e-9 * max(np.linalg.norm(b[1::2] - b[0::2]), 1.0)
 
@@ -192,6 +208,19 @@ check_distributed(wavelet, image, "RTData", [130.0, 200.0], 2.0, "wavelet 130+20
 check_distributed(wavelet, image, "RTData", [157.0], 0.0, "wavelet 157 tol 0", filt=filt)
 check_distributed(wavelet, image, "RTData", [157.0], 0.5, "wavelet ROI", roi=[10.0, 30.0, 5.0, 20.0, 0.0, 52.0], filt=filt)
 simple.Delete(filt)
+
+# Other point arrays (a 3-component and a derived one) interpolated onto every rank's share.
+with_arrays = simple.Calculator(Input=wavelet, ResultArrayName="coordinates", Function="coords")
+with_arrays = simple.Calculator(Input=with_arrays, ResultArrayName="twice", Function="2*RTData")
+with_image = vtkImageData()
+with_image.DeepCopy(image)
+xyz = np.array([with_image.GetPoint(i) for i in range(with_image.GetNumberOfPoints())])
+for name, values in (("coordinates", xyz), ("twice", 2.0 * vtk_to_numpy(image.GetPointData().GetArray("RTData")).astype(np.float64))):
+    a = numpy_to_vtk(np.ascontiguousarray(values), deep=1)
+    a.SetName(name)
+    with_image.GetPointData().AddArray(a)
+simple.Delete(check_distributed(with_arrays, with_image, "RTData", [157.0], 1.0, "wavelet with arrays"))
+simple.Delete(with_arrays)
 
 # An image smaller than the number of ranks: some ranks have empty pieces.
 tiny, tiny_image = dc.wavelet(simple, [0, 2, 0, 1, 0, 1])

@@ -8,8 +8,9 @@ ParaView's own Contour is the reference surface):
   interpolation of the samples on both sides), normals unit length and on the same side;
 - ErrorBound <= Tolerance; triangle count non-increasing as Tolerance grows; every vertex within
   Tolerance + one voxel diagonal of ParaView's Contour of the same isovalue (and of the exact sphere);
-- two isovalues give two surfaces; ComputeScalars; the region of interest; the triangle budget; the
-  carrier tetrahedra of port 1;
+- two isovalues give two surfaces; ComputeScalars; every other point array interpolated as Contour
+  does (with every Hierarchy); the region of interest; the triangle budget; the carrier tetrahedra of
+  port 1;
 - an isovalue or tolerance change does not rebuild the hierarchy and equals a fresh filter; the
   hierarchy is the isosurface-only one (HierarchyMemorySize: the samples it reads and its caches, where
   Adaptive Tetrahedra's is 2 bytes per point of records);
@@ -30,7 +31,7 @@ import sys
 
 import numpy as np
 from vtkmodules.util.numpy_support import numpy_to_vtkIdTypeArray, vtk_to_numpy
-from vtkmodules.vtkCommonCore import VTK_DOUBLE, VTK_FLOAT
+from vtkmodules.vtkCommonCore import VTK_DOUBLE, VTK_FLOAT, VTK_INT
 from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkPolyData
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -240,6 +241,44 @@ if scalars is not None:
     # Refined together, each surface is at least as fine as alone (a diamond either query splits is split).
     per_value = [int((values[tris[:, 0]] == v).sum()) for v in (1.5, 3.1)]
     dc.check(per_value[0] >= n_inner and per_value[1] >= n_outer and sum(per_value) == both.GetNumberOfCells(), f"two isovalues: {per_value} triangles, each at least as many as alone ({n_inner}, {n_outer})")
+
+# Every other point array interpolated onto the surface, as Contour does: a linear one (the
+# coordinates, 3 components) equals the points; an integer one keeps its type; the contoured array
+# only with ComputeScalars (the isovalue). The same with the isodiamond hierarchies, whose points
+# lie on the same edges.
+arrays = dc.programmable_image(
+    simple,
+    (40, 36, 33),
+    f"add('distance', np.sqrt((x - {center[0]}) ** 2 + (y - {center[1]}) ** 2 + (z - {center[2]}) ** 2), scalars=True)\n"
+    "add('position', np.stack([x, y, z], axis=1))\n"
+    "add('side', (x > 1.0).astype(np.int32))\n",
+    origin=(-4.0, -5.0, 0.0),
+    spacing=(0.25, 0.3, 0.27),
+)
+reference_pd = dc.fetch(simple.Contour(Input=arrays, ContourBy=["POINTS", "distance"], Isosurfaces=[r], ComputeScalars=0)).GetPointData()
+interpolating = simple.AdaptiveIsosurface(Input=arrays, ContourBy=["POINTS", "distance"], Isosurfaces=[r], Tolerance=0.1)
+for hierarchy in ("Full", "Relevant", "Minimal"):
+    interpolating.Hierarchy = hierarchy
+    for scalars_on in (0, 1):
+        interpolating.ComputeScalars = scalars_on
+        got = dc.fetch(interpolating)
+        pd = got.GetPointData()
+        names = sorted(pd.GetArrayName(i) for i in range(pd.GetNumberOfArrays()))
+        want = sorted(reference_pd.GetArrayName(i) for i in range(reference_pd.GetNumberOfArrays()))
+        if scalars_on:
+            want = sorted(want + ["distance"])
+        what = f"point arrays ({hierarchy}, ComputeScalars {scalars_on})"
+        dc.check(names == want, f"{what}: {names}, as Contour's {want}")
+        if pd.GetArray("position") is None or pd.GetArray("side") is None:
+            continue
+        pts, _ = surface_arrays(got)
+        position = vtk_to_numpy(pd.GetArray("position"))
+        dc.check(np.abs(position - pts).max() <= 1e-12 * np.abs(pts).max(), f"{what}: a linear array interpolates to the points themselves (max {np.abs(position - pts).max():.3g})")
+        dc.check(pd.GetArray("side").GetDataType() == VTK_INT, f"{what}: an int array stays int ({pd.GetArray('side').GetDataTypeAsString()})")
+        side = vtk_to_numpy(pd.GetArray("side"))
+        dc.check(set(np.unique(side).tolist()) <= {0, 1} and (side == (pts[:, 0] > 1.0)).mean() > 0.95, f"{what}: the int array is its nearer end's ({np.unique(side)})")
+        if scalars_on and hierarchy == "Full":
+            dc.check(np.all(vtk_to_numpy(pd.GetArray("distance")) == r), f"{what}: the contoured array is the isovalue")
 
 # Region of interest: full resolution in the x < center half, coarse elsewhere, still closed.
 region_filter = simple.AdaptiveIsosurface(Input=sphere, Isosurfaces=[r], Tolerance=0.0, UseRegionOfInterest=1)

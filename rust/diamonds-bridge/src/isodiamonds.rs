@@ -90,7 +90,7 @@ impl Isodiamonds {
                     .hierarchy
                     .isosurface_query(&query)
                     .map_err(|e| e.to_string())?;
-                check_core(check_isosurface_arrays(&surface, &query))?;
+                check_core(check_isosurface_arrays(&surface, &query, self.grid_points))?;
                 Ok(Box::new(Surface {
                     surface,
                     carrier: None,

@@ -530,6 +530,12 @@ mod ffi {
 
         /// World coordinates, three per point.
         fn points(self: &Surface) -> &[f64];
+        /// Two input point ids (relative to the grid of the build) per point: the ends of the mesh
+        /// edge it lies on, or the sample itself twice. Every point array of the input
+        /// interpolates onto the surface from them.
+        fn sources(self: &Surface) -> &[u32];
+        /// Per point, the weight of its second source (0 at a sample).
+        fn weights(self: &Surface) -> &[f64];
         /// Unit normals toward increasing values, three per point; empty unless asked for.
         fn normals(self: &Surface) -> &[f32];
         /// Three point indices per triangle, oriented so that the normal points toward increasing
@@ -1334,7 +1340,11 @@ impl Hierarchy {
                     }
                 }
                 .map_err(|e| e.to_string())?;
-                check_core(check_isosurface_arrays(&surface, &query))?;
+                check_core(check_isosurface_arrays(
+                    &surface,
+                    &query,
+                    self.hierarchy.grid().len(),
+                ))?;
                 let carrier = surface.carrier.take();
                 if let Some(mesh) = &carrier {
                     check_core(check_mesh_arrays(mesh, expected))?;
@@ -1518,6 +1528,14 @@ impl Mesh {
 impl Surface {
     fn points(&self) -> &[f64] {
         self.surface.points.as_flattened()
+    }
+
+    fn sources(&self) -> &[u32] {
+        self.surface.sources.as_flattened()
+    }
+
+    fn weights(&self) -> &[f64] {
+        &self.surface.weights
     }
 
     fn normals(&self) -> &[f32] {

@@ -5,7 +5,7 @@ use crate::read::{read_image, read_polydata, read_unstructured, tetrahedra};
 use crate::write::{
     checked_extension, write_image, write_tets, write_triangles, TetGrid, Triangles,
 };
-use crate::{bail, Array, AsScalarSlice, Result};
+use crate::{bail, interpolated, Array, AsScalarSlice, Result};
 use diamonds::refine::check_region;
 use diamonds::validate::{
     check_mesh, check_surface, check_tolerance, check_unit_normals, surface_distances,
@@ -340,6 +340,12 @@ pub fn iso(opts: &IsoOptions) -> Result<IsoSummary> {
     if opts.scalars {
         point_data.push(Array::scalars(&array.name, surface.values.clone()));
     }
+    // Every other point array, interpolated as Adaptive Isosurface (and Contour) does.
+    point_data.extend(
+        (image.point_data.iter())
+            .filter(|a| !std::ptr::eq(*a, array))
+            .map(|a| interpolated(a, &surface.sources, &surface.weights)),
+    );
     if opts.normals {
         point_data.push(Array {
             name: "Normals".into(),

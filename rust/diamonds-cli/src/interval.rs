@@ -4,8 +4,8 @@
 use crate::commands::{finish_as, inside, read_input, IsoTolerance, VerifyReport};
 use crate::read::{read_unstructured, tetrahedra};
 use crate::write::{checked_extension, write_tets, TetGrid};
-use crate::{bail, Array, AsScalarSlice, Result, Values};
-use diamonds::interval::{self, IntervalQuery, IntervalVolume};
+use crate::{bail, interpolated, Array, AsScalarSlice, Result};
+use diamonds::interval::{self, IntervalQuery};
 use diamonds::refine::check_region;
 use diamonds::validate::{check_interval_volume, interval_distances};
 use diamonds::{with_volume, Hierarchy};
@@ -99,7 +99,7 @@ pub fn interval(opts: &IntervalOptions) -> Result<IntervalSummary> {
     point_data.extend(
         (image.point_data.iter())
             .filter(|a| !std::ptr::eq(*a, array))
-            .map(|a| interpolated(a, &volume)),
+            .map(|a| interpolated(a, &volume.sources, &volume.weights)),
     );
     let n = volume.tets.len();
     write_tets(
@@ -139,32 +139,6 @@ pub fn interval(opts: &IntervalOptions) -> Result<IntervalSummary> {
         build_seconds,
         extract_seconds,
     })
-}
-
-/// `a` at the points of `volume`: `(1 − w) a[i] + w a[j]` per component (exactly `a[i]` at a
-/// sample), of `a`'s type (integers rounded).
-fn interpolated(a: &Array, volume: &IntervalVolume) -> Array {
-    let c = a.components;
-    let mut out = Vec::with_capacity(volume.points.len() * c);
-    for (&[i, j], &w) in volume.sources.iter().zip(&volume.weights) {
-        for k in 0..c {
-            let x = a.value(i as usize * c + k);
-            out.push(if w == 0.0 {
-                x
-            } else {
-                (1.0 - w) * x + w * a.value(j as usize * c + k)
-            });
-        }
-    }
-    let type_name = a.type_name();
-    if !type_name.starts_with("Float") {
-        out.iter_mut().for_each(|x| *x = x.round());
-    }
-    Array {
-        name: a.name.clone(),
-        components: c,
-        data: Values::from_f64(type_name, out).expect("a numeric type"),
-    }
 }
 
 /// Options of `diamonds verify-interval`.

@@ -31,6 +31,33 @@ use diamonds::ScalarSlice;
 /// The CLI's data arrays are those of [`vtkxml`].
 pub use vtkxml::{Array, Values};
 
+/// `a` at points between its samples (`sources` and `weights` of a core result: an isosurface, an
+/// interval volume): `(1 − w) a[i] + w a[j]` per component (exactly `a[i]` at a sample), of `a`'s
+/// type (integers rounded), as VTK's `InterpolateEdge` does.
+pub fn interpolated(a: &Array, sources: &[[u32; 2]], weights: &[f64]) -> Array {
+    let c = a.components;
+    let mut out = Vec::with_capacity(sources.len() * c);
+    for (&[i, j], &w) in sources.iter().zip(weights) {
+        for k in 0..c {
+            let x = a.value(i as usize * c + k);
+            out.push(if w == 0.0 {
+                x
+            } else {
+                (1.0 - w) * x + w * a.value(j as usize * c + k)
+            });
+        }
+    }
+    let type_name = a.type_name();
+    if !type_name.starts_with("Float") {
+        out.iter_mut().for_each(|x| *x = x.round());
+    }
+    Array {
+        name: a.name.clone(),
+        components: c,
+        data: Values::from_f64(type_name, out).expect("a numeric type"),
+    }
+}
+
 /// An error with a message meant for the end user (printed as `error: <message>`, exit code 2).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Error(pub String);

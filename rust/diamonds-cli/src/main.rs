@@ -64,9 +64,10 @@ enum Command {
     /// Marching tetrahedra over the adaptive mesh, refined where the surface passes until the
     /// isosurface error (approximation error over gradient magnitude, in world units) is within the
     /// tolerance. The surface is crack-free; at tolerance 0 it is the full-resolution one. The output
-    /// holds triangles (Polys), point data Normals (unit, toward increasing values) and, with --scalars,
-    /// the isovalue of each point named like the input array; field data ErrorBound (achieved error,
-    /// world units), NumberOfTriangles and Tolerance (world units).
+    /// holds triangles (Polys), point data Normals (unit, toward increasing values), every other
+    /// point array of the input interpolated at the points (as ParaView's Contour) and, with
+    /// --scalars, the isovalue of each point named like the input array; field data ErrorBound
+    /// (achieved error, world units), NumberOfTriangles and Tolerance (world units).
     Iso {
         /// Input image: VTK XML ImageData (.vti) or legacy VTK STRUCTURED_POINTS (.vtk).
         input: PathBuf,

@@ -627,3 +627,85 @@ fn help_describes_iso_and_verify_surface() {
         "{help}"
     );
 }
+
+#[test]
+fn every_other_point_array_is_interpolated_onto_the_surface() {
+    // A sphere distance with the coordinates (linear: interpolated, they are the points) and an
+    // integer label beside it, on a grid with an origin and unequal spacings.
+    let dir = TempDir::new("iso-arrays");
+    let mut grid = diamonds::Grid::new([21, 17, 19]);
+    grid.origin = [-1.0, -0.9, -1.1];
+    grid.spacing = [0.1, 0.12, 0.115];
+    let mut distance = Vec::new();
+    let mut position = Vec::new();
+    let mut label = Vec::new();
+    for k in 0..19 {
+        for j in 0..17 {
+            for i in 0..21 {
+                let p = grid.point([i, j, k]);
+                distance.push((p.iter().map(|c| c * c).sum::<f64>()).sqrt() as f32);
+                position.extend(p);
+                label.push((p[0] > 0.1) as i32);
+            }
+        }
+    }
+    let input = dir.join("arrays.vti");
+    diamonds_cli::write::write_image(
+        &input,
+        &grid,
+        &[
+            Array::scalars("distance", distance),
+            Array {
+                name: "position".into(),
+                components: 3,
+                data: position.into(),
+            },
+            Array::scalars("label", label),
+        ],
+    )
+    .unwrap();
+    for (tol, scalars) in [("0", false), ("0.1", true)] {
+        let out = dir.join("arrays.vtp");
+        let mut args = vec![
+            "--array",
+            "distance",
+            "--isovalue",
+            "0.7",
+            "--tolerance",
+            tol,
+        ];
+        if scalars {
+            args.push("--scalars");
+        }
+        iso(&input, &out, &args);
+        let (surface, n) = read_surface(&out);
+        assert!(n > 100);
+        let names: Vec<&str> = surface.point_data.iter().map(|a| a.name.as_str()).collect();
+        assert_eq!(
+            names.contains(&"distance"),
+            scalars,
+            "the contoured array only with --scalars: {names:?}"
+        );
+        let array = |name: &str| surface.point_data.iter().find(|a| a.name == name).unwrap();
+        let position = array("position");
+        assert_eq!((position.components, position.type_name()), (3, "Float64"));
+        for (p, point) in surface.points.iter().enumerate() {
+            for c in 0..3 {
+                let d = (position.value(3 * p + c) - point[c]).abs();
+                assert!(
+                    d <= 1e-12,
+                    "tol {tol}: point {p} {point:?}, position {d} off"
+                );
+            }
+        }
+        let label = array("label");
+        assert_eq!(label.type_name(), "Int32");
+        let ones = (0..surface.points.len())
+            .filter(|&p| label.value(p) == 1.0)
+            .count();
+        let zeros = (0..surface.points.len())
+            .filter(|&p| label.value(p) == 0.0)
+            .count();
+        assert!(ones > 0 && zeros > 0 && ones + zeros == surface.points.len());
+    }
+}

@@ -527,3 +527,68 @@ fn points_of_the_full_resolution_surface_at_samples_equal_to_the_isovalue_are_wi
         }
     }
 }
+
+/// Every point of `s` lies on the segment between its two sources at its weight (`position` of
+/// a grid index: its world coordinates), and the field `f` interpolated there is the point's
+/// isovalue: so any point array interpolates onto the surface as the point does.
+fn assert_sources(s: &IsoSurface, position: impl Fn(u32) -> DVec3, f: impl Fn(u32) -> f64) {
+    assert_eq!(s.sources.len(), s.points.len());
+    assert_eq!(s.weights.len(), s.points.len());
+    for (k, (&[i, j], &w)) in s.sources.iter().zip(&s.weights).enumerate() {
+        assert!(
+            i < j || (i == j && w == 0.0),
+            "point {k}: sources {i}, {j}, weight {w}"
+        );
+        assert!((0.0..1.0).contains(&w), "point {k}: weight {w}");
+        let p = (1.0 - w) * position(i) + w * position(j);
+        assert!(
+            (p - DVec3::from(s.points[k])).length() <= 1e-12,
+            "point {k} at {:?}, its sources give {p}",
+            s.points[k]
+        );
+        let v = (1.0 - w) * f(i) + w * f(j);
+        assert!(
+            (v - s.values[k]).abs() <= 1e-9 * (1.0 + s.values[k].abs()),
+            "point {k}: value {}, its sources give {v}",
+            s.values[k]
+        );
+    }
+}
+
+#[test]
+fn every_point_knows_the_samples_it_interpolates() {
+    // u8 samples hold the isovalue 128 at many points (those points are samples: [i, i]); f32
+    // samples almost never do; several isovalues at once, full resolution and adaptive.
+    let g = unit_grid([33, 29, 31]);
+    let position = |i: u32| {
+        let [x, y, z] = g.ijk(i as usize);
+        DVec3::from(g.point([x, y, z]))
+    };
+    let u8s: Vec<u8> = sample(&g, |x, y, z| {
+        ((sphere_distance(0.6)(x, y, z) + 1.0) / 2.0 * 255.0)
+            .clamp(0.0, 255.0)
+            .round() as u8
+    });
+    let h = Hierarchy::build_for_isosurfaces(g, ScalarSlice::U8(&u8s)).unwrap();
+    let mut at_samples = 0;
+    for tol in [0.0, 0.05] {
+        let q = IsoQuery {
+            isovalues: vec![128.0, 100.5],
+            ..IsoQuery::new(128.0, tol)
+        };
+        let s = extract(&h, ScalarSlice::U8(&u8s), &q).unwrap();
+        assert_sources(&s, position, |i| u8s[i as usize] as f64);
+        at_samples += s.sources.iter().filter(|[i, j]| i == j).count();
+    }
+    assert!(
+        at_samples > 0,
+        "no point at a sample: the case is not covered"
+    );
+    let v = sample(&g, |x, y, z| torus_distance(0.5, 0.2)(x, y, z) as f32);
+    let h = build(g, &v);
+    for tol in [0.0, 0.02, 0.1] {
+        let s = extract(&h, ScalarSlice::F32(&v), &IsoQuery::new(0.0, tol)).unwrap();
+        assert!(!s.points.is_empty());
+        assert_sources(&s, position, |i| v[i as usize] as f64);
+    }
+}

@@ -1366,9 +1366,10 @@ mod tests {
 
     /// Checks the pieces' parts of the surface against the serial surface: the union of their
     /// triangles is the serial one as a set of coordinate triangles, each once; every point's
-    /// global id names the serial point with the same coordinates, normal and value; merged by
-    /// global ids or by coordinates, the union is watertight and consistently oriented (open only
-    /// on the grid's faces) exactly as the serial surface is. Returns the triangles per piece.
+    /// global id names the serial point with the same coordinates, normal, value, sources and
+    /// weight; merged by global ids or by coordinates, the union is watertight and consistently
+    /// oriented (open only on the grid's faces) exactly as the serial surface is. Returns the
+    /// triangles per piece.
     fn check_iso_union(serial: &IsoSurface, parts: &[IsoSurface], grid: &Grid) -> Vec<usize> {
         let mut want: Vec<_> = (serial.triangles.iter())
             .map(|t| coordinate_triangle(&serial.points, t))
@@ -1395,6 +1396,8 @@ mod tests {
                 );
                 assert_eq!(s.values[k].to_bits(), serial.values[g].to_bits());
                 assert_eq!(s.normals[k], serial.normals[g]);
+                assert_eq!(s.sources[k], serial.sources[g]);
+                assert_eq!(s.weights[k].to_bits(), serial.weights[g].to_bits());
             }
             merged.extend(
                 s.triangles

@@ -50,7 +50,8 @@ use crate::diamond::{bisect, child_of, Diamond};
 use crate::hierarchy::{Hierarchy, Progress};
 use crate::interval::{self, clip, IntervalQuery, IntervalVolume, PointKey, ALPHA, SAMPLE};
 use crate::isosurface::{
-    crosses, marching_on_listed_edges, marching_with_sources, EdgeKey, IsoState, Marching,
+    crosses, marching_on_listed_edges, marching_with_sources, source_weight, EdgeKey, EdgePoint,
+    IsoState, Marching,
 };
 use crate::lattice::{Lattice, Tet};
 use crate::memory;
@@ -854,10 +855,21 @@ impl Isodiamonds {
         let mut surface = match listed {
             Some((used, triangles)) => {
                 let v = self.target.levels()[0];
+                let crossings: Vec<(&Crossing, DVec3, f64)> = (used.par_iter())
+                    .map(|&k| {
+                        let c = &self.points[k as usize];
+                        let (p, t) = self.crossing_point(c);
+                        (c, p, t)
+                    })
+                    .collect();
+                let (sources, weights) = crossings
+                    .iter()
+                    .map(|&(c, _, t)| source_weight(c.i, c.j, t))
+                    .unzip();
                 IsoSurface {
-                    points: (used.par_iter())
-                        .map(|&k| self.crossing_point(&self.points[k as usize]).0.to_array())
-                        .collect(),
+                    points: crossings.iter().map(|c| c.1.to_array()).collect(),
+                    sources,
+                    weights,
                     values: vec![v; used.len()],
                     triangles,
                     ..IsoSurface::default()
@@ -1216,19 +1228,23 @@ impl Marching for OnClasses<'_> {
         self.0.grid_index(p)
     }
 
-    fn point(&self, (ia, ib, l): EdgeKey, _: bool) -> (DVec3, f64, Option<DVec3>) {
+    fn point(&self, (ia, ib, l): EdgeKey, _: bool) -> EdgePoint {
         let h = self.0;
-        let v = h.target.levels()[l as usize];
         let at = |i: u32| h.class(h.lattice.point(i as usize)) == 1;
         // An end that holds the isovalue is the point, as on the values.
-        let p = if at(ib) {
-            h.world(ib)
+        let (position, weight) = if at(ib) {
+            (h.world(ib), 1.0)
         } else if at(ia) {
-            h.world(ia)
+            (h.world(ia), 0.0)
         } else {
-            h.crossing(ia, ib, l as u8).0
+            h.crossing(ia, ib, l as u8)
         };
-        (p, v, None)
+        EdgePoint {
+            position,
+            weight,
+            value: h.target.levels()[l as usize],
+            normal: None,
+        }
     }
 
     fn tet_normal(&self, t: &Tet) -> DVec3 {

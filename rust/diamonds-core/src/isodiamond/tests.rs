@@ -52,9 +52,10 @@ fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
     DVec3::from(a).distance(DVec3::from(b))
 }
 
-/// The same triangles on the same points (indices, values), every point within 1/512 of the
-/// longest edge a leaf of `grid` can have (the root cube's diagonal) and within one voxel
-/// diagonal / 512 at rung 0, plus rounding; watertight and oriented but on the grid's bounds.
+/// The same triangles on the same points (indices, values, sources, weights within 1/512), every
+/// point within 1/512 of the longest edge a leaf of `grid` can have (the root cube's diagonal) and
+/// within one voxel diagonal / 512 at rung 0, plus rounding; watertight and oriented but on the
+/// grid's bounds.
 fn assert_same_surface(h: &Isodiamonds, full: &IsoSurface, got: &IsoSurface, what: &str) {
     assert_eq!(got.points.len(), full.points.len(), "{what}: points");
     assert_eq!(
@@ -63,6 +64,14 @@ fn assert_same_surface(h: &Isodiamonds, full: &IsoSurface, got: &IsoSurface, wha
         "{what}: triangles"
     );
     assert_eq!(got.values, full.values, "{what}: values");
+    // The same samples per point, at weights within the quantisation of the crossings.
+    assert_eq!(got.sources, full.sources, "{what}: sources");
+    for (w, v) in got.weights.iter().zip(&full.weights) {
+        assert!(
+            (w - v).abs() <= 1.0 / 512.0 + 1e-12,
+            "{what}: weight {w} vs {v}"
+        );
+    }
     let g = h.grid();
     let voxel = DVec3::from(g.spacing).length();
     let longest = (h.lattice.size() as f64) * voxel;
@@ -166,6 +175,8 @@ fn marching_from_stored_crossings_equals_marching_on_classes() {
                     let what = format!("{name} {model:?} at {value} rung {rung}");
                     assert_eq!(got.points, generic.points, "{what}");
                     assert_eq!(got.values, generic.values, "{what}");
+                    assert_eq!(got.sources, generic.sources, "{what}");
+                    assert_eq!(got.weights, generic.weights, "{what}");
                     assert_eq!(got.triangles, generic.triangles, "{what}");
                 }
             }

@@ -131,8 +131,8 @@ pub(crate) trait Marching: Sync {
     fn values(&self, t: &Tet) -> [f64; 4];
     /// The name of a lattice point of the grid: its point index.
     fn index(&self, p: IVec3) -> u32;
-    /// The point of edge `key`: position, isovalue and, when asked and defined, the unit normal.
-    fn point(&self, key: EdgeKey, compute_normals: bool) -> (DVec3, f64, Option<DVec3>);
+    /// The point of edge `key` ([`EdgePoint`]; the normal only when asked and defined).
+    fn point(&self, key: EdgeKey, compute_normals: bool) -> EdgePoint;
     /// The normal where [`Marching::point`] has none: the direction of `t`'s gradient.
     fn tet_normal(&self, t: &Tet) -> DVec3;
 }
@@ -158,7 +158,7 @@ impl<T: Sample> Marching for OnVolume<'_, '_, T> {
             .index(p.x as usize, p.y as usize, p.z as usize) as u32
     }
 
-    fn point(&self, key: EdgeKey, compute_normals: bool) -> (DVec3, f64, Option<DVec3>) {
+    fn point(&self, key: EdgeKey, compute_normals: bool) -> EdgePoint {
         interpolate(self.volume, self.isovalues, key, compute_normals)
     }
 
@@ -198,7 +198,7 @@ pub(crate) fn marching_with_sources(
             .then(|| field.index(tets[poly.tet as usize][poly.at_sample[i] as usize]) as usize)
     };
     let mut separate = FxHashSet::default();
-    let (points, (triangles, sources)) = loop {
+    let (points, (triangles, made_by)) = loop {
         let points = join_at_samples(&polygons, &slot_ids, keys.len(), &sample_of, &separate)?;
         let triangles = fans(&polygons, &slot_ids, &points.id, slots)?;
         let pinched = pinched_samples(&triangles.0, &points.sample);
@@ -207,24 +207,26 @@ pub(crate) fn marching_with_sources(
         }
         separate.extend(pinched);
     };
-    let mut interpolated: Vec<(DVec3, f64, [f32; 3])> =
+    let mut interpolated: Vec<(EdgeKey, EdgePoint, [f32; 3])> =
         memory::with_capacity(points.first_edge.len(), "the isosurface points")?;
     interpolated.par_extend(points.first_edge.par_iter().map(|&e| {
         let (key, p) = keys[e as usize];
-        let (point, value, normal) = field.point(key, compute_normals);
+        let point = field.point(key, compute_normals);
         // Where the gradients vanish: the gradient of the tetrahedron, toward increasing values.
-        let normal = normal.unwrap_or_else(|| {
+        let normal = point.normal.unwrap_or_else(|| {
             if compute_normals {
                 field.tet_normal(&tets[polygons[p as usize].tet as usize])
             } else {
                 DVec3::ZERO
             }
         });
-        (point, value, normal.as_vec3().to_array())
+        (key, point, normal.as_vec3().to_array())
     }));
     let n = interpolated.len();
     let mut surface = IsoSurface {
         points: memory::with_capacity(n, "the isosurface points")?,
+        sources: memory::with_capacity(n, "the isosurface points' sources")?,
+        weights: memory::with_capacity(n, "the isosurface points' weights")?,
         values: memory::with_capacity(n, "the isosurface values")?,
         normals: memory::with_capacity(
             if compute_normals { n } else { 0 },
@@ -235,16 +237,24 @@ pub(crate) fn marching_with_sources(
     };
     surface
         .points
-        .par_extend(interpolated.par_iter().map(|p| p.0.to_array()));
+        .par_extend(interpolated.par_iter().map(|p| p.1.position.to_array()));
+    let source =
+        |&((a, b, _), point, _): &(EdgeKey, EdgePoint, _)| source_weight(a, b, point.weight);
+    surface
+        .sources
+        .par_extend(interpolated.par_iter().map(|p| source(p).0));
+    surface
+        .weights
+        .par_extend(interpolated.par_iter().map(|p| source(p).1));
     surface
         .values
-        .par_extend(interpolated.par_iter().map(|p| p.1));
+        .par_extend(interpolated.par_iter().map(|p| p.1.value));
     if compute_normals {
         surface
             .normals
             .par_extend(interpolated.par_iter().map(|p| p.2));
     }
-    Ok((surface, sources))
+    Ok((surface, made_by))
 }
 
 /// The points of marching tetrahedra: the point id of each distinct edge, and per point its first
@@ -521,7 +531,7 @@ pub(crate) fn marching_on_listed_edges(
     Ok(Some((used, triangles)))
 }
 
-/// The point of edge `key`: position, isovalue and, when asked and defined, the unit normal (the
+/// The point of edge `key` on the samples, with the unit normal when asked and defined (the
 /// gradient of the data at the point, [`gradient_at`]: a long edge of a coarse tetrahedron may join
 /// samples whose gradients point apart). Interpolated from the lower-index end so that every
 /// tetrahedron sharing the edge gets the same point bit for bit.
@@ -530,28 +540,60 @@ fn interpolate<T: Sample>(
     isovalues: &[f64],
     (ia, ib, k): EdgeKey,
     compute_normals: bool,
-) -> (DVec3, f64, Option<DVec3>) {
+) -> EdgePoint {
     let grid = &volume.grid;
     let at = |i: u32| {
         let [x, y, z] = grid.ijk(i as usize);
         IVec3::new(x as i32, y as i32, z as i32)
     };
-    let v = isovalues[k as usize];
+    let value = isovalues[k as usize];
     let (a, b) = (at(ia), at(ib));
     let (fa, fb) = (volume.at_index(ia as usize), volume.at_index(ib as usize));
     let (pa, pb) = (world(volume, a), world(volume, b));
     // An end that holds the isovalue is the point, exactly: the same for all its edges.
-    let point = if fb == v {
-        pb
+    let (position, weight) = if fb == value {
+        (pb, 1.0)
     } else {
-        pa + (v - fa) / (fb - fa) * (pb - pa)
+        let w = (value - fa) / (fb - fa);
+        (pa + w * (pb - pa), w)
     };
     let normal = if compute_normals {
-        gradient_at(volume, point).try_normalize()
+        gradient_at(volume, position).try_normalize()
     } else {
         None
     };
-    (point, v, normal)
+    EdgePoint {
+        position,
+        weight,
+        value,
+        normal,
+    }
+}
+
+/// The point of a crossed edge `(a, b)` of marching tetrahedra.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct EdgePoint {
+    /// World position.
+    pub(crate) position: DVec3,
+    /// The weight of the edge's higher-index end `b`: the point is `(1 − w) a + w b`, and so is any
+    /// point array interpolated there ([`IsoSurface::weights`]).
+    pub(crate) weight: f64,
+    /// The isovalue.
+    pub(crate) value: f64,
+    /// The unit normal, toward increasing values, where defined (and asked for).
+    pub(crate) normal: Option<DVec3>,
+}
+
+/// [`IsoSurface::sources`] and [`IsoSurface::weights`] of a point at `weight` along edge `(a, b)`
+/// from `a`: a point at a sample is that sample, `[i, i]` with weight 0.
+pub(crate) fn source_weight(a: u32, b: u32, weight: f64) -> ([u32; 2], f64) {
+    if weight == 0.0 {
+        ([a, a], 0.0)
+    } else if weight == 1.0 {
+        ([b, b], 0.0)
+    } else {
+        ([a, b], weight)
+    }
 }
 
 /// A point of marching tetrahedra: the lower and higher point ids of its edge, the isovalue's index.

@@ -79,7 +79,8 @@ use cache::IsoCache;
 use glam::{DMat3, DVec3, IVec3};
 use marching::{count_triangles, OnVolume};
 pub(crate) use marching::{
-    crosses, marching_on_listed_edges, marching_with_sources, EdgeKey, Marching,
+    crosses, marching_on_listed_edges, marching_with_sources, source_weight, EdgeKey, EdgePoint,
+    Marching,
 };
 
 /// An isosurface query.
@@ -119,6 +120,12 @@ impl IsoQuery {
 pub struct IsoSurface {
     /// World coordinates of each point.
     pub points: Vec<[f64; 3]>,
+    /// The input samples each point lies between (grid point indices, x fastest), `[i, i]` for
+    /// sample `i` itself.
+    pub sources: Vec<[u32; 2]>,
+    /// The weight of the second source (`0` for a sample): any point array interpolates onto the
+    /// surface as `(1 − w) a[i] + w a[j]`, as the point itself (up to rounding) and the isovalue.
+    pub weights: Vec<f64>,
     /// Unit normals toward increasing values (empty unless asked for).
     pub normals: Vec<[f32; 3]>,
     /// Triangles, oriented so that their normal points toward increasing values.
@@ -249,14 +256,14 @@ impl<T: Sample> Extraction<'_, '_, T> {
             volume,
             isovalues: &query.isovalues,
         };
-        let (mut surface, sources) =
+        let (mut surface, made_by) =
             marching_with_sources(&field, carriers, query.compute_normals)?;
         let error = self.carrier_error(&query.isovalues, tolerance);
         surface.error_bound = carriers.iter().map(&error).fold(0.0, f64::max);
         let owned: Vec<Tet>;
         let carriers = match owner {
             Some(owner) => {
-                surface = owned_part(surface, &sources, |k| owner.owns(&carriers[k as usize]));
+                surface = owned_part(surface, &made_by, |k| owner.owns(&carriers[k as usize]));
                 owned = carriers.iter().filter(|t| owner.owns(t)).copied().collect();
                 &owned[..]
             }
@@ -335,15 +342,15 @@ impl<T: Sample> Extraction<'_, '_, T> {
     }
 }
 
-/// The triangles of `surface` whose carrier (`sources`: its position among the carriers, per
+/// The triangles of `surface` whose carrier (`made_by`: its position among the carriers, per
 /// triangle) `owned` accepts, with their points renumbered in order and each point's id in `surface`
 /// as its [`IsoSurface::point_ids`].
-fn owned_part(surface: IsoSurface, sources: &[u32], owned: impl Fn(u32) -> bool) -> IsoSurface {
+fn owned_part(surface: IsoSurface, made_by: &[u32], owned: impl Fn(u32) -> bool) -> IsoSurface {
     const NONE: u32 = u32::MAX;
     let mut id = vec![NONE; surface.points.len()];
     let mut point_ids = Vec::new();
     let mut triangles = Vec::new();
-    for (t, &k) in surface.triangles.iter().zip(sources) {
+    for (t, &k) in surface.triangles.iter().zip(made_by) {
         if owned(k) {
             triangles.push(t.map(|p| {
                 if id[p as usize] == NONE {
@@ -359,6 +366,8 @@ fn owned_part(surface: IsoSurface, sources: &[u32], owned: impl Fn(u32) -> bool)
     }
     IsoSurface {
         points: pick(&surface.points, &point_ids),
+        sources: pick(&surface.sources, &point_ids),
+        weights: pick(&surface.weights, &point_ids),
         normals: if surface.normals.is_empty() {
             Vec::new()
         } else {

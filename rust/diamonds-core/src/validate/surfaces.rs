@@ -3,6 +3,7 @@
 //! consistency of an [`IsoSurface`] ([`check_isosurface_arrays`]).
 
 use super::check_corners;
+use super::tetrahedra::check_sources;
 use crate::{IsoQuery, IsoSurface};
 use rayon::prelude::*;
 
@@ -127,11 +128,17 @@ pub fn check_unit_normals(
     Ok(count)
 }
 
-/// The consistency C++ relies on when it copies an [`IsoSurface`] extracted for `query` into VTK
-/// arrays: one value (and one normal, when asked for) per point, triangle corners inside `points`, a
-/// carrier exactly when asked for.
-pub fn check_isosurface_arrays(surface: &IsoSurface, query: &IsoQuery) -> Result<(), String> {
+/// The consistency C++ relies on when it copies an [`IsoSurface`] extracted for `query` from an
+/// input of `grid_points` points into VTK arrays: one value, source pair and weight (and one normal,
+/// when asked for) per point, sources inside the input, triangle corners inside `points`, a carrier
+/// exactly when asked for.
+pub fn check_isosurface_arrays(
+    surface: &IsoSurface,
+    query: &IsoQuery,
+    grid_points: usize,
+) -> Result<(), String> {
     let n_points = surface.points.len();
+    check_sources(&surface.sources, &surface.weights, n_points, grid_points)?;
     if surface.values.len() != n_points {
         return Err(format!(
             "{n_points} isosurface points but {} values",
@@ -267,6 +274,8 @@ mod tests {
         };
         let good = IsoSurface {
             points: vec![[0.0; 3]; 3],
+            sources: vec![[0, 0], [1, 2], [3, 3]],
+            weights: vec![0.0, 0.5, 0.0],
             normals: vec![[0.0, 0.0, 1.0]; 3],
             triangles: vec![[0, 1, 2]],
             values: vec![1.0; 3],
@@ -275,22 +284,28 @@ mod tests {
             warnings: Vec::new(),
             point_ids: Vec::new(),
         };
-        assert!(check_isosurface_arrays(&good, &query).is_ok());
+        assert!(check_isosurface_arrays(&good, &query, 4).is_ok());
         let mut bad = good.clone();
         bad.triangles[0][1] = 3;
-        assert!(check_isosurface_arrays(&bad, &query)
+        assert!(check_isosurface_arrays(&bad, &query, 4)
             .unwrap_err()
             .contains("refers past the 3 points"));
         let mut bad = good.clone();
         bad.normals.pop();
-        assert!(check_isosurface_arrays(&bad, &query).is_err());
+        assert!(check_isosurface_arrays(&bad, &query, 4).is_err());
         let mut bad = good.clone();
         bad.values.pop();
-        assert!(check_isosurface_arrays(&bad, &query).is_err());
+        assert!(check_isosurface_arrays(&bad, &query, 4).is_err());
+        let mut bad = good.clone();
+        bad.weights.pop();
+        assert!(check_isosurface_arrays(&bad, &query, 4).is_err());
+        assert!(check_isosurface_arrays(&good, &query, 3)
+            .unwrap_err()
+            .contains("outside the 3 input points"));
         let carrier = IsoQuery {
             carrier_tetrahedra: true,
             ..query
         };
-        assert!(check_isosurface_arrays(&good, &carrier).is_err());
+        assert!(check_isosurface_arrays(&good, &carrier, 4).is_err());
     }
 }

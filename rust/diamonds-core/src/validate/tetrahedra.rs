@@ -427,10 +427,6 @@ pub fn check_mesh_arrays(mesh: &TetMesh, grid_points: usize) -> Result<(), Strin
 /// inside the `grid_points` input points.
 pub fn check_interval_arrays(volume: &IntervalVolume, grid_points: usize) -> Result<(), String> {
     let (n_points, n_tets) = (volume.points.len(), volume.tets.len());
-    let per_point = [
-        ("sources", volume.sources.len()),
-        ("weights", volume.weights.len()),
-    ];
     // No values from an isodiamond hierarchy, which stores none.
     if !(volume.values.is_empty() || volume.values.len() == n_points) {
         return Err(format!(
@@ -438,22 +434,34 @@ pub fn check_interval_arrays(volume: &IntervalVolume, grid_points: usize) -> Res
             volume.values.len()
         ));
     }
-    if let Some((what, n)) = per_point.iter().find(|(_, n)| *n != n_points) {
-        return Err(format!("{n_points} points but {n} {what}"));
-    }
     if volume.levels.len() != n_tets {
         return Err(format!(
             "{n_tets} tetrahedra but {} levels",
             volume.levels.len()
         ));
     }
-    if let Some(s) = (volume.sources.iter()).find(|s| s.iter().any(|&i| i as usize >= grid_points))
-    {
+    check_sources(&volume.sources, &volume.weights, n_points, grid_points)?;
+    check_corners(&volume.tets, n_points, "tetrahedron")
+}
+
+/// One source pair and weight for each of `n_points` points, the sources inside the `grid_points`
+/// input points (what C++ interpolates the input's point arrays from).
+pub(crate) fn check_sources(
+    sources: &[[u32; 2]],
+    weights: &[f64],
+    n_points: usize,
+    grid_points: usize,
+) -> Result<(), String> {
+    let per_point = [("sources", sources.len()), ("weights", weights.len())];
+    if let Some((what, n)) = per_point.iter().find(|(_, n)| *n != n_points) {
+        return Err(format!("{n_points} points but {n} {what}"));
+    }
+    if let Some(s) = (sources.iter()).find(|s| s.iter().any(|&i| i as usize >= grid_points)) {
         return Err(format!(
             "point source {s:?} outside the {grid_points} input points"
         ));
     }
-    check_corners(&volume.tets, n_points, "tetrahedron")
+    Ok(())
 }
 
 /// The consistency C++ relies on when it builds VTK arrays from a [`MaterialMesh`] refined from an
