@@ -94,7 +94,7 @@ vtkAdaptiveIsosurface::vtkAdaptiveIsosurface()
   , UseRegionOfInterest(0)
   , RegionOfInterest{ 0.0, 1.0, 0.0, 1.0, 0.0, 1.0 }
   , ComputeNormals(1)
-  , ComputeScalars(0)
+  , ComputeScalars(1)
   , GenerateCarrierTetrahedra(0)
   , Hierarchy(HIERARCHY_FULL)
   , NumberOfHierarchyBuilds(0)

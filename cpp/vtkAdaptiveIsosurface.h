@@ -70,8 +70,8 @@
  *   boundary, interpolated trilinearly over the grid cell holding the point; the gradient of the
  *   carrying tetrahedron where that vanishes); they point toward increasing values, like the triangle
  *   orientation (vtkFlyingEdges3D and vtkContourFilter orient both toward decreasing values).
- * - ComputeScalars (default off): a point array named like the processed array, of its type, whose
- *   value at every point is the point's isovalue.
+ * - ComputeScalars (default on, as vtkContourFilter's): a point array named like the processed
+ *   array, of its type, whose value at every point is the point's isovalue.
  * - GenerateCarrierTetrahedra (default off): fills output port 1 with the tetrahedra of the adaptive
  *   mesh that carry the surface, as a vtkUnstructuredGrid like vtkAdaptiveTetrahedra's output
  *   (VTK_TETRA, input point data passed through, cell data "BisectionDepth" and "IsosurfaceError" — the
@@ -80,12 +80,13 @@
  *   otherwise.
  *
  * Output port 0 (vtkPolyData): points in double precision; triangles only; point data "Normals"
- * (when ComputeNormals) and the scalar (when ComputeScalars); field data "ErrorBound" (double, the
+ * (when ComputeNormals), the scalar (when ComputeScalars) and every other point array of the input
+ * interpolated at the points as vtkContourFilter does (each point lies on an edge between two
+ * samples, or is one; types kept, integers rounded); field data "ErrorBound" (double, the
  * largest isosurface error, world units, of the diamonds carrying the surface, over the whole
  * surface: at most Tolerance unless the triangle budget stopped refinement or a region of interest
  * left the rest coarse), "NumberOfTriangles", "Tolerance" and "RelativeTolerance", next to the
- * input's field data. Unlike vtkFlyingEdges3D, the other input point arrays are not interpolated
- * onto the surface.
+ * input's field data.
  *
  * Memory and time. The filter builds the isosurface-only hierarchy: no per-diamond records (the
  * build takes milliseconds; HierarchyMemorySize is 0). Each extraction measures the isosurface

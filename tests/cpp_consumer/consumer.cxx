@@ -226,6 +226,29 @@ int main()
   vtkUnstructuredGrid* noCarriers = vtkUnstructuredGrid::SafeDownCast(iso->GetOutputDataObject(1));
   Check(noCarriers != nullptr && noCarriers->GetNumberOfCells() == 0,
     "isosurface: port 1 an empty vtkUnstructuredGrid by default");
+  {
+    // As vtkContourFilter: the contoured array by default (ComputeScalars), every other point
+    // array interpolated (Twice = 2 RTData is twice the isovalue on the surface).
+    vtkNew<vtkAdaptiveIsosurface> colored;
+    if (!image->GetPointData()->GetArray("Twice"))
+    {
+      image->GetPointData()->AddArray(twice); // gone if the source ran again
+    }
+    colored->SetInputData(image);
+    colored->SetValue(0, 157.0);
+    colored->SetTolerance(0.5);
+    colored->Update();
+    vtkPolyData* s = colored->GetOutput(0);
+    vtkDataArray* scalars = s->GetPointData()->GetScalars();
+    vtkDataArray* interpolated = s->GetPointData()->GetArray("Twice");
+    bool values = s->GetNumberOfPoints() > 0 && scalars != nullptr && interpolated != nullptr &&
+      interpolated->GetNumberOfTuples() == s->GetNumberOfPoints();
+    for (vtkIdType p = 0; values && p < s->GetNumberOfPoints(); ++p)
+    {
+      values = scalars->GetTuple1(p) == 157.0 && std::abs(interpolated->GetTuple1(p) - 314.0) < 1e-3;
+    }
+    Check(values, "isosurface: scalars by default and other point arrays interpolated");
+  }
   iso->SetValue(0, 120.0);
   iso->GenerateCarrierTetrahedraOn();
   iso->Update();

@@ -64,7 +64,8 @@ contour_default = simple.Contour(Input=wavelet)
 dc.check(list(filt.Isosurfaces) == list(contour_default.Isosurfaces), f"default Isosurfaces {list(filt.Isosurfaces)} == Contour's {list(contour_default.Isosurfaces)}")
 dc.check(len(filt.Isosurfaces) == 1 and babs(filt.Isosurfaces[0] - 0.5 * (lo + hi)) < 1e-6 * hi, "default: one isovalue at the middle of the range")
 dc.check(list(filt.ContourBy) == ["POINTS", "RTData"], f"default ContourBy {list(filt.ContourBy)}")
-dc.check(filt.ComputeNormals == 1 and filt.ComputeScalars == 0, "default ComputeNormals on, ComputeScalars off")
+dc.check(filt.ComputeNormals == 1 and filt.ComputeScalars == 1, "default ComputeNormals on, ComputeScalars on")
+dc.check(filt.ComputeScalars == contour_default.ComputeScalars and filt.ComputeNormals == contour_default.ComputeNormals, "ComputeScalars and ComputeNormals default as Contour's")
 voxel_length = math.sqrt(3 * 32.0**2) / 32.0
 dc.check(babs(filt.Tolerance - 2.5 * voxel_length) < 1e-9, f"default Tolerance is two and a half voxel diagonals (2.5 diagonal / cbrt(cells)): {filt.Tolerance}")
 dc.check(filt.MaximumNumberOfTriangles == 0 and filt.UseRegionOfInterest == 0 and filt.GenerateCarrierTetrahedra == 0, "defaults: no budget, no region, no carrier")
@@ -126,7 +127,7 @@ def reused_meshes(proxy):
     return int(proxy.GetProperty("NumberOfReusedMeshes").GetElement(0))
 
 
-keep = simple.AdaptiveIsosurface(Input=wavelet, Isosurfaces=[iso], Tolerance=0.5)
+keep = simple.AdaptiveIsosurface(Input=wavelet, Isosurfaces=[iso], Tolerance=0.5, ComputeScalars=0)
 first = dc.fetch(keep)
 first_normals = vtk_to_numpy(first.GetPointData().GetNormals()).copy()
 dc.check(reused_meshes(keep) == 0 and first.GetNumberOfCells() > 0, f"first execution: nothing to reuse ({first.GetNumberOfCells()} triangles)")
@@ -162,11 +163,13 @@ dc.check(reused_meshes(keep) == 3 and same_surface(restored, fresh), "input rest
 keep.ComputeNormals = 0
 dc.check(same_surface(dc.fetch(keep), fresh) and reused_meshes(keep) == 4, "and the rebuilt hierarchy's mesh is reused in turn")
 
-# Normals off: no point data at all.
+# Normals and scalars off: no point data at all (the Wavelet has no other point array).
 filt.ComputeNormals = 0
+filt.ComputeScalars = 0
 bare = dc.fetch(filt)
-dc.check(bare.GetPointData().GetNumberOfArrays() == 0, "ComputeNormals off: no Normals array")
+dc.check(bare.GetPointData().GetNumberOfArrays() == 0, "ComputeNormals and ComputeScalars off: no point array")
 filt.ComputeNormals = 1
+filt.ComputeScalars = 1
 
 # ---- A sphere distance field on an odd grid (40 x 36 x 33, origin and spacing not trivial):
 # closed surfaces, exact reference, two isovalues, ComputeScalars, region, budget, carriers.
@@ -342,7 +345,7 @@ def expect_error(f, phrase, label):
     dc.check(out0.GetNumberOfPoints() == 0 and out0.GetNumberOfCells() == 0 and out1.GetNumberOfCells() == 0, f"{label}: empty outputs")
 
 
-no_value = simple.AdaptiveIsosurface(Input=wavelet)
+no_value = simple.AdaptiveIsosurface(Input=wavelet, ContourBy=["POINTS", "RTData"])
 no_value.Isosurfaces = []  # (as a constructor argument, the domain default would replace it)
 expect_error(no_value, "at least one value", "no isovalue")
 expect_error(simple.AdaptiveIsosurface(Input=wavelet, Isosurfaces=[150.0, float("nan")]), "finite", "a NaN isovalue")
