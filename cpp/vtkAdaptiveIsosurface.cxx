@@ -242,6 +242,8 @@ void vtkAdaptiveIsosurface::vtkInternals::FillSurface(vtkAdaptiveIsosurface* sel
   output->SetPoints(points);
   output->SetPolys(FixedSizeCells(3, triangles, numPoints));
   // The contoured array is the isovalue there: ComputeScalars writes it exactly, or leaves it out.
+  // The normals and scalars below are added, then made active: SetNormals or SetScalars would
+  // replace an interpolated array that holds that role in the input (a Calculator's result).
   vtkDiamonds::InterpolatePointData(
     in, array->GetName(), surface.sources(), surface.weights(), output->GetPointData());
   if (self->ComputeNormals)
@@ -252,7 +254,8 @@ void vtkAdaptiveIsosurface::vtkInternals::FillSurface(vtkAdaptiveIsosurface* sel
     normalArray->SetNumberOfComponents(3);
     vtkDiamonds::Allocate(normalArray, 3 * numPoints);
     std::copy(normals.begin(), normals.end(), normalArray->GetPointer(0));
-    output->GetPointData()->SetNormals(normalArray);
+    output->GetPointData()->SetActiveAttribute(
+      output->GetPointData()->AddArray(normalArray), vtkDataSetAttributes::NORMALS);
   }
   if (self->ComputeScalars)
   {
@@ -266,7 +269,8 @@ void vtkAdaptiveIsosurface::vtkInternals::FillSurface(vtkAdaptiveIsosurface* sel
     {
       scalars->SetComponent(i, 0, values[i]);
     }
-    output->GetPointData()->SetScalars(scalars);
+    output->GetPointData()->SetActiveAttribute(
+      output->GetPointData()->AddArray(scalars), vtkDataSetAttributes::SCALARS);
   }
 }
 

@@ -282,6 +282,18 @@ for hierarchy in ("Full", "Relevant", "Minimal"):
         dc.check(set(np.unique(side).tolist()) <= {0, 1} and (side == (pts[:, 0] > 1.0)).mean() > 0.95, f"{what}: the int array is its nearer end's ({np.unique(side)})")
         if scalars_on and hierarchy == "Full":
             dc.check(np.all(vtk_to_numpy(pd.GetArray("distance")) == r), f"{what}: the contoured array is the isovalue")
+            dc.check(pd.GetScalars() is not None and pd.GetScalars().GetName() == "distance", f"{what}: the contoured array is the active scalars")
+# An input whose active scalars are another array (a Calculator's result, what a user colors by):
+# kept beside the contoured array and the normals, not replaced by them.
+height = simple.Calculator(Input=arrays, ResultArrayName="height", Function="coordsZ")
+with_height = dc.fetch(simple.AdaptiveIsosurface(Input=height, ContourBy=["POINTS", "distance"], Isosurfaces=[r], Tolerance=0.1))
+hpd = with_height.GetPointData()
+names = sorted(hpd.GetArrayName(i) for i in range(hpd.GetNumberOfArrays()))
+dc.check(names == ["Normals", "distance", "height", "position", "side"], f"a Calculator's result (the input's active scalars) kept beside the scalars and normals: {names}")
+if hpd.GetArray("height") is not None:
+    pts, _ = surface_arrays(with_height)
+    dc.check(np.abs(vtk_to_numpy(hpd.GetArray("height")) - pts[:, 2]).max() <= 1e-9, "and interpolated: height = z at every point")
+dc.check(hpd.GetScalars() is not None and hpd.GetScalars().GetName() == "distance" and hpd.GetNormals() is not None and hpd.GetNormals().GetName() == "Normals", "the contoured array and Normals are the active scalars and normals")
 
 # Region of interest: full resolution in the x < center half, coarse elsewhere, still closed.
 region_filter = simple.AdaptiveIsosurface(Input=sphere, Isosurfaces=[r], Tolerance=0.0, UseRegionOfInterest=1)
