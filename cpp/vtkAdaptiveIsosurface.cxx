@@ -547,10 +547,24 @@ int vtkAdaptiveIsosurface::RequestDistributed(vtkMultiProcessController* control
       {
         return false;
       }
-      surface.emplace(cache.GetHierarchy().isosurface_piece(cache.GetIsoState(),
-        cache.GetSampleType(), cache.GetSamples(),
-        rust::Slice<const double>(isovalues->data(), isovalues->size()), spec, pieces.Extents(),
-        static_cast<std::size_t>(pieces.Rank())));
+      // The ranks share the bound's check: each checks what it owns and they exchange the
+      // violations of every round (a rank without a piece takes part from its next Agree).
+      vtkDiamonds::SharedStep exchange(pieces, this, Text.Name);
+      try
+      {
+        surface.emplace(cache.GetHierarchy().isosurface_piece(cache.GetIsoState(),
+          cache.GetSampleType(), cache.GetSamples(),
+          rust::Slice<const double>(isovalues->data(), isovalues->size()), spec,
+          pieces.Extents(), static_cast<std::size_t>(pieces.Rank()), exchange));
+      }
+      catch (const rust::Error&)
+      {
+        if (pieces.Stopped())
+        {
+          return false; // agreed on and reported in the exchange
+        }
+        throw;
+      }
       for (const rust::String& warning : (*surface)->warnings())
       {
         vtkWarningMacro(<< "Adaptive Isosurface, array \"" << array->GetName()
@@ -565,6 +579,9 @@ int vtkAdaptiveIsosurface::RequestDistributed(vtkMultiProcessController* control
   }
   if (!agree(ok, "the extraction"))
   {
+    // Ranks that completed the extraction keep its mesh, the others not: forgotten on all, so
+    // that the next extraction starts alike on every rank and they exchange alike.
+    cache.ForgetIsosurfaceMesh();
     return pieces.Failed();
   }
   if (surface && cache.GetIsoState().reused())

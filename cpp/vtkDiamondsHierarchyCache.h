@@ -80,6 +80,15 @@ public:
   // The isosurface state of the cached hierarchy (only with a hierarchy): created empty with each
   // build and released with the hierarchy, so a state never outlives the hierarchy it belongs to.
   bridge::IsoState& GetIsoState() { return **this->IsoState; }
+  // Forgets the isosurface state's mesh (when there is a state): the next extraction refines from
+  // the root.
+  void ForgetIsosurfaceMesh()
+  {
+    if (this->IsoState)
+    {
+      (*this->IsoState)->forget_mesh();
+    }
+  }
   // The samples the hierarchy was built from (only for isosurfaces) and their type.
   rust::Slice<const std::uint8_t> GetSamples() const;
   bridge::ScalarType GetSampleType() const { return this->SampleType; }

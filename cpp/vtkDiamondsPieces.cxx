@@ -608,36 +608,135 @@ bool Ranks::AllOk(bool ok)
   return all == 1;
 }
 
+namespace
+{
+// What a rank says at Agree and Share; the maximum over the ranks decides. A failure or an abort
+// outweighs a shared step: the ranks sharing it stop.
+enum AgreeCode : int
+{
+  Done = 0,
+  Sharing = 1, // in a shared step (Share)
+  FailedHere = 2,
+  AbortedHere = 3, // CheckAbort sets AbortOutput; the executive sets it too when an input arrived ABORTED
+};
+} // namespace
+
 bool Ranks::Agree(vtkAlgorithm* filter, const char* name, bool ok, const char* what)
 {
-  // 0: done, 1: failed, 2: aborted (CheckAbort sets AbortOutput; the executive sets it too when
-  // an input arrived ABORTED). The maximum over the ranks decides.
+  if (this->StoppedInStep)
+  {
+    // A Share agreed on it with every rank already.
+    this->StoppedInStep = false;
+    return false;
+  }
+  for (;;)
+  {
+    const bool aborted = filter->CheckAbort() || filter->GetAbortOutput();
+    const int mine = aborted ? AbortedHere : ok ? Done : FailedHere;
+    int all = Done;
+    {
+      Clock clock{ this->Seconds };
+      this->Controller->AllReduce(&mine, &all, 1, vtkCommunicator::MAX_OP);
+      this->Sent += sizeof(int);
+    }
+    if (all == Done)
+    {
+      return true;
+    }
+    if (all == Sharing)
+    {
+      // Other ranks share a step: take part in their exchange with nothing, then agree again.
+      std::vector<unsigned char> none;
+      std::vector<vtkIdType> lengths;
+      std::string error;
+      if (this->ConcatenateValues<unsigned char>(nullptr, 0, none, lengths, error))
+      {
+        continue;
+      }
+      vtkErrorWithObjectMacro(filter, << name << " stopped: " << error);
+      return false;
+    }
+    if (all == AbortedHere)
+    {
+      // Every rank ends this execution as an aborted one: its outputs are emptied and marked
+      // ABORTED on every rank alike, so a later request for any port executes the filter on every
+      // rank, never on the aborting rank alone.
+      this->Aborted = true;
+      filter->SetAbortOutput(true);
+    }
+    else if (ok)
+    {
+      vtkErrorWithObjectMacro(
+        filter, << name << " stopped: " << what << " failed on another rank (see its error).");
+    }
+    return false;
+  }
+}
+
+bool Ranks::Share(vtkAlgorithm* filter, const char* name, const unsigned char* bytes,
+  std::size_t size, std::vector<unsigned char>& all, std::vector<vtkIdType>& lengths)
+{
   const bool aborted = filter->CheckAbort() || filter->GetAbortOutput();
-  const int mine = aborted ? 2 : ok ? 0 : 1;
-  int all = 0;
+  const int mine = aborted ? AbortedHere : Sharing;
+  int code = Done;
   {
     Clock clock{ this->Seconds };
-    this->Controller->AllReduce(&mine, &all, 1, vtkCommunicator::MAX_OP);
+    this->Controller->AllReduce(&mine, &code, 1, vtkCommunicator::MAX_OP);
     this->Sent += sizeof(int);
   }
-  if (all == 0)
+  if (code == Sharing)
   {
-    return true;
+    std::string error;
+    if (this->ConcatenateValues(bytes, static_cast<vtkIdType>(size), all, lengths, error))
+    {
+      return true;
+    }
+    vtkErrorWithObjectMacro(filter, << name << " stopped: " << error);
   }
-  if (all == 2)
+  else if (code == AbortedHere)
   {
-    // Every rank ends this execution as an aborted one: its outputs are emptied and marked
-    // ABORTED on every rank alike, so a later request for any port executes the filter on every
-    // rank, never on the aborting rank alone.
     this->Aborted = true;
     filter->SetAbortOutput(true);
   }
-  else if (ok)
+  else
   {
     vtkErrorWithObjectMacro(
-      filter, << name << " stopped: " << what << " failed on another rank (see its error).");
+      filter, << name << " stopped: the computation failed on another rank (see its error).");
   }
+  this->StoppedInStep = true;
   return false;
+}
+
+bool SharedStep::all_gather(rust::Slice<const std::uint8_t> bytes, rust::Vec<std::uint8_t>& all,
+  rust::Vec<std::uint64_t>& lengths) noexcept
+{
+  try
+  {
+    std::vector<unsigned char> gathered;
+    std::vector<vtkIdType> sizes;
+    if (!this->RanksOfStep.Share(
+          this->Filter, this->Name, bytes.data(), bytes.size(), gathered, sizes))
+    {
+      return false;
+    }
+    all.reserve(gathered.size());
+    for (unsigned char b : gathered)
+    {
+      all.push_back(b);
+    }
+    for (vtkIdType n : sizes)
+    {
+      lengths.push_back(static_cast<std::uint64_t>(n));
+    }
+    return true;
+  }
+  catch (...)
+  {
+    // Out of memory copying what every rank sent: the other ranks went on; this one stops at
+    // its next Agree with its error.
+    Ranks::ReportCaught(this->Filter, this->Name, "could not take what the other ranks sent");
+    return false;
+  }
 }
 
 bool Ranks::Allocated(
@@ -693,11 +792,19 @@ bool Ranks::Concatenate(
   const std::vector<std::int32_t>& values, std::vector<std::int32_t>& all, std::string& error)
 {
   static_assert(std::is_same_v<std::int32_t, int>, "vtkCommunicator exchanges int");
-  const vtkIdType mine = static_cast<vtkIdType>(values.size());
-  std::vector<vtkIdType> lengths(this->Count);
+  std::vector<vtkIdType> lengths;
+  return this->ConcatenateValues(
+    values.data(), static_cast<vtkIdType>(values.size()), all, lengths, error);
+}
+
+template <class T>
+bool Ranks::ConcatenateValues(const T* values, vtkIdType count, std::vector<T>& all,
+  std::vector<vtkIdType>& lengths, std::string& error)
+{
+  lengths.assign(this->Count, 0);
   {
     Clock clock{ this->Seconds };
-    this->Controller->AllGather(&mine, lengths.data(), 1);
+    this->Controller->AllGather(&count, lengths.data(), 1);
   }
   std::vector<vtkIdType> offsets(this->Count, 0);
   for (int r = 1; r < this->Count; ++r)
@@ -711,8 +818,8 @@ bool Ranks::Concatenate(
     return false;
   }
   Clock clock{ this->Seconds };
-  this->Controller->AllGatherV(values.data(), all.data(), mine, lengths.data(), offsets.data());
-  this->Sent += sizeof(vtkIdType) + values.size() * sizeof(int);
+  this->Controller->AllGatherV(values, all.data(), count, lengths.data(), offsets.data());
+  this->Sent += sizeof(vtkIdType) + count * sizeof(T);
   return true;
 }
 

@@ -62,10 +62,23 @@ public:
   // another rank (which reported its own error). When a rank was aborted, every rank ends the
   // execution aborted, without an error: AbortOutput set (the executive empties the outputs and
   // marks them ABORTED alike on every rank), and Failed() is 1.
+  //
+  // A rank that reaches Agree while other ranks share a step (Share) takes part in their
+  // exchanges, contributing nothing, until they reach it too: a rank with an empty piece, or one
+  // whose part of the step failed, never leaves them waiting.
   bool Agree(vtkAlgorithm* filter, const char* name, bool ok, const char* what);
   // What RequestData returns after an Agree that failed: 1 after an abort (not an error, as a
   // serial filter's abort), else 0.
   int Failed() const { return this->Aborted ? 1 : 0; }
+  // Collective among the ranks doing a shared step (the others are in Agree): every rank's
+  // `bytes`, concatenated in rank order into `all`, with their `lengths`. False on every rank
+  // when a rank failed or was aborted (agreed on as Agree does, with its error or abort; the
+  // next Agree then returns false at once) or could not allocate what it receives.
+  bool Share(vtkAlgorithm* filter, const char* name, const unsigned char* bytes, std::size_t size,
+    std::vector<unsigned char>& all, std::vector<vtkIdType>& lengths);
+  // Whether a Share stopped this step: the failure is agreed on, and the next Agree returns false
+  // without a collective.
+  bool Stopped() const { return this->StoppedInStep; }
   // This rank's part of a step between two collective ones: runs `work` (a callable returning false
   // when it failed and reported why) and returns its outcome. Whatever `work` throws is caught and
   // reported on `filter` here: a std::bad_alloc as the serial filters report running out of memory,
@@ -136,8 +149,15 @@ public:
   double ExchangeSeconds() const { return this->Seconds; }
 
 protected:
+  friend class SharedStep;
+
   // Reports the exception being handled (see Run).
   static void ReportCaught(vtkAlgorithm* filter, const char* name, const char* failure);
+
+  // Concatenate of `count` values at `values`, with every rank's length in `lengths`.
+  template <class T>
+  bool ConcatenateValues(const T* values, vtkIdType count, std::vector<T>& all,
+    std::vector<vtkIdType>& lengths, std::string& error);
 
   // Collective: runs `allocate` (which may throw std::bad_alloc) and agrees that every rank
   // could, before a collective that uses its buffers: a rank out of memory fails here with the
@@ -163,7 +183,29 @@ protected:
   int Count = 1;
   double Sent = 0.0;
   double Seconds = 0.0;
-  bool Aborted = false; // an Agree found a rank aborted
+  bool Aborted = false;        // an Agree found a rank aborted
+  bool StoppedInStep = false; // a Share agreed on a failure or an abort
+};
+
+// The bridge's exchange (diamonds::bridge::PieceExchange) through Ranks::Share, for a step that
+// the ranks share inside the core (Adaptive Isosurface's two-sided bound check).
+class SharedStep final : public diamonds::bridge::PieceExchange
+{
+public:
+  SharedStep(Ranks& ranks, vtkAlgorithm* filter, const char* name)
+    : RanksOfStep(ranks)
+    , Filter(filter)
+    , Name(name)
+  {
+  }
+
+  bool all_gather(rust::Slice<const std::uint8_t> bytes, rust::Vec<std::uint8_t>& all,
+    rust::Vec<std::uint64_t>& lengths) noexcept override;
+
+private:
+  Ranks& RanksOfStep;
+  vtkAlgorithm* Filter;
+  const char* Name;
 };
 
 // The pieces of a distributed image (or rectilinear grid): every rank's extent in the whole one,

@@ -8,4 +8,5 @@ fn main() {
         .compile("diamonds-bridge-cxx");
     println!("cargo:rerun-if-changed=src/lib.rs");
     println!("cargo:rerun-if-changed=include/progress.h");
+    println!("cargo:rerun-if-changed=include/exchange.h");
 }

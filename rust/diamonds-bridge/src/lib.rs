@@ -288,6 +288,22 @@ mod ffi {
         fn report(self: Pin<&mut ProgressObserver>, fraction: f64) -> bool;
     }
 
+    unsafe extern "C++" {
+        include!("diamonds-bridge/include/exchange.h");
+
+        /// Implemented by a distributed filter; called on the calling thread only.
+        type PieceExchange;
+        /// Sends `bytes` to every rank; `all` gets every rank's, concatenated in rank order, and
+        /// `lengths` their lengths. False when the ranks stop instead (a failure or an abort
+        /// agreed on by all).
+        fn all_gather(
+            self: Pin<&mut PieceExchange>,
+            bytes: &[u8],
+            all: &mut Vec<u8>,
+            lengths: &mut Vec<u64>,
+        ) -> bool;
+    }
+
     extern "Rust" {
         /// The diamond hierarchy of one image; owns its metadata (does not borrow the samples).
         /// Full (`build_hierarchy`: per-diamond records, serves `query` and `isosurface`) or
@@ -433,7 +449,10 @@ mod ffi {
         /// the whole image's): the part of the surface the rank at `rank` of `pieces` (every
         /// rank's extent) owns — the triangles of the carrier tetrahedra whose centroid its cells
         /// hold, and those tetrahedra — with `global_point_ids`. Over all ranks, the serial
-        /// surface, each triangle once.
+        /// surface, each triangle once. Every rank calls it with the same query and `state` (the
+        /// same queries before; after a failure on any rank, every rank's `forget_mesh`); the
+        /// ranks share the two-sided bound's check through `exchange`
+        /// (`diamonds::isosurface::Partition`).
         #[allow(clippy::too_many_arguments)]
         fn isosurface_piece(
             self: &Hierarchy,
@@ -444,6 +463,7 @@ mod ffi {
             spec: &IsoSpec,
             pieces: &[i64],
             rank: usize,
+            exchange: Pin<&mut PieceExchange>,
         ) -> Result<Box<Surface>>;
 
         /// Refines for `query` and counts the mesh; cheap compared with the build.
@@ -527,6 +547,8 @@ mod ffi {
         /// Whether the last query reused the previous adaptive mesh without refining (false
         /// before the first query and after a failed one).
         fn reused(self: &IsoState) -> bool;
+        /// Forgets the adaptive mesh of the last query: the next one refines from the root.
+        fn forget_mesh(self: &mut IsoState);
 
         /// World coordinates, three per point.
         fn points(self: &Surface) -> &[f64];
@@ -1210,6 +1232,11 @@ impl IsoState {
     pub fn reused(&self) -> bool {
         self.state.last().is_some_and(|stats| stats.reused)
     }
+
+    /// See [`diamonds::IsoState::forget_mesh`].
+    pub fn forget_mesh(&mut self) {
+        self.state.forget_mesh();
+    }
 }
 
 fn build_isosurface_hierarchy(
@@ -1315,7 +1342,7 @@ impl Hierarchy {
     }
 
     /// [`Hierarchy::isosurface`], or with `piece` (every piece's point box and this piece's
-    /// position) the part of it that piece owns ([`diamonds::IsoState::extract_piece`]).
+    /// position) the part of it that piece owns ([`diamonds::IsoState::extract_shared`], sharing the bound's check through the exchange).
     pub(crate) fn isosurface_of(
         &self,
         state: &mut IsoState,
@@ -1323,7 +1350,7 @@ impl Hierarchy {
         samples: &[u8],
         isovalues: &[f64],
         spec: &IsoSpec,
-        piece: Option<(&[PointBox], usize)>,
+        piece: Option<(&[PointBox], usize, &dyn diamonds::isosurface::Exchange)>,
     ) -> Result<Box<Surface>, String> {
         let what = "extracting the isosurface";
         self.with_iso_state(
@@ -1335,8 +1362,11 @@ impl Hierarchy {
                 let query = spec.query(isovalues);
                 let mut surface = match piece {
                     None => state.extract(&self.hierarchy, scalars, &query),
-                    Some((pieces, me)) => {
-                        state.extract_piece(&self.hierarchy, scalars, &query, pieces, me)
+                    Some((pieces, me, exchange)) => {
+                        diamonds::hierarchy::piece::CellOwner::new(pieces, me).and_then(|owner| {
+                            let partition = diamonds::isosurface::Partition::new(owner, exchange);
+                            state.extract_shared(&self.hierarchy, scalars, &query, &partition)
+                        })
                     }
                 }
                 .map_err(|e| e.to_string())?;

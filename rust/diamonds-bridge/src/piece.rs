@@ -11,12 +11,16 @@
 //! runs inside [`guard`].
 
 use std::pin::Pin;
+use std::sync::Mutex;
 
 use diamonds::hierarchy::piece::{self, PieceLayout, PointBox, StridedBox};
+use diamonds::isosurface::Exchange;
 use diamonds::lattice::Lattice;
 use glam::IVec3;
 
-use crate::ffi::{self, GridSpec, IsoSpec, QuerySpec, SampleRequests, ScalarType, SplitMessages};
+use crate::ffi::{
+    self, GridSpec, IsoSpec, PieceExchange, QuerySpec, SampleRequests, ScalarType, SplitMessages,
+};
 use crate::{core_grid, core_query, guard, typed_slice, MeshPlan};
 
 /// Opaque handle on a [`piece::PieceHierarchy`] for C++, with its identity (the mesh plans it
@@ -162,7 +166,8 @@ pub fn piece_check_cover(whole: &GridSpec, pieces: &[i64]) -> Result<(), String>
 
 impl crate::Hierarchy {
     /// The part of the isosurface the piece at `rank` of `pieces` owns, on a rank holding the
-    /// whole image ([`diamonds::IsoState::extract_piece`]).
+    /// whole image, the ranks sharing the bound's check through `exchange`
+    /// ([`diamonds::IsoState::extract_shared`]).
     #[allow(clippy::too_many_arguments)]
     pub fn isosurface_piece(
         &self,
@@ -173,16 +178,66 @@ impl crate::Hierarchy {
         spec: &IsoSpec,
         pieces: &[i64],
         rank: usize,
+        exchange: Pin<&mut PieceExchange>,
     ) -> Result<Box<crate::Surface>, String> {
         let pieces = guard("reading the pieces' extents", || boxes(pieces))?;
+        let exchange = CxxExchange {
+            exchange: Mutex::new(exchange),
+            thread: std::thread::current().id(),
+        };
         self.isosurface_of(
             state,
             scalar_type,
             samples,
             isovalues,
             spec,
-            Some((&pieces, rank)),
+            Some((&pieces, rank, &exchange)),
         )
+    }
+}
+
+/// The core's [`Exchange`] through the filter's [`PieceExchange`], called on the thread that
+/// called the bridge only (the filter's MPI calls are made there).
+struct CxxExchange<'a> {
+    exchange: Mutex<Pin<&'a mut PieceExchange>>,
+    thread: std::thread::ThreadId,
+}
+
+// SAFETY: the C++ object is used only under the mutex and only on the thread that created the
+// wrapper (checked at every call).
+unsafe impl Send for PieceExchange {}
+
+impl Exchange for CxxExchange<'_> {
+    fn all_gather(&self, bytes: Vec<u8>) -> diamonds::Result<Vec<Vec<u8>>> {
+        if std::thread::current().id() != self.thread {
+            return Err(diamonds::Error::Parameter(
+                "the ranks' exchange was called from a worker thread".into(),
+            ));
+        }
+        let (mut all, mut lengths) = (Vec::new(), Vec::new());
+        let mut exchange = self
+            .exchange
+            .lock()
+            .map_err(|_| diamonds::Error::Parameter("the ranks' exchange failed before".into()))?;
+        if !exchange.as_mut().all_gather(&bytes, &mut all, &mut lengths) {
+            return Err(diamonds::Error::Parameter(
+                "stopped: the other ranks stopped".into(),
+            ));
+        }
+        let mut pieces = Vec::with_capacity(lengths.len());
+        let mut at = 0usize;
+        for n in lengths {
+            let end = usize::try_from(n)
+                .ok()
+                .and_then(|n| at.checked_add(n))
+                .filter(|&end| end <= all.len())
+                .ok_or_else(|| {
+                    diamonds::Error::Parameter("the ranks' lengths exceed what they sent".into())
+                })?;
+            pieces.push(all[at..end].to_vec());
+            at = end;
+        }
+        Ok(pieces)
     }
 }
 

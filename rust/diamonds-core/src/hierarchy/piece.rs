@@ -914,6 +914,16 @@ impl CellOwner {
         let c4 = t[0] + t[1] + t[2] + t[3];
         holds(self.own, c4) && !self.earlier.iter().any(|&b| holds(b, c4))
     }
+
+    /// Does this piece own the grid cell at `corner` (its lower corner, lattice coordinates of a
+    /// grid whose lattice is its own)? The rule for tetrahedra, at the cell's centre.
+    #[inline]
+    pub fn owns_cell(&self, corner: [usize; 3]) -> bool {
+        let holds =
+            |(lo4, hi4): (IVec3, IVec3), c4: IVec3| c4.cmpge(lo4).all() && c4.cmplt(hi4).all();
+        let c4 = IVec3::from(corner.map(|c| c as i32)) * 4 + IVec3::splat(2);
+        holds(self.own, c4) && !self.earlier.iter().any(|&b| holds(b, c4))
+    }
 }
 
 /// Which piece owns a cell of a mesh whose vertices need not be grid points (Material Interface
@@ -1021,6 +1031,7 @@ pub(crate) fn pick<T: Copy>(values: &[T], ids: &[u64]) -> Vec<T> {
 mod tests {
     use super::*;
     use crate::fields::{marschner_lobb, sample, sphere_distance, torus_distance, unit_grid};
+    use crate::isosurface::Partition;
     use crate::validate::check_surface;
     use crate::{Hierarchy, IsoQuery, IsoState, IsoSurface};
 
@@ -1320,16 +1331,53 @@ mod tests {
         assert_eq!(cells(&parts), cells(&[&serial.query(&query).unwrap()]));
     }
 
-    /// Every rank's part of the Adaptive Isosurface of `query`, computed as the filter does: every
-    /// piece's points are gathered on every rank ([`first_uncovered`] checks that they cover the
-    /// grid), which puts the whole image together and extracts the part it owns. An empty piece
-    /// computes nothing.
+    /// Pieces run at once, one thread each, exchanging as ranks do.
+    struct Threads {
+        barrier: std::sync::Barrier,
+        slots: std::sync::Mutex<Vec<Vec<u8>>>,
+        /// Exchanges in which a piece sent violations (112 bytes each, beyond an 8-byte count per
+        /// isovalue).
+        sent: std::sync::atomic::AtomicUsize,
+    }
+
+    /// One piece's end of [`Threads`].
+    struct Member<'t> {
+        me: usize,
+        threads: &'t Threads,
+    }
+
+    impl crate::isosurface::Exchange for Member<'_> {
+        fn all_gather(&self, bytes: Vec<u8>) -> crate::Result<Vec<Vec<u8>>> {
+            let t = self.threads;
+            t.sent.fetch_add(
+                usize::from(bytes.len() >= 112),
+                std::sync::atomic::Ordering::Relaxed,
+            );
+            t.slots.lock().unwrap()[self.me] = bytes;
+            t.barrier.wait();
+            let all = t.slots.lock().unwrap().clone();
+            t.barrier.wait();
+            Ok(all)
+        }
+    }
+
+    /// Every rank's part of the Adaptive Isosurface of `query`, computed as the filter does
+    /// ([`IsoState::extract_shared`]): every piece's points are gathered on every rank
+    /// ([`first_uncovered`] checks that they cover the grid), which puts the whole image together,
+    /// and the pieces run at once, one thread each, sharing the bound's check through their
+    /// exchanges (empty pieces too: they take part in every exchange and own nothing). Returns the
+    /// parts and how many times a piece sent violations.
     fn iso_pieces(
         grid: Grid,
         samples: &[f32],
         boxes: &[PointBox],
         query: &IsoQuery,
-    ) -> Vec<IsoSurface> {
+    ) -> (Vec<IsoSurface>, usize) {
+        let threads = Threads {
+            barrier: std::sync::Barrier::new(boxes.len()),
+            slots: std::sync::Mutex::new(vec![Vec::new(); boxes.len()]),
+            sent: Default::default(),
+        };
         assert_eq!(first_uncovered(grid.dims, boxes), None);
         let mut whole = vec![f32::NAN; grid.len()];
         for b in boxes {
@@ -1343,17 +1391,23 @@ mod tests {
             }
         }
         assert!(whole.iter().all(|v| !v.is_nan()));
-        (boxes.iter().enumerate())
-            .map(|(me, &b)| {
-                if b.is_empty() {
-                    return IsoSurface::default();
-                }
-                let h = Hierarchy::build_for_isosurfaces(grid, ScalarSlice::F32(&whole)).unwrap();
-                IsoState::new()
-                    .extract_piece(&h, ScalarSlice::F32(&whole), query, boxes, me)
-                    .unwrap()
-            })
-            .collect()
+        let h = Hierarchy::build_for_isosurfaces(grid, ScalarSlice::F32(&whole)).unwrap();
+        let parts = std::thread::scope(|scope| {
+            let runs: Vec<_> = (0..boxes.len())
+                .map(|me| {
+                    let (h, threads, whole) = (&h, &threads, &whole);
+                    scope.spawn(move || {
+                        let member = Member { me, threads };
+                        let partition = Partition::new(CellOwner::new(boxes, me).unwrap(), &member);
+                        IsoState::new()
+                            .extract_shared(h, ScalarSlice::F32(whole), query, &partition)
+                            .unwrap()
+                    })
+                })
+                .collect();
+            runs.into_iter().map(|r| r.join().unwrap()).collect()
+        });
+        (parts, threads.sent.into_inner())
     }
 
     /// A triangle as its corners' coordinate bits, rotated to start at the smallest (orientation
@@ -1457,6 +1511,7 @@ mod tests {
             ),
             ("sphere", [31, 35, 27], [1, 1, 2], &sphere, &[-0.1]),
         ];
+        let mut exchanged = 0;
         for (name, dims, cuts, f, isovalues) in cases {
             let grid = unit_grid(dims);
             let samples = sample(&grid, |x, y, z| f(x, y, z) as f32);
@@ -1478,15 +1533,19 @@ mod tests {
                 let serial = IsoState::new()
                     .extract(&h, ScalarSlice::F32(&samples), &query)
                     .unwrap();
-                let parts = iso_pieces(grid, &samples, &boxes, &query);
+                let (parts, sent) = iso_pieces(grid, &samples, &boxes, &query);
                 let what = format!("{name} {dims:?} in {cuts:?}, {query:?}");
                 let counts = check_iso_union(&serial, &parts, &grid);
                 assert!(
                     counts.iter().all(|&n| n > 0),
                     "{what}: a piece owns no triangle ({counts:?})"
                 );
+                exchanged += sent;
             }
         }
+        // The pieces found violations and exchanged them: each piece's alone would not give the
+        // serial surface.
+        assert!(exchanged > 0);
     }
 
     #[test]
@@ -1519,7 +1578,7 @@ mod tests {
         let mut with_empty = pieces(dims, [2, 1, 1]);
         with_empty.insert(1, PointBox::EMPTY);
         for boxes in [vec![whole; 3], overlapping, with_empty] {
-            let parts = iso_pieces(grid, &samples, &boxes, &query);
+            let (parts, _) = iso_pieces(grid, &samples, &boxes, &query);
             check_iso_union(&serial, &parts, &grid);
             // The carrier tetrahedra too: each once.
             let carriers = |meshes: &[&TetMesh]| {
@@ -1542,14 +1601,7 @@ mod tests {
                 "{boxes:?}"
             );
         }
-        let bad = IsoState::new().extract_piece(
-            &h,
-            ScalarSlice::F32(&samples),
-            &query,
-            &pieces(dims, [2, 1, 1]),
-            2,
-        );
-        assert!(bad.is_err());
+        assert!(CellOwner::new(&pieces(dims, [2, 1, 1]), 2).is_err());
     }
 
     #[test]

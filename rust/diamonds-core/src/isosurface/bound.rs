@@ -51,6 +51,7 @@ use crate::geometry::{
     has_area, point_triangle_distance, sample_triangles, triangle_samples, triangle_tree, Triangle,
     TriangleTree,
 };
+use crate::hierarchy::piece::CellOwner;
 use crate::lattice::{Placement, Tet};
 use crate::mesh;
 use crate::refine::{Refiner, SplitSet};
@@ -148,6 +149,115 @@ impl Violation {
     }
 }
 
+/// A violation with where the check found it, `[kind, position, sequence, item]`: a crossed cell
+/// of F ([`CELL`], its position among the cells pending, the violation's place among the cell's,
+/// the cell) or a triangle of S ([`TRIANGLE`], its position among the triangles checked, the
+/// violation's place among the triangle's, its carrier's position among those checked). Every
+/// piece of a partitioned check ([`Partition`]) lists the cells and triangles alike and checks
+/// those it owns, so the keys of all pieces' violations order them as one check finds them.
+type Keyed = ([u32; 4], Violation);
+
+/// [`Keyed`] kinds, in the order the check lists them.
+const CELL: u32 = 0;
+const TRIANGLE: u32 = 1;
+
+/// `found` at position `n` with its `item`, keyed ([`Keyed`]).
+fn keyed(kind: u32, n: usize, item: u32, found: impl IntoIterator<Item = Violation>) -> Vec<Keyed> {
+    (found.into_iter().enumerate())
+        .map(|(seq, v)| ([kind, n as u32, seq as u32, item], v))
+        .collect()
+}
+
+/// The carriers whose surface a round checks.
+fn checked_carriers<'c>(carriers: &'c [Tet], pending: &'c Pending) -> &'c [Tet] {
+    match pending {
+        Pending::All => carriers,
+        Pending::Some { carriers, .. } => carriers,
+    }
+}
+
+/// The crossed cells of F that a round checks.
+fn pending_cells<'f>(fine: &'f Fine, pending: &'f Pending) -> &'f [u32] {
+    match pending {
+        Pending::All => &fine.cells,
+        Pending::Some { cells, .. } => cells,
+    }
+}
+
+/// A check shared by the pieces of a distributed image, each holding the whole image: every piece
+/// refines and lists as one check does, checks the triangles of the carriers it owns and the cells
+/// it owns ([`CellOwner`]), and `exchange` gives it every piece's violations of the round, so all
+/// pieces split the same diamonds as one check does.
+pub struct Partition<'a> {
+    pub(super) owner: CellOwner,
+    exchange: &'a dyn Exchange,
+}
+
+/// How the pieces of a [`Partition`] share what each found: an all-gather of bytes. Every piece
+/// calls it the same number of times, in the same order.
+pub trait Exchange: Sync {
+    /// Sends this piece's `bytes` and returns every piece's (its own included), in piece order.
+    fn all_gather(&self, bytes: Vec<u8>) -> Result<Vec<Vec<u8>>>;
+}
+
+impl<'a> Partition<'a> {
+    /// The partition of piece `owner`, with every piece's `exchange`.
+    pub fn new(owner: CellOwner, exchange: &'a dyn Exchange) -> Self {
+        Self { owner, exchange }
+    }
+
+    /// Every piece's violations of a round (per isovalue), from this piece's `found`.
+    fn all(&self, found: Vec<Vec<Keyed>>) -> Result<Vec<Vec<Keyed>>> {
+        let mut bytes = Vec::new();
+        for list in &found {
+            bytes.extend((list.len() as u64).to_le_bytes());
+            for (key, v) in list {
+                key.iter().for_each(|k| bytes.extend(k.to_le_bytes()));
+                let coordinates = v.point.to_array().into_iter();
+                let coordinates = coordinates.chain(v.triangle.iter().flat_map(|p| p.to_array()));
+                coordinates.for_each(|c| bytes.extend(c.to_le_bytes()));
+            }
+        }
+        let pieces = self.exchange.all_gather(bytes)?;
+        let mut all: Vec<Vec<Keyed>> = found.iter().map(|_| Vec::new()).collect();
+        for piece in pieces {
+            let mut at = piece.as_slice();
+            let mut take = |n: usize| -> Result<&[u8]> {
+                if at.len() < n {
+                    return Err(Error::Parameter(
+                        "a piece sent a truncated list of violations".into(),
+                    ));
+                }
+                let (head, rest) = at.split_at(n);
+                at = rest;
+                Ok(head)
+            };
+            for list in &mut all {
+                let n = u64::from_le_bytes(take(8)?.try_into().expect("8 bytes"));
+                for _ in 0..n {
+                    let mut key = [0u32; 4];
+                    for k in &mut key {
+                        *k = u32::from_le_bytes(take(4)?.try_into().expect("4 bytes"));
+                    }
+                    let mut c = [0f64; 12];
+                    for x in &mut c {
+                        *x = f64::from_le_bytes(take(8)?.try_into().expect("8 bytes"));
+                    }
+                    let p = |i: usize| DVec3::new(c[i], c[i + 1], c[i + 2]);
+                    list.push((
+                        key,
+                        Violation {
+                            point: p(0),
+                            triangle: [p(3), p(6), p(9)],
+                        },
+                    ));
+                }
+            }
+        }
+        Ok(all)
+    }
+}
+
 /// Rounds of checking and splitting at most (each splits at least one diamond; in practice a few).
 const MAX_ROUNDS: usize = 64;
 
@@ -236,7 +346,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
             _ => isovalues.iter().map(|_| None).collect(),
         };
         for _ in 0..MAX_ROUNDS {
-            let mut far = Vec::with_capacity(isovalues.len());
+            let mut found_by_value = Vec::with_capacity(isovalues.len());
             for (((&v, fine), pending), last) in (isovalues.iter().zip(&fine))
                 .zip(&mut pending)
                 .zip(&mut last_sheets)
@@ -259,8 +369,14 @@ impl<T: Sample> Extraction<'_, '_, T> {
                     reach,
                     query.region_of_interest,
                 )?;
-                far.push(found);
+                found_by_value.push(found);
             }
+            if let Some(partition) = self.partition {
+                found_by_value = partition.all(found_by_value)?;
+            }
+            let far: Vec<Far> = (found_by_value.into_iter().zip(&pending))
+                .map(|(found, pending)| Self::far(found, checked_carriers(&carriers, pending)))
+                .collect();
             if far.iter().all(|f| f.points.is_empty()) {
                 return Ok((split, carriers));
             }
@@ -335,6 +451,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
             hierarchy: self.hierarchy,
             volume: &negated,
             cache: &cache,
+            partition: self.partition,
         };
         let level = |v: f64| IsoQuery {
             isovalues: vec![v],
@@ -850,14 +967,12 @@ impl<T: Sample> Extraction<'_, '_, T> {
         pending: &Pending,
         reach: Reach,
         region: Option<[f64; 6]>,
-    ) -> Result<Far> {
+    ) -> Result<Vec<Keyed>> {
+        let owner = self.partition.map(|p| &p.owner);
         let volume = self.volume;
         let grid = &volume.grid;
         let h = grid.spacing.into_iter().fold(f64::INFINITY, f64::min);
-        let checked = match pending {
-            Pending::All => carriers,
-            Pending::Some { carriers, .. } => carriers,
-        };
+        let checked = checked_carriers(carriers, pending);
         let checked_triangles: Vec<([DVec3; 3], u32)> =
             drawn_triangles(volume, v, checked, sheets).collect();
         // S → F: each triangle's samples spaced at most `h` (the cheap certificate from the blocks
@@ -872,9 +987,16 @@ impl<T: Sample> Extraction<'_, '_, T> {
             Some(blocks) if blocks.near(p) => Known::within(blocks.reach()),
             _ => Known::UNKNOWN,
         };
-        let s_to_f = || -> Vec<(Violation, u32)> {
-            (checked_triangles.par_iter())
-                .map_init(fine_surface, |surface, &(t, k)| {
+        let s_to_f = || -> Vec<Keyed> {
+            // Indexed (no filter before `map_init`): each rayon job keeps one surface, whose
+            // cache of F's recent cells serves neighbouring triangles (filtered first, the
+            // iterator is unindexed and splits into far more jobs: the extraction took 45 %
+            // longer on bonsai).
+            (checked_triangles.par_iter().enumerate())
+                .map_init(fine_surface, |surface, (n, &(t, k))| {
+                    if owner.is_some_and(|o| !o.owns(&checked[k as usize])) {
+                        return Vec::new(); // another piece's
+                    }
                     // Most triangles lie well within the reach: their samples near the blocks settle
                     // every part.
                     if fine.blocks.is_some()
@@ -896,9 +1018,9 @@ impl<T: Sample> Extraction<'_, '_, T> {
                         let found =
                             to_fine.violation([samples[a], samples[b], samples[c]], &mut k3);
                         [known[a], known[b], known[c]] = k3;
-                        far.extend(found.map(|point| (Violation { point, triangle: t }, k)));
+                        far.extend(found.map(|point| Violation { point, triangle: t }));
                     }
-                    far
+                    keyed(TRIANGLE, n, k, far)
                 })
                 .flatten_iter()
                 .collect()
@@ -925,19 +1047,19 @@ impl<T: Sample> Extraction<'_, '_, T> {
             _ => Known::UNKNOWN,
         };
         let (origin, spacing) = (DVec3::from(grid.origin), DVec3::from(grid.spacing));
-        let open: Vec<u32> = match pending {
-            Pending::All => &fine.cells,
-            Pending::Some { cells, .. } => cells,
-        }
-        .par_iter()
-        .copied()
-        .filter(|&c| {
-            let centre =
-                origin + (DVec3::from(grid.ijk(c as usize).map(|c| c as f64)) + 0.5) * spacing;
-            near_drawn(centre).d == f64::INFINITY
-        })
-        .collect();
-        let far_cells: Vec<(Violation, u32)> = if open.is_empty() {
+        // Each with its position among the pending cells. Every piece finds the same open cells
+        // (and so the same triangles around them below) and measures those it owns.
+        let open: Vec<(usize, u32)> = pending_cells(fine, pending)
+            .par_iter()
+            .copied()
+            .enumerate()
+            .filter(|&(_, c)| {
+                let centre =
+                    origin + (DVec3::from(grid.ijk(c as usize).map(|c| c as f64)) + 0.5) * spacing;
+                near_drawn(centre).d == f64::INFINITY
+            })
+            .collect();
+        let far_cells: Vec<Keyed> = if open.is_empty() {
             Vec::new()
         } else {
             let all = match pending {
@@ -945,7 +1067,8 @@ impl<T: Sample> Extraction<'_, '_, T> {
                 // Later rounds: the triangles within the reach of the open cells, the only ones
                 // that can settle points of them.
                 Pending::Some { .. } => {
-                    let near_open = Around::new(grid, &open, reach.full);
+                    let cells: Vec<u32> = open.iter().map(|&(_, c)| c).collect();
+                    let near_open = Around::new(grid, &cells, reach.full);
                     drawn_triangles(volume, v, carriers, sheets)
                         .filter(|(t, _)| {
                             let [a, b, c] = t.map(|p| (p - origin) / spacing);
@@ -965,7 +1088,8 @@ impl<T: Sample> Extraction<'_, '_, T> {
                 region,
             };
             open.into_par_iter()
-                .flat_map_iter(|c| {
+                .filter(|&(_, c)| owner.is_none_or(|o| o.owns_cell(grid.ijk(c as usize))))
+                .flat_map_iter(|(n, c)| {
                     let cell = IVec3::from(grid.ijk(c as usize).map(|c| c as i32));
                     let to_drawn = &to_drawn;
                     let near_drawn = &near_drawn;
@@ -975,7 +1099,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
                     let triangles = cell_triangles(volume, cell, v);
                     let mut points = ArrayVec::<(DVec3, Known<u32>), 36>::new();
                     let same = h * 1e-9;
-                    let mut found = ArrayVec::<(Violation, u32), 12>::new();
+                    let mut found = ArrayVec::<Violation, 12>::new();
                     for t in triangles {
                         let at = t.map(|p| {
                             points
@@ -989,27 +1113,40 @@ impl<T: Sample> Extraction<'_, '_, T> {
                         let mut known = at.map(|i| points[i].1);
                         found.extend(
                             (to_drawn.violation(t, &mut known))
-                                .map(|point| (Violation { point, triangle: t }, c)),
+                                .map(|point| Violation { point, triangle: t }),
                         );
                         for (i, k) in at.into_iter().zip(known) {
                             points[i].1 = k;
                         }
                     }
-                    found
+                    keyed(CELL, n, c, found)
                 })
                 .collect()
         };
-        let mut far_carriers: Vec<u32> = far_samples.iter().map(|&(_, k)| k).collect();
-        far_carriers.dedup();
-        let mut cells: Vec<u32> = far_cells.iter().map(|&(_, c)| c).collect();
-        cells.dedup();
-        Ok(Far {
-            points: (far_cells.iter().chain(&far_samples))
-                .map(|&(p, _)| p)
-                .collect(),
-            carriers: far_carriers.iter().map(|&k| checked[k as usize]).collect(),
-            cells,
-        })
+        let mut found = far_cells;
+        found.extend(far_samples);
+        Ok(found)
+    }
+
+    /// The violations of one round for one isovalue, every piece's (`found`, each with its key),
+    /// in the order of their keys: the order a single check finds them.
+    fn far(mut found: Vec<Keyed>, checked: &[Tet]) -> Far {
+        found.sort_unstable_by_key(|&(key, _)| key);
+        let mut far = Far {
+            points: Vec::with_capacity(found.len()),
+            carriers: Vec::new(),
+            cells: Vec::new(),
+        };
+        for ([kind, _, _, item], v) in found {
+            far.points.push(v);
+            match kind {
+                CELL => far.cells.push(item),
+                _ => far.carriers.push(checked[item as usize]),
+            }
+        }
+        far.cells.dedup();
+        far.carriers.dedup();
+        far
     }
 
     /// The diamonds to split for `violations` (of each isovalue): for a violation, the diamonds on
@@ -1217,6 +1354,7 @@ mod tests {
             hierarchy: &h,
             volume: &volume,
             cache: &cache,
+            partition: None,
         };
         let (above, below) = ([a, b, c, p(5, 5, 6)], [a, c, b, p(5, 5, 4)]);
         let reach = Reach::new(&grid, 1.0);
@@ -1305,6 +1443,7 @@ mod tests {
             hierarchy: &h,
             volume: &volume,
             cache: &cache,
+            partition: None,
         };
         let sorted = |ts: &[Tet]| {
             let mut k: Vec<_> = ts.iter().map(|t| t.map(|p| p.to_array())).collect();

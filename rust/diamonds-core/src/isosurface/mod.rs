@@ -26,11 +26,13 @@
 //! point is shared by every triangle through its mesh edge, so the surface is crack-free wherever the
 //! full-resolution one is.
 //!
-//! **Across MPI pieces** ([`IsoState::extract_piece`]): a rank that holds the whole image (fetched
-//! from the others) extracts the whole surface, which is the same bit for bit on every rank, and
-//! keeps the triangles of the carrier leaves it owns
+//! **Across MPI pieces** ([`IsoState::extract_shared`]): a rank that holds the whole image (fetched
+//! from the others) refines as one process does and extracts the whole surface, the same bit for
+//! bit on every rank, and keeps the triangles of the carrier leaves it owns
 //! ([`crate::hierarchy::piece::CellOwner`]), numbering their points by the whole surface (global
-//! ids). Exact, not scalable: memory and work per rank are the serial ones.
+//! ids). The two-sided bound's check, most of the work, is shared ([`Partition`]): each rank
+//! checks what it owns and the ranks exchange each round's violations. Exact; memory per rank is
+//! still the serial one's.
 //!
 //! The stages, one file each, in the order a query runs them:
 //! - this file: the query and result types, the entry point [`extract`], the triangle budget and the
@@ -58,6 +60,7 @@ mod fine;
 mod marching;
 mod state;
 
+pub use bound::{Exchange, Partition};
 pub(crate) use cover::in_region;
 #[cfg(test)]
 pub(crate) use fine::cell_tets;
@@ -139,7 +142,7 @@ pub struct IsoSurface {
     /// What the user should know: isovalues outside the data range, a triangle budget that the
     /// coarsest surface exceeds.
     pub warnings: Vec<String>,
-    /// Global point ids, for a piece's part ([`IsoState::extract_piece`]): each point's position
+    /// Global point ids, for a piece's part ([`IsoState::extract_shared`]): each point's position
     /// in the whole surface, the same on every piece holding it. Empty for a whole surface.
     pub point_ids: Vec<u64>,
 }
@@ -179,6 +182,8 @@ struct Extraction<'a, 'v, T> {
     hierarchy: &'a Hierarchy,
     volume: &'a Volume<'v, T>,
     cache: &'a IsoCache,
+    /// The piece's share of the bound's check, when pieces share it ([`Partition`]).
+    partition: Option<&'a Partition<'a>>,
 }
 
 /// A refinement (from the root or from a current mesh) with a given diamond error.

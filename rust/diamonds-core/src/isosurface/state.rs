@@ -16,9 +16,8 @@
 //! [`IsoStart::Root`] is the default; [`IsoStart::Current`] remains for callers and probes.
 
 use super::cache::IsoCache;
-use super::{check, refine_query, Extraction, IsoQuery, IsoSurface};
+use super::{check, refine_query, Extraction, IsoQuery, IsoSurface, Partition};
 use crate::diamond::Diamond;
-use crate::hierarchy::piece::{CellOwner, PointBox};
 use crate::hierarchy::Hierarchy;
 use crate::lattice::{Placement, Tet};
 use crate::mesh;
@@ -157,28 +156,31 @@ impl IsoState {
             .extract_volume(hierarchy, &v, query, None))
     }
 
-    /// The part of [`IsoState::extract`]'s surface that piece `me` of `pieces` owns (every piece's
-    /// points in the whole grid, rank order), for a piece of a distributed image that holds the
-    /// whole image (`hierarchy` and `scalars` are the whole grid's): the triangles of the carrier
-    /// leaves it owns ([`CellOwner`]: centroid in its half-open cell box), their points numbered
-    /// by the whole surface in [`IsoSurface::point_ids`] (the same point, bit for bit, on every
-    /// piece), and the carrier tetrahedra it owns. Over all pieces, each triangle of the whole
-    /// surface once. The error bound and warnings are the whole surface's.
-    pub fn extract_piece(
+    /// The part of [`IsoState::extract`]'s surface that the piece of `partition` owns, for a
+    /// piece of a distributed image that holds the whole image (`hierarchy` and `scalars` are the
+    /// whole grid's): the triangles of the carrier leaves it owns ([`crate::hierarchy::piece::CellOwner`]: centroid in its
+    /// half-open cell box), their points numbered by the whole surface in
+    /// [`IsoSurface::point_ids`] (the same point, bit for bit, on every piece), and the carrier
+    /// tetrahedra it owns. Over all pieces, each triangle of the whole surface once. The error
+    /// bound and warnings are the whole surface's. The two-sided bound's check is shared
+    /// ([`Partition`]): each piece checks the surface of the carriers and the cells of the
+    /// full-resolution surface it owns, and every round's violations reach every piece through the
+    /// partition's exchange, so each refines as one whole check does. Every piece must call it
+    /// with the same query and the same state (the same queries before, none failed on one piece
+    /// alone: [`IsoState::forget_mesh`] after a failure elsewhere), so that all exchange alike.
+    pub fn extract_shared(
         &mut self,
         hierarchy: &Hierarchy,
         scalars: ScalarSlice<'_>,
         query: &IsoQuery,
-        pieces: &[PointBox],
-        me: usize,
+        partition: &Partition<'_>,
     ) -> Result<IsoSurface> {
         check(hierarchy, scalars, query)?;
-        let owner = CellOwner::new(pieces, me)?;
         with_volume!(*hierarchy.grid(), scalars, |v| self.extract_volume(
             hierarchy,
             &v,
             query,
-            Some(&owner)
+            Some(partition)
         ))
     }
 
@@ -187,8 +189,9 @@ impl IsoState {
         hierarchy: &Hierarchy,
         volume: &Volume<'_, T>,
         query: &IsoQuery,
-        owner: Option<&CellOwner>,
+        partition: Option<&Partition<'_>>,
     ) -> Result<IsoSurface> {
+        let owner = partition.map(|p| &p.owner);
         self.last = None;
         if self.cache.as_ref().is_some_and(|c| !c.fits(&volume.grid)) {
             self.cache = None;
@@ -198,6 +201,7 @@ impl IsoState {
             hierarchy,
             volume,
             cache,
+            partition,
         };
         if query.max_triangles > 0 {
             self.current = None;
@@ -275,6 +279,7 @@ impl IsoState {
             hierarchy,
             volume,
             cache,
+            partition: None,
         };
         let refine = refine_query(query, query.tolerance);
         let (grid, base) = (hierarchy.grid(), hierarchy.base());
@@ -363,6 +368,7 @@ mod tests {
             hierarchy: h,
             volume: &volume,
             cache: &cache,
+            partition: None,
         })
     }
 
