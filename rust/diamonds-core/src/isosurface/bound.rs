@@ -958,7 +958,9 @@ impl<T: Sample> Extraction<'_, '_, T> {
 
     /// The points that break the bound for isovalue `v` on the surface of `carriers`, among those
     /// `pending` names: points of F's triangles in the pending cells of `fine` farther than `reach`
-    /// from the surface, points of the pending surface farther than `reach` from F ([`Cover`]).
+    /// from the surface, points of the pending surface farther than `reach` from F ([`Cover`]);
+    /// keyed ([`Keyed`]), in the order of their keys. With a [`Partition`], only in the cells and
+    /// the carriers' triangles this piece owns.
     fn violations(
         &self,
         v: f64,
