@@ -909,20 +909,21 @@ impl CellOwner {
     /// Does this piece own the tetrahedron `t` (lattice coordinates)?
     #[inline]
     pub fn owns(&self, t: &Tet) -> bool {
-        let holds =
-            |(lo4, hi4): (IVec3, IVec3), c4: IVec3| c4.cmpge(lo4).all() && c4.cmplt(hi4).all();
-        let c4 = t[0] + t[1] + t[2] + t[3];
-        holds(self.own, c4) && !self.earlier.iter().any(|&b| holds(b, c4))
+        self.owns_centroid4(t[0] + t[1] + t[2] + t[3])
     }
 
     /// Does this piece own the grid cell at `corner` (its lower corner, lattice coordinates of a
     /// grid whose lattice is its own)? The rule for tetrahedra, at the cell's centre.
     #[inline]
     pub fn owns_cell(&self, corner: [usize; 3]) -> bool {
-        let holds =
-            |(lo4, hi4): (IVec3, IVec3), c4: IVec3| c4.cmpge(lo4).all() && c4.cmplt(hi4).all();
-        let c4 = IVec3::from(corner.map(|c| c as i32)) * 4 + IVec3::splat(2);
-        holds(self.own, c4) && !self.earlier.iter().any(|&b| holds(b, c4))
+        self.owns_centroid4(IVec3::from(corner.map(|c| c as i32)) * 4 + IVec3::splat(2))
+    }
+
+    /// Does this piece own a cell whose centroid is `c4` / 4 (lattice coordinates)?
+    #[inline]
+    fn owns_centroid4(&self, c4: IVec3) -> bool {
+        let holds = |(lo4, hi4): (IVec3, IVec3)| c4.cmpge(lo4).all() && c4.cmplt(hi4).all();
+        holds(self.own) && !self.earlier.iter().any(|&b| holds(b))
     }
 }
 
