@@ -579,9 +579,10 @@ int vtkAdaptiveIsosurface::RequestDistributed(vtkMultiProcessController* control
   }
   if (!agree(ok, "the extraction"))
   {
-    // Ranks that completed the extraction keep its mesh, the others not: forgotten on all, so
-    // that the next extraction starts alike on every rank and they exchange alike.
-    cache.ForgetIsosurfaceMesh();
+    // Ranks that completed the extraction (or its error measurement) keep its mesh (or errors),
+    // the others not: cleared on all, so that the next extraction starts alike on every rank and
+    // they exchange alike.
+    cache.ClearIsosurfaceState();
     return pieces.Failed();
   }
   if (surface && cache.GetIsoState().reused())

@@ -80,13 +80,13 @@ public:
   // The isosurface state of the cached hierarchy (only with a hierarchy): created empty with each
   // build and released with the hierarchy, so a state never outlives the hierarchy it belongs to.
   bridge::IsoState& GetIsoState() { return **this->IsoState; }
-  // Forgets the isosurface state's mesh (when there is a state): the next extraction refines from
-  // the root.
-  void ForgetIsosurfaceMesh()
+  // Clears the isosurface state (when there is one): the next extraction refines from the root
+  // and measures its errors again.
+  void ClearIsosurfaceState()
   {
     if (this->IsoState)
     {
-      (*this->IsoState)->forget_mesh();
+      (*this->IsoState)->clear();
     }
   }
   // The samples the hierarchy was built from (only for isosurfaces) and their type.

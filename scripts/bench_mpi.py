@@ -34,9 +34,10 @@ CASE = {
 HEADING, TOLERANCE, CELLS, COUNT, PER_RANK = CASE
 REPEATS = 2
 ISO_NOTE = ("Every rank with a piece gathers the whole image (one all-gather of each rank's piece, "
-            "`Pieces::GatherWhole`) and refines as the serial filter does, but shares the two-sided bound's check: "
-            "each rank checks the surface of the carriers and the cells of the full-resolution surface it owns, and "
-            "the ranks all-gather each round's violations (`Partition`, `Ranks::Share`), then each writes its share: "
+            "`Pieces::GatherWhole`) and refines as the serial filter does, but shares the error measurement and the "
+            "two-sided bound's check: each rank locates the surface samples of the cells it owns and checks the surface "
+            "of the carriers and the cells of the full-resolution surface it owns, and the ranks all-gather the "
+            "diamonds' error codes and each round's violations (`Partition`, `Ranks::Share`), then each writes its share: "
             "exact, the whole image on every rank (see *Across MPI pieces* in docs/ARCHITECTURE.md); a second query "
             "with the same input gathers nothing.")
 

@@ -450,7 +450,7 @@ mod ffi {
         /// rank's extent) owns — the triangles of the carrier tetrahedra whose centroid its cells
         /// hold, and those tetrahedra — with `global_point_ids`. Over all ranks, the serial
         /// surface, each triangle once. Every rank calls it with the same query and `state` (the
-        /// same queries before; after a failure on any rank, every rank's `forget_mesh`); the
+        /// same queries before; after a failure on any rank, every rank's `clear`); the
         /// ranks share the two-sided bound's check through `exchange`
         /// (`diamonds::isosurface::Partition`).
         #[allow(clippy::too_many_arguments)]
@@ -547,8 +547,9 @@ mod ffi {
         /// Whether the last query reused the previous adaptive mesh without refining (false
         /// before the first query and after a failed one).
         fn reused(self: &IsoState) -> bool;
-        /// Forgets the adaptive mesh of the last query: the next one refines from the root.
-        fn forget_mesh(self: &mut IsoState);
+        /// Forgets the adaptive mesh of the last query and the errors kept: the next query
+        /// refines from the root and measures again.
+        fn clear(self: &mut IsoState);
 
         /// World coordinates, three per point.
         fn points(self: &Surface) -> &[f64];
@@ -1233,9 +1234,9 @@ impl IsoState {
         self.state.last().is_some_and(|stats| stats.reused)
     }
 
-    /// See [`diamonds::IsoState::forget_mesh`].
-    pub fn forget_mesh(&mut self) {
-        self.state.forget_mesh();
+    /// See [`diamonds::IsoState::clear`].
+    pub fn clear(&mut self) {
+        self.state.clear();
     }
 }
 

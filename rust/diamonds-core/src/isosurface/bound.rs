@@ -41,7 +41,7 @@
 
 use super::blocks::{bits, set_bit, Blocks};
 use super::cover::{in_region, Cover, Known, Surface};
-use super::error::{child_coordinates, tet_size2, RootTets};
+use super::error::{child_coordinates, tet_size2, IsoErrors, RootTets};
 use super::fine::{cell_pieces, cell_triangles, output_triangles, vertices_from};
 use super::marching::carries;
 use super::{value, world};
@@ -206,6 +206,50 @@ impl<'a> Partition<'a> {
         Self { owner, exchange }
     }
 
+    /// Every piece's `bytes` of the step `tag`: the exchange, with a check that every piece was at
+    /// the same step (pieces whose states differ would otherwise read each other's bytes as
+    /// something else).
+    fn exchange(&self, tag: u8, bytes: Vec<u8>) -> Result<Vec<Vec<u8>>> {
+        let mut tagged = Vec::with_capacity(bytes.len() + 1);
+        tagged.push(tag);
+        tagged.extend(bytes);
+        (self.exchange.all_gather(tagged)?.into_iter())
+            .map(|mut piece| match piece.first() {
+                Some(&t) if t == tag => {
+                    piece.remove(0);
+                    Ok(piece)
+                }
+                _ => Err(Error::Parameter(
+                    "the pieces exchanged different steps of the isosurface extraction".into(),
+                )),
+            })
+            .collect()
+    }
+
+    /// Every piece's codes of `errors` ([`IsoErrors::raise`]), each piece having located the
+    /// surface samples of the cells it owns.
+    pub(super) fn share_errors(&self, errors: &mut IsoErrors) -> Result<()> {
+        let mut bytes = Vec::new();
+        for (i, code) in errors.reached_codes() {
+            bytes.extend(i.to_le_bytes());
+            bytes.extend(code.to_le_bytes());
+        }
+        let mut others = Vec::new();
+        for piece in self.exchange(ERRORS, bytes)? {
+            if piece.len() % 6 != 0 {
+                return Err(Error::Parameter(
+                    "a piece sent a truncated list of errors".into(),
+                ));
+            }
+            others.extend(piece.chunks_exact(6).map(|c| {
+                let i = u32::from_le_bytes(c[..4].try_into().expect("4 bytes"));
+                (i, u16::from_le_bytes(c[4..].try_into().expect("2 bytes")))
+            }));
+        }
+        errors.raise(others);
+        Ok(())
+    }
+
     /// Every piece's violations of a round (per isovalue), from this piece's `found`.
     fn all(&self, found: Vec<Vec<Keyed>>) -> Result<Vec<Vec<Keyed>>> {
         let mut bytes = Vec::new();
@@ -218,7 +262,7 @@ impl<'a> Partition<'a> {
                 coordinates.for_each(|c| bytes.extend(c.to_le_bytes()));
             }
         }
-        let pieces = self.exchange.all_gather(bytes)?;
+        let pieces = self.exchange(VIOLATIONS, bytes)?;
         let mut all: Vec<Vec<Keyed>> = found.iter().map(|_| Vec::new()).collect();
         for piece in pieces {
             let mut at = piece.as_slice();
@@ -257,6 +301,10 @@ impl<'a> Partition<'a> {
         Ok(all)
     }
 }
+
+/// What a [`Partition`]'s exchange carries: the errors' codes, a round's violations.
+const ERRORS: u8 = 0;
+const VIOLATIONS: u8 = 1;
 
 /// Rounds of checking and splitting at most (each splits at least one diamond; in practice a few).
 const MAX_ROUNDS: usize = 64;
@@ -1455,7 +1503,7 @@ mod tests {
         for tol in [3.0, 6.0, 10.0] {
             let query = IsoQuery::new(0.0, tol);
             let refine = refine_query(&query, tol);
-            let criterion = x.iso_criterion(&query.isovalues, tol);
+            let criterion = x.iso_criterion(&query.isovalues, tol).unwrap();
             let plain = Refiner::run(h.grid(), h.base(), &refine, &criterion).unwrap();
             let (split, carriers) = x
                 .refine_iso(&query, tol, &mut |c| {

@@ -9,6 +9,7 @@ use crate::diamond::Diamond;
 use crate::hierarchy::record::{decode_error, encode_down};
 use crate::lattice::{Lattice, Placement};
 use crate::volume::{Grid, Sample, Volume};
+use crate::Result;
 use glam::IVec3;
 use std::sync::atomic::{AtomicU16, Ordering};
 use std::sync::{Arc, Mutex};
@@ -90,25 +91,38 @@ impl<T: Sample> Extraction<'_, '_, T> {
     /// The isosurface errors of `isovalues` for a query at `tolerance` (> 0): those of the previous
     /// query when they serve, else measured now down to tetrahedra of the tolerance's size (smaller
     /// diamonds' errors are bounded by their size, hence by the tolerance).
-    pub(super) fn iso_errors(&self, isovalues: &[f64], tolerance: f64) -> Arc<IsoErrors> {
+    pub(super) fn iso_errors(&self, isovalues: &[f64], tolerance: f64) -> Result<Arc<IsoErrors>> {
         let (volume, cache) = (self.volume, self.cache);
         let mut kept = cache.errors.lock().unwrap_or_else(|e| e.into_inner());
         if let Some(e) = kept.as_ref().filter(|e| e.serve(isovalues, tolerance)) {
-            return e.clone();
+            return Ok(e.clone());
         }
         // Reuse the old tables unless a caller still holds them.
         let recycled = kept.take().and_then(|e| Arc::try_unwrap(e).ok());
-        let errors = Arc::new(IsoErrors::new(
+        // Pieces sharing the work measure at the samples of the cells they own, then take the
+        // others' codes ([`super::Partition::share_errors`]).
+        let owner = self.partition.map(|p| &p.owner);
+        let mut errors = IsoErrors::new(
             self.lattice(),
             volume,
             isovalues,
             tolerance,
-            |v| cache.bricks.cells_crossed(volume, v),
+            |v| {
+                let mut cells = cache.bricks.cells_crossed(volume, v);
+                if let Some(owner) = owner {
+                    cells.retain(|&c| owner.owns_cell(volume.grid.ijk(c as usize)));
+                }
+                cells
+            },
             recycled,
-        ));
+        );
+        if let Some(partition) = self.partition {
+            partition.share_errors(&mut errors)?;
+        }
         errors.finalize(self);
+        let errors = Arc::new(errors);
         *kept = Some(errors.clone());
-        errors
+        Ok(errors)
     }
 
     /// A superset of the sample range in the box `[lo, hi]` (lattice coordinates inside the grid).

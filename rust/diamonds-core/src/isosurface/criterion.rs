@@ -23,9 +23,11 @@ impl<T: Sample> Extraction<'_, '_, T> {
         &'a self,
         isovalues: &'a [f64],
         tolerance: f64,
-    ) -> impl Fn(Diamond) -> f64 + 'a {
+    ) -> Result<impl Fn(Diamond) -> f64 + 'a> {
         let lattice = *self.lattice();
-        let errors = (tolerance > 0.0).then(|| self.iso_errors(isovalues, tolerance));
+        let errors = (tolerance > 0.0)
+            .then(|| self.iso_errors(isovalues, tolerance))
+            .transpose()?;
         // Infinite where the diamond's sample range may hold an isovalue, else 0 (empty, §6.1).
         let non_empty = move |d: Diamond| {
             let (lo, hi) = d.bounds();
@@ -35,7 +37,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
                 0.0
             }
         };
-        move |d: Diamond| {
+        Ok(move |d: Diamond| {
             if !d.bounds().1.cmple(lattice.hi).all() {
                 // Near a far face: a diamond straddling it must be split wherever the surface may
                 // pass (its tetrahedra have vertices without samples); one outside is never split.
@@ -50,7 +52,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
                 Some(errors) => errors.refinement_error(self, d),
                 None => non_empty(d), // tolerance 0
             }
-        }
+        })
     }
 
     /// The leaves of the mesh of `split` that carry the surface of `isovalues`.

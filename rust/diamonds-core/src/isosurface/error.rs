@@ -58,6 +58,26 @@ const FINAL: u16 = 0x8000;
 const VISITED: u16 = 1;
 
 impl IsoErrors {
+    /// The reached diamonds (central vertex index) with their codes of `ae`, before
+    /// [`IsoErrors::finalize`].
+    pub(super) fn reached_codes(&self) -> impl Iterator<Item = (u32, u16)> + '_ {
+        (self.reached.iter()).map(|&i| (i, self.codes[i as usize].load(Ordering::Relaxed)))
+    }
+
+    /// Takes other pieces' [`IsoErrors::reached_codes`]: each diamond's code becomes the largest
+    /// (codes of non-negative numbers order as the numbers), so pieces that located the surface
+    /// samples of their own cells together hold the codes of all samples.
+    pub(super) fn raise(&mut self, others: impl IntoIterator<Item = (u32, u16)>) {
+        for (i, code) in others {
+            let slot = &self.codes[i as usize];
+            let old = slot.load(Ordering::Relaxed);
+            if old == 0 {
+                self.reached.push(i);
+            }
+            slot.store(old.max(code), Ordering::Relaxed);
+        }
+    }
+
     /// Bytes held: a code per point and the reached diamonds.
     pub(super) fn bytes(&self) -> usize {
         self.codes.capacity() * std::mem::size_of::<AtomicU16>()

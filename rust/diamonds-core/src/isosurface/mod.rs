@@ -30,9 +30,10 @@
 //! from the others) refines as one process does and extracts the whole surface, the same bit for
 //! bit on every rank, and keeps the triangles of the carrier leaves it owns
 //! ([`crate::hierarchy::piece::CellOwner`]), numbering their points by the whole surface (global
-//! ids). The two-sided bound's check, most of the work, is shared ([`Partition`]): each rank
-//! checks what it owns and the ranks exchange each round's violations. Exact; memory per rank is
-//! still the serial one's.
+//! ids). The error measurement and the two-sided bound's check, most of the work, are shared
+//! ([`Partition`]): each rank measures at the samples and checks the surface it owns, and the ranks
+//! exchange the codes and each round's violations. Exact; memory per rank is still the serial
+//! one's.
 //!
 //! The stages, one file each, in the order a query runs them:
 //! - this file: the query and result types, the entry point [`extract`], the triangle budget and the
@@ -263,7 +264,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
         };
         let (mut surface, made_by) =
             marching_with_sources(&field, carriers, query.compute_normals)?;
-        let error = self.carrier_error(&query.isovalues, tolerance);
+        let error = self.carrier_error(&query.isovalues, tolerance)?;
         surface.error_bound = carriers.iter().map(&error).fold(0.0, f64::max);
         let owned: Vec<Tet>;
         let carriers = match owner {
@@ -292,12 +293,18 @@ impl<T: Sample> Extraction<'_, '_, T> {
 
     /// The isosurface error of a carrier leaf's diamond for `isovalues` at `tolerance` (0 at
     /// tolerance 0, where the surface is the full-resolution one).
-    fn carrier_error<'s>(&'s self, isovalues: &[f64], tolerance: f64) -> impl Fn(&Tet) -> f64 + 's {
-        let errors = (tolerance > 0.0).then(|| self.iso_errors(isovalues, tolerance));
-        move |t: &Tet| match (&errors, Diamond::of_tet(t)) {
+    fn carrier_error<'s>(
+        &'s self,
+        isovalues: &[f64],
+        tolerance: f64,
+    ) -> Result<impl Fn(&Tet) -> f64 + 's> {
+        let errors = (tolerance > 0.0)
+            .then(|| self.iso_errors(isovalues, tolerance))
+            .transpose()?;
+        Ok(move |t: &Tet| match (&errors, Diamond::of_tet(t)) {
             (Some(errors), Some(d)) if self.lattice().in_domain(d.center) => errors.error(self, d),
             _ => 0.0,
-        }
+        })
     }
 
     /// The leaves of the mesh refined for `query` at `tolerance` that carry the surface.
@@ -319,7 +326,7 @@ impl<T: Sample> Extraction<'_, '_, T> {
         tolerance: f64,
         refine: &mut RefineWith<'_>,
     ) -> Result<(SplitSet, Vec<Tet>)> {
-        let criterion = self.iso_criterion(&query.isovalues, tolerance);
+        let criterion = self.iso_criterion(&query.isovalues, tolerance)?;
         self.refine_with(query, tolerance, refine, &criterion, None)
     }
 

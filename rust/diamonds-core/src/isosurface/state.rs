@@ -167,7 +167,7 @@ impl IsoState {
     /// full-resolution surface it owns, and every round's violations reach every piece through the
     /// partition's exchange, so each refines as one whole check does. Every piece must call it
     /// with the same query and the same state (the same queries before, none failed on one piece
-    /// alone: [`IsoState::forget_mesh`] after a failure elsewhere), so that all exchange alike.
+    /// alone: [`IsoState::clear`] after a failure elsewhere), so that all exchange alike.
     pub fn extract_shared(
         &mut self,
         hierarchy: &Hierarchy,
@@ -290,7 +290,7 @@ impl IsoState {
             let (a, b) = x.box_range(lo.max(IVec3::ZERO), hi.min(lattice.hi));
             b < range[0] || a > range[1]
         };
-        let iso = x.iso_criterion(&query.isovalues, query.tolerance);
+        let iso = x.iso_criterion(&query.isovalues, query.tolerance)?;
         let criterion = |d: Diamond| {
             let (lo, hi) = d.bounds();
             if !hi.cmple(lattice.hi).all()
@@ -310,7 +310,7 @@ impl IsoState {
             Some(range),
         )?;
         let error_bound = (carriers.iter())
-            .map(x.carrier_error(&query.isovalues, query.tolerance))
+            .map(x.carrier_error(&query.isovalues, query.tolerance)?)
             .fold(0.0, f64::max);
         // Prunes every unsplit straddling tetrahedron: its diamond's box, which holds its own,
         // misses `range`.
@@ -387,7 +387,7 @@ mod tests {
     /// The from-root split set of the diamond error alone (no pass for hidden pieces).
     fn criterion_split(h: &Hierarchy, values: &[f32], query: &IsoQuery) -> SplitSet {
         with_extraction(h, values, |x| {
-            let criterion = x.iso_criterion(&query.isovalues, query.tolerance);
+            let criterion = x.iso_criterion(&query.isovalues, query.tolerance).unwrap();
             let refine = refine_query(query, query.tolerance);
             Refiner::run(h.grid(), h.base(), &refine, &criterion).unwrap()
         })
@@ -586,7 +586,7 @@ mod tests {
         old: &SplitSet,
     ) -> SplitSet {
         with_extraction(h, values, |x| {
-            let criterion = x.iso_criterion(&query.isovalues, query.tolerance);
+            let criterion = x.iso_criterion(&query.isovalues, query.tolerance).unwrap();
             let lattice = *h.lattice();
             let mut split = old.clone();
             let mut merge: Vec<_> = crate::diamond::all_diamonds(&lattice)
