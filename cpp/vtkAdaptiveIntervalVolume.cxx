@@ -373,8 +373,23 @@ int vtkAdaptiveIntervalVolume::RequestDistributed(vtkMultiProcessController* con
       spec.max_tetrahedra = static_cast<std::size_t>(this->MaximumNumberOfTetrahedra);
       spec.use_region_of_interest = this->UseRegionOfInterest != 0;
       std::copy(this->RegionOfInterest, this->RegionOfInterest + 6, spec.region_of_interest.begin());
-      volume.emplace(cache.GetHierarchy().interval_piece(cache.GetIsoState(), cache.GetSampleType(),
-        cache.GetSamples(), spec, pieces.Extents(), static_cast<std::size_t>(pieces.Rank())));
+      // The ranks share the error measurement and the bound's check, as Adaptive Isosurface's
+      // do (a rank without a piece takes part from its next Agree).
+      vtkDiamonds::SharedStep exchange(pieces, this, Text.Name);
+      try
+      {
+        volume.emplace(cache.GetHierarchy().interval_piece(cache.GetIsoState(),
+          cache.GetSampleType(), cache.GetSamples(), spec, pieces.Extents(),
+          static_cast<std::size_t>(pieces.Rank()), exchange));
+      }
+      catch (const rust::Error&)
+      {
+        if (pieces.Stopped())
+        {
+          return false; // agreed on and reported in the exchange
+        }
+        throw;
+      }
       for (const rust::String& warning : (*volume)->warnings())
       {
         vtkWarningMacro(<< Text.Name << ", array \"" << array->GetName()
@@ -389,6 +404,9 @@ int vtkAdaptiveIntervalVolume::RequestDistributed(vtkMultiProcessController* con
   }
   if (!agree(ok, "the extraction"))
   {
+    // Cleared on every rank, so that the next extraction starts alike on all and they exchange
+    // alike (ranks that completed their error measurement would otherwise keep it).
+    cache.ClearIsosurfaceState();
     return pieces.Failed();
   }
   this->UpdateProgress(0.8);

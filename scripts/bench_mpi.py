@@ -1,12 +1,14 @@
-"""Benchmark of Adaptive Tetrahedra and Adaptive Isosurface on a distributed image (issue 12): bonsai
-256³ at Tolerance 8 (tetrahedra) or at isovalue 40.5 and 1 % of the diagonal (isosurface) on 1 and 2 MPI
-ranks (`mpiexec -n R pvbatch`), alternating, each run its own process group.
+"""Benchmark of Adaptive Tetrahedra, Adaptive Isosurface and Adaptive Interval Volume on a distributed
+image (issue 12): bonsai 256³ at Tolerance 8 (tetrahedra), at isovalue 40.5 (isosurface) or range
+[78.5, 166.5] (interval volume) and 1 % of the diagonal, on 1 and 2 MPI ranks (`mpiexec -n R
+pvbatch`), alternating, each run its own process group.
 
-    python3 scripts/bench_mpi.py          # tetrahedra: runs the cases, replaces its section of docs/benchmarks.md
-    python3 scripts/bench_mpi.py --iso    # the same for the isosurface (its own section)
+    python3 scripts/bench_mpi.py             # tetrahedra: runs the cases, replaces its section of docs/benchmarks.md
+    python3 scripts/bench_mpi.py --iso       # the same for the isosurface (its own section)
+    python3 scripts/bench_mpi.py --interval  # the same for the interval volume (its own section)
 
 Per case: wall time of the first execution (hierarchy build + query; for the isosurface the fetch of
-the image too) and of a second query on the kept hierarchies (Tolerance changed), cells, and per rank
+the image too; the interval volume's likewise) and of a second query on the kept hierarchies (Tolerance changed), cells, and per rank
 the figures the filter reports in its field data: cells, seconds, bytes sent, seconds spent
 exchanging, refinement rounds (tetrahedra) and peak resident memory. One rank runs the serial filter
 (no field data per rank; its peak memory is the process's). Needs the build (bash scripts/setup.sh)
@@ -24,13 +26,18 @@ from benchlib import replace_section  # scripts/benchlib.py, beside this file
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BONSAI = os.path.join(ROOT, "..", "shared", "data", "volumes", "bonsai_256x256x256_uint8_lossy.vti")
 ISO = "--iso" in sys.argv
+INTERVAL = "--interval" in sys.argv
+MODE = "--iso" if ISO else "--interval" if INTERVAL else None
 ISOVALUE = 40.5
+RANGE = [78.5, 166.5]  # Otsu's threshold and half-way to the maximum, as scripts/bench_interval.py
 # Per filter: heading, tolerance, what its cells are, its count and per-rank field data.
 CASE = {
-    False: ("## Distributed Adaptive Tetrahedra (issue 12)", 8.0, "tetrahedra", "NumberOfTetrahedra", "TetrahedraPerRank"),
-    True: ("## Distributed Adaptive Isosurface (issue 12)", 0.01 * 255 * 3 ** 0.5, "triangles", "NumberOfTriangles",
-           "TrianglesPerRank"),
-}[ISO]
+    None: ("## Distributed Adaptive Tetrahedra (issue 12)", 8.0, "tetrahedra", "NumberOfTetrahedra", "TetrahedraPerRank"),
+    "--iso": ("## Distributed Adaptive Isosurface (issue 12)", 0.01 * 255 * 3 ** 0.5, "triangles", "NumberOfTriangles",
+              "TrianglesPerRank"),
+    "--interval": ("## Distributed Adaptive Interval Volume (issue 12)", 0.01 * 255 * 3 ** 0.5, "tetrahedra",
+                   "NumberOfTetrahedra", "TetrahedraPerRank"),
+}[MODE]
 HEADING, TOLERANCE, CELLS, COUNT, PER_RANK = CASE
 REPEATS = 2
 ISO_NOTE = ("Every rank with a piece gathers the whole image (one all-gather of each rank's piece, "
@@ -41,18 +48,26 @@ ISO_NOTE = ("Every rank with a piece gathers the whole image (one all-gather of 
             "exact, the whole image on every rank (see *Across MPI pieces* in docs/ARCHITECTURE.md); a second query "
             "with the same input gathers nothing.")
 
+INTERVAL_NOTE = ("The same scheme as the isosurface's above: every rank with a piece gathers the whole image and "
+                 "every other point array, refines as the serial filter does for the two bounding surfaces, sharing "
+                 "the error measurement and the two-sided bound's check (`interval::extract_shared`), then clips "
+                 "the whole volume and outputs the tetrahedra whose centroid its piece holds: exact, the whole "
+                 "image on every rank.")
 
 def measure():
     """One case, in pvbatch on rank 0: prints one JSON line."""
     import time
 
     from paraview import servermanager
-    from paraview.simple import AdaptiveIsosurface, AdaptiveTetrahedra, ProgrammableFilter, XMLImageDataReader
+    from paraview.simple import (AdaptiveIntervalVolume, AdaptiveIsosurface, AdaptiveTetrahedra, ProgrammableFilter,
+                                 XMLImageDataReader)
 
     reader = XMLImageDataReader(FileName=[BONSAI])
     reader.UpdatePipeline()
     if ISO:
         filt = AdaptiveIsosurface(Input=reader, Isosurfaces=[ISOVALUE], Tolerance=TOLERANCE)
+    elif INTERVAL:
+        filt = AdaptiveIntervalVolume(Input=reader, ThresholdRange=RANGE, Tolerance=TOLERANCE)
     else:
         filt = AdaptiveTetrahedra(Input=reader, Tolerance=TOLERANCE)
     # Rank 0's field data alone: fetching the mesh would copy rank 0's output into the measured peak.
@@ -96,7 +111,7 @@ def run(ranks):
         # threads a single core of the two.
         ["mpiexec", "--allow-run-as-root", "--oversubscribe", "--bind-to", "none", "-n", str(ranks), "pvbatch",
          __file__, "--measure"]
-        + (["--iso"] if ISO else []),
+        + ([MODE] if MODE else []),
         env=env, check=True, capture_output=True, text=True).stdout
     line = next(l for l in out.splitlines() if l.startswith("RESULT "))
     return json.loads(line[len("RESULT "):])
@@ -115,7 +130,9 @@ def mib(x):
 
 
 def report(results):
-    what = f"isovalue {ISOVALUE:g}, Tolerance {TOLERANCE:.3g} (1 % of the diagonal)" if ISO else f"Tolerance {TOLERANCE:g}"
+    what = (f"isovalue {ISOVALUE:g}, Tolerance {TOLERANCE:.3g} (1 % of the diagonal)" if ISO
+            else f"range [{RANGE[0]:g}, {RANGE[1]:g}], Tolerance {TOLERANCE:.3g} (1 % of the diagonal)" if INTERVAL
+            else f"Tolerance {TOLERANCE:g}")
     lines = [HEADING, "",
              f"Bonsai 256³ (u8), {what}, `mpiexec --bind-to none -n R pvbatch` on this 2-core machine "
              "(R ranks share the two cores; each rank's core threads too). Wall times are medians of alternating runs; per-rank "
@@ -139,6 +156,8 @@ def report(results):
             f"{per('exchange_per_rank', seconds)} | {int(r['rounds']) if r['rounds'] else '—'} | {peak} |")
     if ISO:
         lines += ["", ISO_NOTE]
+    if INTERVAL:
+        lines += ["", INTERVAL_NOTE]
     lines.append("")
     return lines
 

@@ -4,12 +4,15 @@
 //! reads as slices (points, the two input points and weight each point interpolates from,
 //! tetrahedra, levels).
 
-use diamonds::hierarchy::piece::PositionOwner;
+use std::pin::Pin;
+
+use diamonds::hierarchy::piece::{CellOwner, PositionOwner};
 use diamonds::interval;
+use diamonds::isosurface::{Exchange, Partition};
 use diamonds::validate::check_interval_arrays;
 
-use crate::ffi::{IntervalSpec, ScalarType};
-use crate::piece::boxes;
+use crate::ffi::{IntervalSpec, PieceExchange, ScalarType};
+use crate::piece::{boxes, CxxExchange};
 use crate::{check_core, guard, Hierarchy, IsoState};
 
 /// Opaque handle on a [`diamonds::interval::IntervalVolume`] for C++, its sources flattened.
@@ -50,6 +53,7 @@ impl Hierarchy {
 
     /// The share of the rank at `rank` of `pieces` (every rank's extent) of the interval volume
     /// of `spec`, on a rank that holds the whole image (see `ffi::Hierarchy::interval_piece`).
+    #[allow(clippy::too_many_arguments)]
     pub fn interval_piece(
         &self,
         state: &mut IsoState,
@@ -58,16 +62,55 @@ impl Hierarchy {
         spec: &IntervalSpec,
         pieces: &[i64],
         rank: usize,
+        exchange: Pin<&mut PieceExchange>,
     ) -> Result<Box<IntervalVolume>, String> {
-        let owner = guard("reading the pieces' extents", || {
-            PositionOwner::new(self.hierarchy.grid(), &boxes(pieces)?, rank)
-                .map_err(|e| e.to_string())
+        let exchange = CxxExchange::new(exchange);
+        self.interval_share(state, scalar_type, samples, spec, pieces, rank, &exchange)
+    }
+
+    /// [`Hierarchy::interval_piece`] through any exchange.
+    #[allow(clippy::too_many_arguments)]
+    fn interval_share(
+        &self,
+        state: &mut IsoState,
+        scalar_type: ScalarType,
+        samples: &[u8],
+        spec: &IntervalSpec,
+        pieces: &[i64],
+        rank: usize,
+        exchange: &dyn Exchange,
+    ) -> Result<Box<IntervalVolume>, String> {
+        let (pieces, owner) = guard("reading the pieces' extents", || {
+            let pieces = boxes(pieces)?;
+            let owner = PositionOwner::new(self.hierarchy.grid(), &pieces, rank)
+                .map_err(|e| e.to_string())?;
+            Ok((pieces, owner))
         })?;
-        let whole = self.interval_volume(state, scalar_type, samples, spec)?;
-        guard("keeping this piece's tetrahedra", || {
-            let (volume, global_ids) = whole.volume.piece(&owner);
-            Ok(Box::new(IntervalVolume { volume, global_ids }))
-        })
+        let what = "extracting the interval volume";
+        self.with_iso_state(
+            state,
+            what,
+            scalar_type,
+            samples,
+            |state, scalars, expected| {
+                let query = spec.query();
+                let volume = CellOwner::new(&pieces, rank)
+                    .and_then(|cells| {
+                        let partition = Partition::new(cells, exchange);
+                        interval::extract_shared(
+                            state,
+                            &self.hierarchy,
+                            scalars,
+                            &query,
+                            &partition,
+                        )
+                    })
+                    .map_err(|e| e.to_string())?;
+                check_core(check_interval_arrays(&volume, expected))?;
+                let (volume, global_ids) = volume.piece(&owner);
+                Ok(Box::new(IntervalVolume { volume, global_ids }))
+            },
+        )
     }
 }
 
@@ -171,46 +214,46 @@ mod tests {
             .err()
             .unwrap();
         assert!(e.contains("built for"), "{e}");
-        // Two slabs of the 17³ points (extents as C++ gives them): their shares are the whole
-        // volume, each tetrahedron once, points under their ids in it; a bad extent is an error.
+        // One rank holding the whole extent (extents as C++ gives them; an exchange with no
+        // other rank): its share is the whole volume, points under their own ids; a bad extent
+        // is an error. (Shares of several ranks: the core's `shared_pieces_extract_the_serial_volume`
+        // runs them in threads, `tests/pvpython/mpi_interval.py` under MPI.)
+        struct Alone;
+        impl Exchange for Alone {
+            fn all_gather(&self, bytes: Vec<u8>) -> diamonds::Result<Vec<Vec<u8>>> {
+                Ok(vec![bytes])
+            }
+        }
         let whole = h
             .interval_volume(&mut state, ScalarType::F32, bytes, &spec([2.0, 4.0], 0.3))
             .unwrap();
         assert!(whole.global_point_ids().is_empty());
-        let pieces = [0, 16, 0, 16, 0, 8, 0, 16, 0, 16, 8, 16];
-        let mut tets = 0;
-        for rank in 0..2 {
-            let share = h
-                .interval_piece(
-                    &mut state,
-                    ScalarType::F32,
-                    bytes,
-                    &spec([2.0, 4.0], 0.3),
-                    &pieces,
-                    rank,
-                )
-                .unwrap();
-            let ids = share.global_point_ids();
-            assert_eq!(ids.len(), share.weights().len());
-            for (k, &i) in ids.iter().enumerate() {
-                let i = i as usize;
-                assert_eq!(
-                    share.points()[3 * k..3 * k + 3],
-                    whole.points()[3 * i..3 * i + 3]
-                );
-            }
-            assert!(!share.levels().is_empty());
-            tets += share.levels().len();
-        }
-        assert_eq!(tets, whole.levels().len());
+        let pieces = [0, 16, 0, 16, 0, 16];
+        let share = h
+            .interval_share(
+                &mut state,
+                ScalarType::F32,
+                bytes,
+                &spec([2.0, 4.0], 0.3),
+                &pieces,
+                0,
+                &Alone,
+            )
+            .unwrap();
+        let n = whole.weights().len() as u64;
+        assert_eq!(share.global_point_ids(), (0..n).collect::<Vec<_>>());
+        assert_eq!(share.points(), whole.points());
+        assert_eq!(share.tets(), whole.tets());
+        assert_eq!(share.levels(), whole.levels());
         let e = h
-            .interval_piece(
+            .interval_share(
                 &mut state,
                 ScalarType::F32,
                 bytes,
                 &spec([2.0, 4.0], 0.3),
                 &pieces[..5],
                 0,
+                &Alone,
             )
             .err()
             .unwrap();

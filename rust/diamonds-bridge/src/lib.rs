@@ -451,7 +451,7 @@ mod ffi {
         /// hold, and those tetrahedra — with `global_point_ids`. Over all ranks, the serial
         /// surface, each triangle once. Every rank calls it with the same query and `state` (the
         /// same queries before; after a failure on any rank, every rank's `clear`); the
-        /// ranks share the two-sided bound's check through `exchange`
+        /// ranks share the error measurement and the two-sided bound's check through `exchange`
         /// (`diamonds::isosurface::Partition`).
         #[allow(clippy::too_many_arguments)]
         fn isosurface_piece(
@@ -602,7 +602,9 @@ mod ffi {
         /// `interval_volume` on a rank that holds the whole image (this hierarchy and `samples`
         /// are the whole image's): the share of the rank at `rank` of `pieces` (every rank's
         /// extent) — the tetrahedra whose centroid its cells hold, with `global_point_ids`. Over
-        /// all ranks, the serial volume, each tetrahedron once.
+        /// all ranks, the serial volume, each tetrahedron once. As `isosurface_piece`, every
+        /// rank calls it with the same query and `state`, and the ranks share the error
+        /// measurement and the two-sided bound's check through `exchange`.
         #[allow(clippy::too_many_arguments)]
         fn interval_piece(
             self: &Hierarchy,
@@ -612,6 +614,7 @@ mod ffi {
             spec: &IntervalSpec,
             pieces: &[i64],
             rank: usize,
+            exchange: Pin<&mut PieceExchange>,
         ) -> Result<Box<IntervalVolume>>;
         /// World coordinates, three per point.
         fn points(self: &IntervalVolume) -> &[f64];

@@ -166,7 +166,8 @@ pub fn piece_check_cover(whole: &GridSpec, pieces: &[i64]) -> Result<(), String>
 
 impl crate::Hierarchy {
     /// The part of the isosurface the piece at `rank` of `pieces` owns, on a rank holding the
-    /// whole image, the ranks sharing the bound's check through `exchange`
+    /// whole image, the ranks sharing the error measurement and the bound's check through
+    /// `exchange`
     /// ([`diamonds::IsoState::extract_shared`]).
     #[allow(clippy::too_many_arguments)]
     pub fn isosurface_piece(
@@ -181,10 +182,7 @@ impl crate::Hierarchy {
         exchange: Pin<&mut PieceExchange>,
     ) -> Result<Box<crate::Surface>, String> {
         let pieces = guard("reading the pieces' extents", || boxes(pieces))?;
-        let exchange = CxxExchange {
-            exchange: Mutex::new(exchange),
-            thread: std::thread::current().id(),
-        };
+        let exchange = CxxExchange::new(exchange);
         self.isosurface_of(
             state,
             scalar_type,
@@ -198,9 +196,19 @@ impl crate::Hierarchy {
 
 /// The core's [`Exchange`] through the filter's [`PieceExchange`], called on the thread that
 /// called the bridge only (the filter's MPI calls are made there).
-struct CxxExchange<'a> {
+pub(crate) struct CxxExchange<'a> {
     exchange: Mutex<Pin<&'a mut PieceExchange>>,
     thread: std::thread::ThreadId,
+}
+
+impl<'a> CxxExchange<'a> {
+    /// `exchange`, to be called on this thread only.
+    pub(crate) fn new(exchange: Pin<&'a mut PieceExchange>) -> Self {
+        Self {
+            exchange: Mutex::new(exchange),
+            thread: std::thread::current().id(),
+        }
+    }
 }
 
 // SAFETY: the C++ object is used only under the mutex and only on the thread that created the

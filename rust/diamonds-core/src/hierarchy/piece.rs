@@ -1332,36 +1332,6 @@ mod tests {
         assert_eq!(cells(&parts), cells(&[&serial.query(&query).unwrap()]));
     }
 
-    /// Pieces run at once, one thread each, exchanging as ranks do.
-    struct Threads {
-        barrier: std::sync::Barrier,
-        slots: std::sync::Mutex<Vec<Vec<u8>>>,
-        /// Exchanges in which a piece sent violations (112 bytes each, beyond an 8-byte count per
-        /// isovalue).
-        sent: std::sync::atomic::AtomicUsize,
-    }
-
-    /// One piece's end of [`Threads`].
-    struct Member<'t> {
-        me: usize,
-        threads: &'t Threads,
-    }
-
-    impl crate::isosurface::Exchange for Member<'_> {
-        fn all_gather(&self, bytes: Vec<u8>) -> crate::Result<Vec<Vec<u8>>> {
-            let t = self.threads;
-            t.sent.fetch_add(
-                usize::from(bytes.len() >= 112),
-                std::sync::atomic::Ordering::Relaxed,
-            );
-            t.slots.lock().unwrap()[self.me] = bytes;
-            t.barrier.wait();
-            let all = t.slots.lock().unwrap().clone();
-            t.barrier.wait();
-            Ok(all)
-        }
-    }
-
     /// Every rank's part of the Adaptive Isosurface of `query`, computed as the filter does
     /// ([`IsoState::extract_shared`]): every piece's points are gathered on every rank
     /// ([`first_uncovered`] checks that they cover the grid), which puts the whole image together,
@@ -1374,11 +1344,6 @@ mod tests {
         boxes: &[PointBox],
         query: &IsoQuery,
     ) -> (Vec<IsoSurface>, usize) {
-        let threads = Threads {
-            barrier: std::sync::Barrier::new(boxes.len()),
-            slots: std::sync::Mutex::new(vec![Vec::new(); boxes.len()]),
-            sent: Default::default(),
-        };
         assert_eq!(first_uncovered(grid.dims, boxes), None);
         let mut whole = vec![f32::NAN; grid.len()];
         for b in boxes {
@@ -1393,22 +1358,12 @@ mod tests {
         }
         assert!(whole.iter().all(|v| !v.is_nan()));
         let h = Hierarchy::build_for_isosurfaces(grid, ScalarSlice::F32(&whole)).unwrap();
-        let parts = std::thread::scope(|scope| {
-            let runs: Vec<_> = (0..boxes.len())
-                .map(|me| {
-                    let (h, threads, whole) = (&h, &threads, &whole);
-                    scope.spawn(move || {
-                        let member = Member { me, threads };
-                        let partition = Partition::new(CellOwner::new(boxes, me).unwrap(), &member);
-                        IsoState::new()
-                            .extract_shared(h, ScalarSlice::F32(whole), query, &partition)
-                            .unwrap()
-                    })
-                })
-                .collect();
-            runs.into_iter().map(|r| r.join().unwrap()).collect()
-        });
-        (parts, threads.sent.into_inner())
+        crate::isosurface::threads::run_pieces(boxes.len(), |me, member| {
+            let partition = Partition::new(CellOwner::new(boxes, me).unwrap(), member);
+            IsoState::new()
+                .extract_shared(&h, ScalarSlice::F32(&whole), query, &partition)
+                .unwrap()
+        })
     }
 
     /// A triangle as its corners' coordinate bits, rotated to start at the smallest (orientation

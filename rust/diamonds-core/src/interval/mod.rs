@@ -22,10 +22,13 @@
 //! the volume is exactly that of `{α ≤ f ≤ β}` for the piecewise-linear field on the finest
 //! tetrahedra.
 //!
-//! **Across MPI pieces** ([`IntervalVolume::piece`]): as Adaptive Isosurface's, a rank that holds
-//! the whole image extracts the whole volume, the same bit for bit on every rank, and keeps the
-//! tetrahedra whose centroid its piece owns ([`PositionOwner`]), numbering their points by the whole
-//! volume (global ids). Exact, not scalable.
+//! **Across MPI pieces** ([`extract_shared`], [`IntervalVolume::piece`]): as Adaptive
+//! Isosurface's, a rank that holds the whole image extracts the whole volume, the same bit for bit
+//! on every rank, sharing the error measurement and the two-sided bound's check with the others
+//! ([`Partition`]: each measures and checks what it owns, and they exchange the codes and each
+//! round's violations), and keeps the tetrahedra whose centroid its piece owns
+//! ([`PositionOwner`]), numbering their points by the whole volume (global ids). Exact; memory per
+//! rank is still the serial one's.
 
 mod clip;
 #[cfg(test)]
@@ -36,7 +39,7 @@ pub use clip::{PointKey, ALPHA, BETA, SAMPLE};
 use crate::diamond::Diamond;
 use crate::hierarchy::piece::{pick, used_points, PositionOwner};
 use crate::hierarchy::Hierarchy;
-use crate::isosurface::IsoState;
+use crate::isosurface::{IsoState, Partition};
 use crate::lattice::{Lattice, Tet};
 use crate::memory;
 use crate::volume::{Sample, ScalarSlice, Volume};
@@ -169,7 +172,30 @@ pub fn extract_with(
 ) -> Result<IntervalVolume> {
     check(hierarchy, scalars, query)?;
     with_volume!(*hierarchy.grid(), scalars, |v| extract_volume(
-        state, hierarchy, &v, query
+        state, hierarchy, &v, query, None
+    ))
+}
+
+/// [`extract_with`] on a piece of a distributed image that holds the whole image (`hierarchy` and
+/// `scalars` are the whole grid's): the whole volume, the same bit for bit on every piece, the
+/// pieces sharing the error measurement and the two-sided bound's check through `partition` as
+/// Adaptive Isosurface's do ([`IsoState::extract_shared`]); [`IntervalVolume::piece`] then keeps a
+/// piece's share. Every piece must call it with the same query and the same state (the same
+/// queries before; after a failure on any piece, every piece's [`IsoState::clear`]).
+pub fn extract_shared(
+    state: &mut IsoState,
+    hierarchy: &Hierarchy,
+    scalars: ScalarSlice<'_>,
+    query: &IntervalQuery,
+    partition: &Partition<'_>,
+) -> Result<IntervalVolume> {
+    check(hierarchy, scalars, query)?;
+    with_volume!(*hierarchy.grid(), scalars, |v| extract_volume(
+        state,
+        hierarchy,
+        &v,
+        query,
+        Some(partition)
     ))
 }
 
@@ -218,7 +244,7 @@ pub(crate) fn split_set<T: Sample>(
     let iso = query.iso_query(query.tolerance);
     let keep = |_: &Tet| None::<()>;
     let (_, _, split) =
-        IsoState::new().refined_leaves(hierarchy, volume, &iso, query.range, keep)?;
+        IsoState::new().refined_leaves(hierarchy, volume, &iso, query.range, keep, None)?;
     Ok(split)
 }
 
@@ -231,6 +257,7 @@ fn extract_volume<T: Sample>(
     hierarchy: &Hierarchy,
     volume: &Volume<'_, T>,
     query: &IntervalQuery,
+    partition: Option<&Partition<'_>>,
 ) -> Result<IntervalVolume> {
     let range = query.range;
     let lattice = *hierarchy.lattice();
@@ -248,8 +275,14 @@ fn extract_volume<T: Sample>(
         (!out.is_empty()).then(|| (out, depth(&lattice, t)))
     };
     let mut tolerance = query.tolerance;
-    let (mut patches, mut error_bound, _) =
-        state.refined_leaves(hierarchy, volume, &query.iso_query(tolerance), range, patch)?;
+    let (mut patches, mut error_bound, _) = state.refined_leaves(
+        hierarchy,
+        volume,
+        &query.iso_query(tolerance),
+        range,
+        patch,
+        partition,
+    )?;
     let count = |patches: &[Patch]| patches.iter().map(|p| p.0.len()).sum::<usize>();
     let mut warnings = Vec::new();
     if query.max_tetrahedra > 0 && count(&patches) > query.max_tetrahedra {
@@ -263,6 +296,7 @@ fn extract_volume<T: Sample>(
                 &query.iso_query(tolerance),
                 range,
                 |t| Some(patch(t).map_or(0, |p| p.0.len())),
+                partition,
             )?;
             Ok::<usize, Error>(counts.iter().sum())
         };
@@ -280,8 +314,14 @@ fn extract_volume<T: Sample>(
             }
         }
         tolerance = hi;
-        (patches, error_bound, _) =
-            state.refined_leaves(hierarchy, volume, &query.iso_query(tolerance), range, patch)?;
+        (patches, error_bound, _) = state.refined_leaves(
+            hierarchy,
+            volume,
+            &query.iso_query(tolerance),
+            range,
+            patch,
+            partition,
+        )?;
         let n = count(&patches);
         if n > query.max_tetrahedra {
             warnings.push(format!(

@@ -547,3 +547,78 @@ fn pieces_together_are_the_whole_volume() {
         assert!(owned.iter().all(|&n| n == 1), "{boxes:?}");
     }
 }
+
+/// Pieces sharing the error measurement and the bound's check ([`extract_shared`], one thread
+/// each, exchanging as ranks do) each extract the serial volume bit for bit, for every layout
+/// (slabs, an uneven split in three with an empty piece) and query (two tolerances, a budget); and
+/// they did exchange violations (each piece's alone would not give the serial volume).
+#[test]
+fn shared_pieces_extract_the_serial_volume() {
+    use crate::hierarchy::piece::{CellOwner, PointBox};
+    use crate::isosurface::threads::run_pieces;
+    let mut exchanged = 0;
+    for (name, grid, values, range) in cases() {
+        let h = hierarchy(grid, &values);
+        let far = IVec3::from(grid.dims.map(|d| d as i32 - 1));
+        let mid = far / 2;
+        let pb = |lo: IVec3, hi: IVec3| PointBox { lo, hi };
+        let layouts = [
+            vec![
+                pb(IVec3::ZERO, far.with_z(mid.z)),
+                pb(IVec3::ZERO.with_z(mid.z), far),
+            ],
+            vec![
+                pb(IVec3::ZERO, far.with_x(mid.x)),
+                PointBox::EMPTY,
+                pb(IVec3::ZERO.with_x(mid.x), far.with_y(mid.y)),
+                pb(mid.with_z(0), far),
+            ],
+        ];
+        let d = grid.diagonal();
+        let budget = IntervalQuery {
+            max_tetrahedra: 2000,
+            ..IntervalQuery::new(range, 0.002 * d)
+        };
+        for query in [
+            IntervalQuery::new(range, 0.01 * d),
+            IntervalQuery::new(range, 0.03 * d),
+            budget,
+        ] {
+            let serial = extract(&h, ScalarSlice::F32(&values), &query).unwrap();
+            for boxes in &layouts {
+                let (volumes, sent) = run_pieces(boxes.len(), |me, member| {
+                    let partition = crate::isosurface::Partition::new(
+                        CellOwner::new(boxes, me).unwrap(),
+                        member,
+                    );
+                    extract_shared(
+                        &mut IsoState::new(),
+                        &h,
+                        ScalarSlice::F32(&values),
+                        &query,
+                        &partition,
+                    )
+                    .unwrap()
+                });
+                exchanged += sent;
+                for v in volumes {
+                    let what = format!("{name}, {query:?}, {boxes:?}");
+                    assert_eq!(v.tets, serial.tets, "{what}");
+                    assert_eq!(v.levels, serial.levels, "{what}");
+                    assert_eq!(v.sources, serial.sources, "{what}");
+                    let bits = |v: &IntervalVolume| {
+                        let points = v.points.iter().flatten().map(|c| c.to_bits());
+                        (
+                            points.collect::<Vec<_>>(),
+                            v.error_bound.to_bits(),
+                            v.tolerance.to_bits(),
+                        )
+                    };
+                    assert!(bits(&v) == bits(&serial), "{what}");
+                    assert_eq!(v.warnings, serial.warnings, "{what}");
+                }
+            }
+        }
+    }
+    assert!(exchanged > 0);
+}

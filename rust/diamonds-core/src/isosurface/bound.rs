@@ -304,7 +304,7 @@ impl<'a> Partition<'a> {
 
 /// What a [`Partition`]'s exchange carries: the errors' codes, a round's violations.
 const ERRORS: u8 = 0;
-const VIOLATIONS: u8 = 1;
+pub(super) const VIOLATIONS: u8 = 1;
 
 /// Rounds of checking and splitting at most (each splits at least one diamond; in practice a few).
 const MAX_ROUNDS: usize = 64;

@@ -60,6 +60,8 @@ mod error;
 mod fine;
 mod marching;
 mod state;
+#[cfg(test)]
+pub(crate) mod threads;
 
 pub use bound::{Exchange, Partition};
 pub(crate) use cover::in_region;

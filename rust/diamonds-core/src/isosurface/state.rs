@@ -261,7 +261,9 @@ impl IsoState {
     /// the far faces beyond what [`IsoState::extract`] draws there; grids of `2^k + 1` points per
     /// axis have no far faces inside the lattice). The surfaces bound the leaves kept: the bound's
     /// check is for the boundary of `{α ≤ f ≤ β}` (`range`), a face drawn from both sides being no
-    /// part of it ([`Extraction::certify_solid`]).
+    /// part of it ([`Extraction::certify_solid`]). With a `partition`, the pieces share the error
+    /// measurement and the bound's check as in [`IsoState::extract_shared`] (the same leaves on
+    /// every piece).
     pub(crate) fn refined_leaves<T: Sample, X: Send>(
         &mut self,
         hierarchy: &Hierarchy,
@@ -269,6 +271,7 @@ impl IsoState {
         query: &IsoQuery,
         range: [f64; 2],
         keep: impl Fn(&Tet) -> Option<X> + Sync,
+        partition: Option<&Partition<'_>>,
     ) -> Result<(Vec<X>, f64, SplitSet)> {
         self.forget_mesh();
         if self.cache.as_ref().is_some_and(|c| !c.fits(&volume.grid)) {
@@ -279,7 +282,7 @@ impl IsoState {
             hierarchy,
             volume,
             cache,
-            partition: None,
+            partition,
         };
         let refine = refine_query(query, query.tolerance);
         let (grid, base) = (hierarchy.grid(), hierarchy.base());
