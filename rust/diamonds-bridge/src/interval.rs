@@ -32,23 +32,7 @@ impl Hierarchy {
         samples: &[u8],
         spec: &IntervalSpec,
     ) -> Result<Box<IntervalVolume>, String> {
-        let what = "extracting the interval volume";
-        self.with_iso_state(
-            state,
-            what,
-            scalar_type,
-            samples,
-            |state, scalars, expected| {
-                let query = spec.query();
-                let volume = interval::extract_with(state, &self.hierarchy, scalars, &query)
-                    .map_err(|e| e.to_string())?;
-                check_core(check_interval_arrays(&volume, expected))?;
-                Ok(Box::new(IntervalVolume {
-                    volume,
-                    global_ids: Vec::new(),
-                }))
-            },
-        )
+        self.interval_of(state, scalar_type, samples, spec, None)
     }
 
     /// The share of the rank at `rank` of `pieces` (every rank's extent) of the interval volume
@@ -80,12 +64,34 @@ impl Hierarchy {
         rank: usize,
         exchange: &dyn Exchange,
     ) -> Result<Box<IntervalVolume>, String> {
-        let (pieces, owner) = guard("reading the pieces' extents", || {
+        let share = guard("reading the pieces' extents", || {
             let pieces = boxes(pieces)?;
             let owner = PositionOwner::new(self.hierarchy.grid(), &pieces, rank)
                 .map_err(|e| e.to_string())?;
-            Ok((pieces, owner))
+            let cells = CellOwner::new(&pieces, rank).map_err(|e| e.to_string())?;
+            Ok((owner, cells))
         })?;
+        let (owner, cells) = share;
+        let partition = Partition::new(cells, exchange);
+        self.interval_of(
+            state,
+            scalar_type,
+            samples,
+            spec,
+            Some((&owner, &partition)),
+        )
+    }
+
+    /// The interval volume of `spec`, whole, or with `piece` the share of its owner, the ranks
+    /// sharing the extraction through its partition.
+    fn interval_of(
+        &self,
+        state: &mut IsoState,
+        scalar_type: ScalarType,
+        samples: &[u8],
+        spec: &IntervalSpec,
+        piece: Option<(&PositionOwner, &Partition<'_>)>,
+    ) -> Result<Box<IntervalVolume>, String> {
         let what = "extracting the interval volume";
         self.with_iso_state(
             state,
@@ -94,20 +100,19 @@ impl Hierarchy {
             samples,
             |state, scalars, expected| {
                 let query = spec.query();
-                let volume = CellOwner::new(&pieces, rank)
-                    .and_then(|cells| {
-                        let partition = Partition::new(cells, exchange);
-                        interval::extract_shared(
-                            state,
-                            &self.hierarchy,
-                            scalars,
-                            &query,
-                            &partition,
-                        )
-                    })
-                    .map_err(|e| e.to_string())?;
+                let h = &self.hierarchy;
+                let volume = match piece {
+                    None => interval::extract_with(state, h, scalars, &query),
+                    Some((_, partition)) => {
+                        interval::extract_shared(state, h, scalars, &query, partition)
+                    }
+                }
+                .map_err(|e| e.to_string())?;
                 check_core(check_interval_arrays(&volume, expected))?;
-                let (volume, global_ids) = volume.piece(&owner);
+                let (volume, global_ids) = match piece {
+                    None => (volume, Vec::new()),
+                    Some((owner, _)) => volume.piece(owner),
+                };
                 Ok(Box::new(IntervalVolume { volume, global_ids }))
             },
         )

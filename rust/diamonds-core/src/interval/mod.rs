@@ -274,15 +274,15 @@ fn extract_volume<T: Sample>(
         clip(ids, f, range, &mut out);
         (!out.is_empty()).then(|| (out, depth(&lattice, t)))
     };
+    // The patches of the leaves refined at `tolerance`, with the error bound.
+    let patches_at = |state: &mut IsoState, tolerance: f64| {
+        let iso = query.iso_query(tolerance);
+        let (patches, error_bound, _) =
+            state.refined_leaves(hierarchy, volume, &iso, range, patch, partition)?;
+        Ok::<_, Error>((patches, error_bound))
+    };
     let mut tolerance = query.tolerance;
-    let (mut patches, mut error_bound, _) = state.refined_leaves(
-        hierarchy,
-        volume,
-        &query.iso_query(tolerance),
-        range,
-        patch,
-        partition,
-    )?;
+    let (mut patches, mut error_bound) = patches_at(state, tolerance)?;
     let count = |patches: &[Patch]| patches.iter().map(|p| p.0.len()).sum::<usize>();
     let mut warnings = Vec::new();
     if query.max_tetrahedra > 0 && count(&patches) > query.max_tetrahedra {
@@ -314,14 +314,7 @@ fn extract_volume<T: Sample>(
             }
         }
         tolerance = hi;
-        (patches, error_bound, _) = state.refined_leaves(
-            hierarchy,
-            volume,
-            &query.iso_query(tolerance),
-            range,
-            patch,
-            partition,
-        )?;
+        (patches, error_bound) = patches_at(state, tolerance)?;
         let n = count(&patches);
         if n > query.max_tetrahedra {
             warnings.push(format!(

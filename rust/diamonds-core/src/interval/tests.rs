@@ -489,24 +489,13 @@ fn material_whose_boundary_meets_a_finest_leaf_at_a_corner_is_kept() {
     bounded(&hierarchy(grid, &values), &volume, range, tolerance);
 }
 
-/// The pieces' shares of an interval volume partition it: each tetrahedron on exactly one piece,
-/// its points those of the whole volume under their global ids, whatever the layout (slabs, an
-/// uneven split in three, overlapping pieces, empty pieces).
-#[test]
-fn pieces_together_are_the_whole_volume() {
-    use crate::hierarchy::piece::{PointBox, PositionOwner};
-    let (_, grid, values, range) = cases().remove(0);
-    let v = extract(
-        &hierarchy(grid, &values),
-        ScalarSlice::F32(&values),
-        &IntervalQuery::new(range, 0.05),
-    )
-    .unwrap();
-    assert!(!v.tets.is_empty());
+/// Piece layouts of `grid`: slabs, an uneven split in three, overlapping pieces, empty pieces.
+fn layouts(grid: &Grid) -> [Vec<crate::hierarchy::piece::PointBox>; 4] {
+    use crate::hierarchy::piece::PointBox;
     let far = IVec3::from(grid.dims.map(|d| d as i32 - 1));
     let pb = |lo: IVec3, hi: IVec3| PointBox { lo, hi };
     let mid = far / 2;
-    let layouts = [
+    [
         vec![
             pb(IVec3::ZERO, far.with_z(mid.z)),
             pb(IVec3::ZERO.with_z(mid.z), far),
@@ -518,8 +507,24 @@ fn pieces_together_are_the_whole_volume() {
         ],
         vec![pb(IVec3::ZERO, far); 2],
         vec![PointBox::EMPTY, pb(IVec3::ZERO, far), PointBox::EMPTY],
-    ];
-    for boxes in &layouts {
+    ]
+}
+
+/// The pieces' shares of an interval volume partition it: each tetrahedron on exactly one piece,
+/// its points those of the whole volume under their global ids, whatever the layout (slabs, an
+/// uneven split in three, overlapping pieces, empty pieces).
+#[test]
+fn pieces_together_are_the_whole_volume() {
+    use crate::hierarchy::piece::PositionOwner;
+    let (_, grid, values, range) = cases().remove(0);
+    let v = extract(
+        &hierarchy(grid, &values),
+        ScalarSlice::F32(&values),
+        &IntervalQuery::new(range, 0.05),
+    )
+    .unwrap();
+    assert!(!v.tets.is_empty());
+    for boxes in &layouts(&grid) {
         let mut owned = vec![0u32; v.tets.len()];
         let index: rustc_hash::FxHashMap<[u32; 4], usize> =
             v.tets.iter().enumerate().map(|(k, &t)| (t, k)).collect();
@@ -554,26 +559,12 @@ fn pieces_together_are_the_whole_volume() {
 /// they did exchange violations (each piece's alone would not give the serial volume).
 #[test]
 fn shared_pieces_extract_the_serial_volume() {
-    use crate::hierarchy::piece::{CellOwner, PointBox};
+    use crate::hierarchy::piece::CellOwner;
     use crate::isosurface::threads::run_pieces;
     let mut exchanged = 0;
     for (name, grid, values, range) in cases() {
         let h = hierarchy(grid, &values);
-        let far = IVec3::from(grid.dims.map(|d| d as i32 - 1));
-        let mid = far / 2;
-        let pb = |lo: IVec3, hi: IVec3| PointBox { lo, hi };
-        let layouts = [
-            vec![
-                pb(IVec3::ZERO, far.with_z(mid.z)),
-                pb(IVec3::ZERO.with_z(mid.z), far),
-            ],
-            vec![
-                pb(IVec3::ZERO, far.with_x(mid.x)),
-                PointBox::EMPTY,
-                pb(IVec3::ZERO.with_x(mid.x), far.with_y(mid.y)),
-                pb(mid.with_z(0), far),
-            ],
-        ];
+        let layouts = layouts(&grid);
         let d = grid.diagonal();
         let budget = IntervalQuery {
             max_tetrahedra: 2000,
