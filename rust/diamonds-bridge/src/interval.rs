@@ -64,14 +64,13 @@ impl Hierarchy {
         rank: usize,
         exchange: &dyn Exchange,
     ) -> Result<Box<IntervalVolume>, String> {
-        let share = guard("reading the pieces' extents", || {
+        let (owner, cells) = guard("reading the pieces' extents", || {
             let pieces = boxes(pieces)?;
             let owner = PositionOwner::new(self.hierarchy.grid(), &pieces, rank)
                 .map_err(|e| e.to_string())?;
             let cells = CellOwner::new(&pieces, rank).map_err(|e| e.to_string())?;
             Ok((owner, cells))
         })?;
-        let (owner, cells) = share;
         let partition = Partition::new(cells, exchange);
         self.interval_of(
             state,
