@@ -45,10 +45,11 @@ using vtkDiamonds::OneValue;
 const vtkDiamonds::FilterText Text = { "Adaptive Interval Volume", "extract the interval volume of",
   "extracts the interval volume of", "Scalars" };
 
-// Fills `output` with the tetrahedra of `volume` over `input`: points, every input point array
-// copied at samples and interpolated along the mesh edge at new points, cell data "Level". Throws
-// vtkDiamonds::OutOfMemory.
-void FillVolume(const bridge::IntervalVolume& volume, vtkImageData* input, vtkUnstructuredGrid* output)
+// Fills `output` with the tetrahedra of `volume`: points, every point array of `in` copied at
+// samples and interpolated along the mesh edge at new points (from the tuples of `in` that
+// `sources` name, two per point), cell data "Level". Throws vtkDiamonds::OutOfMemory.
+void FillVolume(const bridge::IntervalVolume& volume, vtkPointData* in,
+  rust::Slice<const std::uint32_t> sources, vtkUnstructuredGrid* output)
 {
   const rust::Slice<const double> weights = volume.weights();
   const rust::Slice<const std::uint8_t> levels = volume.levels();
@@ -56,8 +57,7 @@ void FillVolume(const bridge::IntervalVolume& volume, vtkImageData* input, vtkUn
   const vtkIdType numTets = static_cast<vtkIdType>(levels.size());
   output->SetPoints(vtkDiamonds::PointsFrom(volume.points()));
   vtkDiamonds::SetTetrahedra(output, FixedSizeCells(4, volume.tets(), numPoints));
-  vtkDiamonds::InterpolatePointData(
-    input->GetPointData(), nullptr, volume.sources(), weights, output->GetPointData());
+  vtkDiamonds::InterpolatePointData(in, nullptr, sources, weights, output->GetPointData());
   output->GetCellData()->AddArray(
     NamedArray<vtkUnsignedCharArray>("Level", numTets, levels.data()));
 }
@@ -71,8 +71,7 @@ public:
   // The extraction reads the samples again: keep them with the hierarchy.
   vtkDiamonds::HierarchyCache Cache{ vtkDiamonds::HierarchyCache::Use::Isosurfaces };
 
-  // On more than one rank: the whole image this rank put together, with every point array (new
-  // points interpolate them).
+  // On more than one rank: the whole image of the processed array this rank put together.
   vtkDiamonds::WholeImage Whole;
 };
 
@@ -249,7 +248,7 @@ try
   }
 
   // ---- Output.
-  FillVolume(**volume, input, output);
+  FillVolume(**volume, input->GetPointData(), (*volume)->sources(), output);
   this->RelativeTolerance = relativeTolerance;
   vtkFieldData* fieldData = output->GetFieldData();
   fieldData->PassData(input->GetFieldData());
@@ -315,22 +314,13 @@ int vtkAdaptiveIntervalVolume::RequestDistributed(vtkMultiProcessController* con
     ok = false;
   }
   vtkDataArray* array = nullptr;
-  std::vector<vtkDataArray*> pointArrays;
   if (ok && !empty)
   {
     ok = run("cannot read its input", [&] {
       int association = vtkDataObject::FIELD_ASSOCIATION_POINTS;
       vtkDataArray* selected = this->GetInputArrayToProcess(0, inputVector, association);
-      if (!vtkDiamonds::CheckAxisAligned(this, Text, input) ||
-        !(array = vtkDiamonds::SelectPointArray(this, Text, input, selected, association)))
-      {
-        return false;
-      }
-      // The array processed first (the whole image's active scalars), then every other point
-      // array, which new points interpolate as serially.
-      pointArrays.push_back(array);
-      vtkDiamonds::WholeImage::AddOtherPointArrays(input, array, pointArrays);
-      return true;
+      return vtkDiamonds::CheckAxisAligned(this, Text, input) &&
+        (array = vtkDiamonds::SelectPointArray(this, Text, input, selected, association));
     });
   }
   if (!agree(ok, "reading the input"))
@@ -338,13 +328,14 @@ int vtkAdaptiveIntervalVolume::RequestDistributed(vtkMultiProcessController* con
     return pieces.Failed();
   }
 
-  // ---- The whole image on every rank with a piece, fetched again when any rank's input changed.
-  const vtkDiamonds::WholeImage::Key key =
-    vtkDiamonds::WholeImage::KeyOf(pieces, input, pointArrays);
+  // ---- The whole image of the processed array on every rank with a piece, fetched again when
+  // any rank's input changed. The other point arrays are not gathered: the output fetches them
+  // at its points' sources only.
+  const vtkDiamonds::WholeImage::Key key = vtkDiamonds::WholeImage::KeyOf(pieces, input, array);
   if (this->Internals->Whole.Stale(pieces, key))
   {
     this->Internals->Cache.Release();
-    if (!this->Internals->Whole.Gather(this, Text.Name, pieces, input, pointArrays, key))
+    if (!this->Internals->Whole.Gather(this, Text.Name, pieces, input, array, key))
     {
       output->Initialize();
       return pieces.Failed();
@@ -409,12 +400,36 @@ int vtkAdaptiveIntervalVolume::RequestDistributed(vtkMultiProcessController* con
     cache.ClearIsosurfaceState();
     return pieces.Failed();
   }
+  this->UpdateProgress(0.75);
+
+  // ---- The point data of this rank's points' sources: from its piece, or fetched from the ranks
+  // holding them.
+  std::optional<rust::Box<bridge::PointSources>> sources;
+  ok = !volume || run("could not find where its point data comes from", [&] {
+    sources.emplace((*volume)->piece_sources(pieces.Whole(), pieces.OwnExtent()));
+    return true;
+  });
+  vtkNew<vtkPointData> table;
+  ok = run("could not fetch point data from other ranks", [&] {
+    std::string error;
+    if (!pieces.SourceTable(ok && sources ? &**sources : nullptr,
+          empty ? nullptr : input->GetPointData(), nullptr, table, error))
+    {
+      vtkErrorMacro(<< Text.Name << " could not fetch point data from other ranks: " << error);
+      return false;
+    }
+    return true;
+  }) && ok;
+  if (!agree(ok, "fetching point data"))
+  {
+    return pieces.Failed();
+  }
   this->UpdateProgress(0.8);
 
   // ---- Output: this rank's tetrahedra with global point ids; the whole volume's figures.
   std::vector<double> figures{ 0.0, 0.0, 0.0, 0.0 };
   ok = !volume || run("could not write its output", [&] {
-    FillVolume(**volume, whole, output);
+    FillVolume(**volume, table, (*sources)->rows(), output);
     output->GetPointData()->SetGlobalIds(
       vtkDiamonds::GlobalPointIds((*volume)->global_point_ids()));
     // The whole volume's points: every one is used by a tetrahedron some rank owns.
@@ -425,6 +440,7 @@ int vtkAdaptiveIntervalVolume::RequestDistributed(vtkMultiProcessController* con
     return true;
   });
   volume.reset();
+  sources.reset();
   if (!agree(ok, "the output"))
   {
     return pieces.Failed();

@@ -66,7 +66,8 @@ public:
   // interpolated as vtkContourFilter does and, when asked for, normals and scalars (of `array`'s
   // type).
   void FillSurface(vtkAdaptiveIsosurface* self, const bridge::Surface& surface,
-    vtkDataArray* array, vtkPointData* in, vtkPolyData* output);
+    vtkDataArray* array, vtkPointData* in, rust::Slice<const std::uint32_t> sources,
+    vtkPolyData* output);
   // The extraction's parameters (tolerance, budget, outputs; not the region of interest).
   bridge::IsoSpec Spec(vtkAdaptiveIsosurface* self) const;
 
@@ -233,7 +234,8 @@ std::optional<std::vector<double>> vtkAdaptiveIsosurface::vtkInternals::CheckPar
 
 //------------------------------------------------------------------------------
 void vtkAdaptiveIsosurface::vtkInternals::FillSurface(vtkAdaptiveIsosurface* self,
-  const bridge::Surface& surface, vtkDataArray* array, vtkPointData* in, vtkPolyData* output)
+  const bridge::Surface& surface, vtkDataArray* array, vtkPointData* in,
+  rust::Slice<const std::uint32_t> sources, vtkPolyData* output)
 {
   const rust::Slice<const std::uint32_t> triangles = surface.triangles();
   const rust::Slice<const double> values = surface.values();
@@ -245,7 +247,7 @@ void vtkAdaptiveIsosurface::vtkInternals::FillSurface(vtkAdaptiveIsosurface* sel
   // The normals and scalars below are added, then made active: SetNormals or SetScalars would
   // replace an interpolated array that holds that role in the input (a Calculator's result).
   vtkDiamonds::InterpolatePointData(
-    in, array->GetName(), surface.sources(), surface.weights(), output->GetPointData());
+    in, array->GetName(), sources, surface.weights(), output->GetPointData());
   if (self->ComputeNormals)
   {
     const rust::Slice<const float> normals = surface.normals();
@@ -409,7 +411,8 @@ try
   }
 
   // ---- Output port 0: the surface.
-  this->Internals->FillSurface(this, **surface, array, input->GetPointData(), output);
+  this->Internals->FillSurface(
+    this, **surface, array, input->GetPointData(), (*surface)->sources(), output);
   this->RelativeTolerance = relativeTolerance;
   vtkFieldData* fieldData = output->GetFieldData();
   fieldData->PassData(input->GetFieldData());
@@ -509,21 +512,14 @@ int vtkAdaptiveIsosurface::RequestDistributed(vtkMultiProcessController* control
     return pieces.Failed();
   }
 
-  // ---- The whole image on every rank with a piece, fetched again when any rank's input changed
-  // (keyed by the array as read; its converted samples are gathered, then every other point
-  // array, which the surface interpolates as serially).
-  std::vector<vtkDataArray*> pointArrays;
-  if (samples)
-  {
-    pointArrays.push_back(samples);
-    vtkDiamonds::WholeImage::AddOtherPointArrays(input, array, pointArrays);
-  }
-  vtkDiamonds::WholeImage::Key key = vtkDiamonds::WholeImage::KeyOf(pieces, input, pointArrays);
-  key.Input = vtkDiamonds::InputKey(input, array);
+  // ---- The whole image of the processed array on every rank with a piece, fetched again when
+  // any rank's input changed (keyed by the array as read; its converted samples are gathered).
+  // The other point arrays are not: the output fetches them at its points' sources only.
+  const vtkDiamonds::WholeImage::Key key = vtkDiamonds::WholeImage::KeyOf(pieces, input, array);
   if (this->Internals->Whole.Stale(pieces, key))
   {
     this->Internals->Cache.Release();
-    if (!this->Internals->Whole.Gather(this, Text.Name, pieces, input, pointArrays, key))
+    if (!this->Internals->Whole.Gather(this, Text.Name, pieces, input, samples, key))
     {
       output->Initialize();
       carrier->Initialize();
@@ -589,18 +585,49 @@ int vtkAdaptiveIsosurface::RequestDistributed(vtkMultiProcessController* control
   {
     ++this->NumberOfReusedMeshes;
   }
+  this->UpdateProgress(0.85);
+
+  // ---- The point data of this rank's points (the sources of the surface's points, the carrier
+  // tetrahedra's points): from its piece, or fetched from the ranks holding them. The contoured
+  // array only for the carriers (the surface's points hold the isovalues).
+  std::optional<rust::Box<bridge::PointSources>> sources;
+  ok = !surface || run("could not find where its point data comes from", [&] {
+    sources.emplace((*surface)->piece_sources(pieces.Whole(), pieces.OwnExtent()));
+    return true;
+  });
+  vtkNew<vtkPointData> table;
+  ok = run("could not fetch point data from other ranks", [&] {
+    std::string error;
+    if (!pieces.SourceTable(ok && sources ? &**sources : nullptr,
+          empty ? nullptr : input->GetPointData(),
+          this->GenerateCarrierTetrahedra ? nullptr : array, table, error))
+    {
+      vtkErrorMacro(<< "Adaptive Isosurface could not fetch point data from other ranks: "
+                    << error);
+      return false;
+    }
+    return true;
+  }) && ok;
+  if (!agree(ok, "fetching point data"))
+  {
+    return pieces.Failed();
+  }
   this->UpdateProgress(0.9);
 
   // ---- Output: this rank's triangles with global point ids, and its carrier tetrahedra.
   std::vector<double> errorBound{ 0.0 };
   ok = !surface || run("could not write its output", [&] {
-    this->Internals->FillSurface(this, **surface, array, whole->GetPointData(), output);
+    const rust::Slice<const std::uint32_t> rows = (*sources)->rows();
+    const std::size_t onSurface = (*surface)->sources().size();
+    this->Internals->FillSurface(
+      this, **surface, array, table, { rows.data(), onSurface }, output);
     output->GetPointData()->SetGlobalIds(vtkDiamonds::GlobalPointIds((*surface)->global_point_ids()));
     errorBound[0] = (*surface)->error_bound();
     if (this->GenerateCarrierTetrahedra)
     {
       rust::Box<bridge::Mesh> mesh = (*surface)->take_carrier();
-      vtkDiamonds::MeshToUnstructuredGrid(*mesh, whole, "IsosurfaceError", carrier);
+      vtkDiamonds::MeshToUnstructuredGrid(*mesh, whole, "IsosurfaceError", carrier, table,
+        { rows.data() + onSurface, rows.size() - onSurface });
       carrier->GetFieldData()->AddArray(
         OneValue<vtkIdTypeArray>("NumberOfTetrahedra", carrier->GetNumberOfCells()));
       carrier->GetFieldData()->AddArray(OneValue<vtkDoubleArray>("MaximumError", mesh->max_error()));
@@ -608,6 +635,7 @@ int vtkAdaptiveIsosurface::RequestDistributed(vtkMultiProcessController* control
     return true;
   });
   surface.reset();
+  sources.reset();
   if (!agree(ok, "the output"))
   {
     return pieces.Failed();

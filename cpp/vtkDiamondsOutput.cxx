@@ -462,8 +462,8 @@ bool PlanToUnstructuredGrid(const bridge::Hierarchy& hierarchy, const bridge::Me
 }
 
 //------------------------------------------------------------------------------
-void MeshToUnstructuredGrid(
-  bridge::Mesh& mesh, vtkImageData* input, const char* errorName, vtkUnstructuredGrid* output)
+void MeshToUnstructuredGrid(bridge::Mesh& mesh, vtkImageData* input, const char* errorName,
+  vtkUnstructuredGrid* output, vtkPointData* table, rust::Slice<const std::uint32_t> rows)
 {
   const rust::Slice<const std::size_t> pointIds = mesh.point_ids();
   const rust::Slice<const std::uint32_t> tets = mesh.tets();
@@ -495,14 +495,14 @@ void MeshToUnstructuredGrid(
       xyz[3 * i + axis] =
         origin[axis] + (extent[2 * axis] + static_cast<double>(ijk[axis])) * spacing[axis];
     }
-    inputIds->SetId(i, static_cast<vtkIdType>(id));
+    inputIds->SetId(i, static_cast<vtkIdType>(table ? rows[i] : id));
   }
   vtkNew<vtkPoints> points;
   points->SetData(coordinates);
   output->SetPoints(points);
 
-  // Every input point-data array, tuple by tuple from the matching input point.
-  vtkPointData* inPD = input->GetPointData();
+  // Every input point-data array, tuple by tuple from the matching input point (or table row).
+  vtkPointData* inPD = table ? table : input->GetPointData();
   vtkPointData* outPD = output->GetPointData();
   AllocateLike(inPD, outPD, numPoints);
   outPD->CopyData(inPD, inputIds, vtkIdType(0));

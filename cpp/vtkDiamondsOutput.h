@@ -82,9 +82,12 @@ void ReportOutOfMemory(vtkAlgorithm* filter, const char* name, const std::bad_al
 // Fills `output` with the tetrahedra of `mesh` over `input`: points at the sample positions, every
 // input point array passed through, cell data "BisectionDepth" and the mesh's per-tetrahedron errors named
 // `errorName` ("ApproximationError" for Adaptive Tetrahedra, "IsosurfaceError" for carriers). The mesh's
-// tetrahedra are released as soon as they are copied (lower peak memory). Throws OutOfMemory.
-void MeshToUnstructuredGrid(
-  bridge::Mesh& mesh, vtkImageData* input, const char* errorName, vtkUnstructuredGrid* output);
+// tetrahedra are released as soon as they are copied (lower peak memory). With a `table` (a piece's
+// Pieces::SourceTable), the point data comes from the table's `rows`, one per point of the mesh,
+// instead of from `input`. Throws OutOfMemory.
+void MeshToUnstructuredGrid(bridge::Mesh& mesh, vtkImageData* input, const char* errorName,
+  vtkUnstructuredGrid* output, vtkPointData* table = nullptr,
+  rust::Slice<const std::uint32_t> rows = {});
 
 // How a point array is gathered by the core: `gather(in, source, tupleBytes, target)` copies the
 // tuple of each output point into `target` from `source`, the bytes of the input array `in`.

@@ -941,6 +941,55 @@ bool Pieces::Fetch(rust::Slice<const std::uint64_t> ids, const std::vector<vtkDa
 }
 
 //------------------------------------------------------------------------------
+bool Pieces::SourceTable(const bridge::PointSources* sources, vtkPointData* in, vtkDataArray* skip,
+  vtkPointData* table, std::string& error)
+{
+  std::vector<vtkDataArray*> arrays;
+  for (int i = 0; in && i < in->GetNumberOfArrays(); ++i)
+  {
+    vtkDataArray* a = in->GetArray(i);
+    if (a && a != skip &&
+      std::string(a->GetName() ? a->GetName() : "") != vtkDataSetAttributes::GhostArrayName())
+    {
+      arrays.push_back(a);
+    }
+  }
+  const rust::Slice<const std::uint64_t> remote =
+    sources ? sources->remote() : rust::Slice<const std::uint64_t>();
+  std::vector<vtkSmartPointer<vtkDataArray>> fetched;
+  if (!this->Fetch(remote, arrays, fetched, error))
+  {
+    return false;
+  }
+  if (!sources)
+  {
+    return true;
+  }
+  const rust::Slice<const std::uint64_t> local = sources->local();
+  const vtkIdType own = static_cast<vtkIdType>(local.size());
+  const vtkIdType other = static_cast<vtkIdType>(remote.size());
+  auto held = vtkSmartPointer<vtkIdList>::New();
+  held->SetNumberOfIds(own);
+  std::copy(local.begin(), local.end(), held->GetPointer(0));
+  for (std::size_t m = 0; m < arrays.size(); ++m)
+  {
+    vtkSmartPointer<vtkDataArray> rows = SameKind(arrays[m], own + other);
+    rows->InsertTuples(IdList(0, own), held, arrays[m]);
+    rows->InsertTuples(IdList(own, other), IdList(0, other), fetched[m]);
+    fetched[m] = nullptr;
+    const int at = table->AddArray(rows);
+    for (int role = 0; role < vtkDataSetAttributes::NUM_ATTRIBUTES; ++role)
+    {
+      if (in->GetAttribute(role) == arrays[m])
+      {
+        table->SetActiveAttribute(at, role);
+      }
+    }
+  }
+  return true;
+}
+
+//------------------------------------------------------------------------------
 bool Pieces::FetchBoxes(const bridge::SampleRequests& requests,
   const std::vector<vtkDataArray*>& arrays, std::vector<vtkSmartPointer<vtkDataArray>>& fetched,
   std::string& error)
@@ -1152,34 +1201,12 @@ bool Pieces::Ask(std::vector<std::vector<std::uint64_t>>& want,
 }
 
 //------------------------------------------------------------------------------
-WholeImage::Key WholeImage::KeyOf(
-  const Pieces& pieces, vtkImageData* input, const std::vector<vtkDataArray*>& pointArrays)
+WholeImage::Key WholeImage::KeyOf(const Pieces& pieces, vtkImageData* input, vtkDataArray* processed)
 {
   Key key;
-  key.Input = InputKey(input, pointArrays.empty() ? nullptr : pointArrays.front());
-  for (std::size_t i = 1; i < pointArrays.size(); ++i)
-  {
-    key.Others.emplace_back(pointArrays[i], pointArrays[i]->GetMTime());
-  }
+  key.Input = InputKey(input, processed);
   key.Extents.assign(pieces.Extents().begin(), pieces.Extents().end());
   return key;
-}
-
-//------------------------------------------------------------------------------
-void WholeImage::AddOtherPointArrays(
-  vtkImageData* input, vtkDataArray* processed, std::vector<vtkDataArray*>& pointArrays)
-{
-  vtkPointData* pd = input->GetPointData();
-  for (int i = 0; i < pd->GetNumberOfArrays(); ++i)
-  {
-    vtkDataArray* other = pd->GetArray(i);
-    if (other && other != processed &&
-      std::string(other->GetName() ? other->GetName() : "") !=
-        vtkDataSetAttributes::GhostArrayName())
-    {
-      pointArrays.push_back(other);
-    }
-  }
 }
 
 //------------------------------------------------------------------------------
@@ -1190,12 +1217,17 @@ bool WholeImage::Stale(Pieces& pieces, const Key& key) const
 
 //------------------------------------------------------------------------------
 bool WholeImage::Gather(vtkAlgorithm* filter, const char* name, Pieces& pieces,
-  vtkImageData* input, const std::vector<vtkDataArray*>& pointArrays, const Key& key)
+  vtkImageData* input, vtkDataArray* samples, const Key& key)
 {
   this->Image = nullptr;
   this->Built = Key();
   std::string error;
   vtkSmartPointer<vtkDataSet> gathered;
+  std::vector<vtkDataArray*> pointArrays;
+  if (samples)
+  {
+    pointArrays.push_back(samples);
+  }
   const bool ok = pieces.GatherWhole(input, pointArrays, {}, gathered, error);
   if (!ok)
   {

@@ -32,6 +32,7 @@ class vtkIdList;
 class vtkImageData;
 class vtkInformation;
 class vtkMultiProcessController;
+class vtkPointData;
 
 namespace vtkDiamonds
 {
@@ -240,6 +241,14 @@ public:
   // name) with a tuple per id. Returns false with `error` set when a point is held by no rank.
   bool Fetch(rust::Slice<const std::uint64_t> ids, const std::vector<vtkDataArray*>& arrays,
     std::vector<vtkSmartPointer<vtkDataArray>>& fetched, std::string& error);
+  // Collective: the point data a piece's output takes from input points, as a table (`sources`:
+  // Surface::piece_sources, IntervalVolume::piece_sources; null on a rank without output, which
+  // fetches nothing but takes part): into `table`, every point array of `in` (this rank's piece;
+  // null when empty) but `skip` (none when null) and the ghost array, with the same attribute roles,
+  // a tuple per row of the table — this rank's points, then those fetched from the ranks holding
+  // them. Returns false with `error` set when a point is held by no rank. Throws OutOfMemory.
+  bool SourceTable(const bridge::PointSources* sources, vtkPointData* in, vtkDataArray* skip,
+    vtkPointData* table, std::string& error);
   // Collective: the same for the boxes of points of `requests` (bridge::piece_requests: a few
   // boxes asked of each rank holding points this one needs, none of this rank), a few integers
   // per box crossing instead of a point index per tuple. `fetched` receives the tuples of the boxes,
@@ -289,34 +298,26 @@ private:
 class WholeImage
 {
 public:
-  // What it is put together from: the processed array, the other point arrays gathered with it
-  // (and their modification times), every rank's extent.
+  // What it is put together from: the processed array, every rank's extent. (The other point
+  // arrays are not gathered: the filters fetch them at their output's points, SourceTable.)
   struct Key
   {
     InputKey Input;
-    std::vector<std::pair<const void*, vtkMTimeType>> Others;
     std::vector<std::int64_t> Extents;
-    bool operator==(const Key& o) const
-    {
-      return Input == o.Input && Others == o.Others && Extents == o.Extents;
-    }
+    bool operator==(const Key& o) const { return Input == o.Input && Extents == o.Extents; }
   };
-  // This rank's key: `pointArrays` of `input` (the processed one first; none on an empty piece).
-  static Key KeyOf(const Pieces& pieces, vtkImageData* input,
-    const std::vector<vtkDataArray*>& pointArrays);
-  // Appends to `pointArrays` every point array of `input` but `processed` and the ghost array: what
-  // the output interpolates besides the processed array, gathered as the whole image.
-  static void AddOtherPointArrays(
-    vtkImageData* input, vtkDataArray* processed, std::vector<vtkDataArray*>& pointArrays);
+  // This rank's key: the array `processed` of `input` as read (none on an empty piece).
+  static Key KeyOf(const Pieces& pieces, vtkImageData* input, vtkDataArray* processed);
 
   // Collective: whether any rank's key differs from the one of its last gather (then every rank
   // gathers again: release what depends on the image first).
   bool Stale(Pieces& pieces, const Key& key) const;
-  // Collective: gathers `pointArrays` of every rank's piece into the whole image (GatherWhole; the
-  // first array its active scalars). False on every rank when it failed anywhere (an error on
-  // `filter`, named `name`, where it failed; agreed on as Pieces::Agree): no image is kept.
+  // Collective: gathers `samples` (the processed array, or its samples as the core reads them; none
+  // on an empty piece) of every rank's piece into the whole image (GatherWhole; its active
+  // scalars). False on every rank when it failed anywhere (an error on `filter`, named `name`,
+  // where it failed; agreed on as Pieces::Agree): no image is kept.
   bool Gather(vtkAlgorithm* filter, const char* name, Pieces& pieces, vtkImageData* input,
-    const std::vector<vtkDataArray*>& pointArrays, const Key& key);
+    vtkDataArray* samples, const Key& key);
   // The image (none on an empty piece, or after a failed gather).
   vtkImageData* Get() const;
 

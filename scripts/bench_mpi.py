@@ -6,6 +6,8 @@ pvbatch`), alternating, each run its own process group.
     python3 scripts/bench_mpi.py             # tetrahedra: runs the cases, replaces its section of docs/benchmarks.md
     python3 scripts/bench_mpi.py --iso       # the same for the isosurface (its own section)
     python3 scripts/bench_mpi.py --interval  # the same for the interval volume (its own section)
+    python3 scripts/bench_mpi.py --iso --coordinates  # with a 3-component double point array too
+                                                      # (the points' coordinates; its own section)
 
 Per case: wall time of the first execution (hierarchy build + query; for the isosurface the fetch of
 the image too; the interval volume's likewise) and of a second query on the kept hierarchies (Tolerance changed), cells, and per rank
@@ -28,6 +30,8 @@ BONSAI = os.path.join(ROOT, "..", "shared", "data", "volumes", "bonsai_256x256x2
 ISO = "--iso" in sys.argv
 INTERVAL = "--interval" in sys.argv
 MODE = "--iso" if ISO else "--interval" if INTERVAL else None
+# Another point array the output interpolates: the coordinates, 3 doubles per point (403 MB whole).
+COORDINATES = "--coordinates" in sys.argv and MODE is not None
 ISOVALUE = 40.5
 RANGE = [78.5, 166.5]  # Otsu's threshold and half-way to the maximum, as scripts/bench_interval.py
 # Per filter: heading, tolerance, what its cells are, its count and per-rank field data.
@@ -39,17 +43,20 @@ CASE = {
                    "NumberOfTetrahedra", "TetrahedraPerRank"),
 }[MODE]
 HEADING, TOLERANCE, CELLS, COUNT, PER_RANK = CASE
+if COORDINATES:
+    HEADING = HEADING.replace(" (issue 12)", ", with a 3-component point array (issue 12)")
 REPEATS = 2
-ISO_NOTE = ("Every rank with a piece gathers the whole image (one all-gather of each rank's piece, "
-            "`Pieces::GatherWhole`) and refines as the serial filter does, but shares the error measurement and the "
+ISO_NOTE = ("Every rank with a piece gathers the whole image of the contoured array (one all-gather of each "
+            "rank's piece, `Pieces::GatherWhole`; the other point arrays are fetched only at the input points its "
+            "share interpolates from, `Pieces::SourceTable`) and refines as the serial filter does, but shares the error measurement and the "
             "two-sided bound's check: each rank locates the surface samples of the cells it owns and checks the surface "
             "of the carriers and the cells of the full-resolution surface it owns, and the ranks all-gather the "
             "diamonds' error codes and each round's violations (`Partition`, `Ranks::Share`), then each writes its share: "
             "exact, the whole image on every rank (see *Across MPI pieces* in docs/ARCHITECTURE.md); a second query "
             "with the same input gathers nothing.")
 
-INTERVAL_NOTE = ("The same scheme as the isosurface's above: every rank with a piece gathers the whole image and "
-                 "every other point array, refines as the serial filter does for the two bounding surfaces, sharing "
+INTERVAL_NOTE = ("The same scheme as the isosurface's above: every rank with a piece gathers the whole image of "
+                 "the processed array (the other point arrays fetched at its share's sources only), refines as the serial filter does for the two bounding surfaces, sharing "
                  "the error measurement and the two-sided bound's check (`interval::extract_shared`), then clips "
                  "the whole volume and outputs the tetrahedra whose centroid its piece holds: exact, the whole "
                  "image on every rank.")
@@ -60,14 +67,18 @@ def measure():
 
     from paraview import servermanager
     from paraview.simple import (AdaptiveIntervalVolume, AdaptiveIsosurface, AdaptiveTetrahedra, ProgrammableFilter,
-                                 XMLImageDataReader)
+                                 Calculator, XMLImageDataReader)
 
     reader = XMLImageDataReader(FileName=[BONSAI])
+    if COORDINATES:
+        reader = Calculator(Input=reader, ResultArrayName="coordinates", Function="coords")
     reader.UpdatePipeline()
     if ISO:
         filt = AdaptiveIsosurface(Input=reader, Isosurfaces=[ISOVALUE], Tolerance=TOLERANCE)
+        filt.ContourBy = ["POINTS", "density"]
     elif INTERVAL:
         filt = AdaptiveIntervalVolume(Input=reader, ThresholdRange=RANGE, Tolerance=TOLERANCE)
+        filt.Scalars = ["POINTS", "density"]
     else:
         filt = AdaptiveTetrahedra(Input=reader, Tolerance=TOLERANCE)
     # Rank 0's field data alone: fetching the mesh would copy rank 0's output into the measured peak.
@@ -111,7 +122,7 @@ def run(ranks):
         # threads a single core of the two.
         ["mpiexec", "--allow-run-as-root", "--oversubscribe", "--bind-to", "none", "-n", str(ranks), "pvbatch",
          __file__, "--measure"]
-        + ([MODE] if MODE else []),
+        + ([MODE] if MODE else []) + (["--coordinates"] if COORDINATES else []),
         env=env, check=True, capture_output=True, text=True).stdout
     line = next(l for l in out.splitlines() if l.startswith("RESULT "))
     return json.loads(line[len("RESULT "):])
@@ -133,6 +144,9 @@ def report(results):
     what = (f"isovalue {ISOVALUE:g}, Tolerance {TOLERANCE:.3g} (1 % of the diagonal)" if ISO
             else f"range [{RANGE[0]:g}, {RANGE[1]:g}], Tolerance {TOLERANCE:.3g} (1 % of the diagonal)" if INTERVAL
             else f"Tolerance {TOLERANCE:g}")
+    if COORDINATES:
+        what += (", with a point array of the points' coordinates (a Calculator's `coords`: 3 doubles per point, "
+                 "403 MB for the whole image) which the output interpolates")
     lines = [HEADING, "",
              f"Bonsai 256³ (u8), {what}, `mpiexec --bind-to none -n R pvbatch` on this 2-core machine "
              "(R ranks share the two cores; each rank's core threads too). Wall times are medians of alternating runs; per-rank "

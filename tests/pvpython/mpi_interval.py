@@ -12,7 +12,8 @@ ranks, and the shared volumes of up to 2 M points when ../shared is there) and s
 script (rank 0) fetches every rank's share and checks, independently of the filter:
 - the tetrahedra of all ranks together are those of the serial volume (the CLI's `diamonds interval`
   on the same image), as sets of coordinates, each on exactly one rank; the processed array at every
-  point is the serial one;
+  point is the serial one; another point array (the coordinates) is interpolated onto every rank's
+  points;
 - GlobalPointIds name points consistently: the same id has the same coordinates on every rank, and
   distinct positions have distinct ids;
 - merged by coordinates, the union conforms across the seams: every face is in two tetrahedra but
@@ -141,6 +142,27 @@ check_distributed(wavelet, image, "RTData", [100.0, 200.0], 0.4, "wavelet [100, 
 dc.check(dc.hierarchy_builds(filt) == builds, "changing the tolerance keeps every rank's hierarchy")
 check_distributed(wavelet, image, "RTData", [150.0, 170.0], 0.0, "wavelet [150, 170] tol 0", filt=filt)
 simple.Delete(filt)
+
+# Every other point array is interpolated onto every rank's points, whichever rank holds their
+# sources: the ranks gather only the processed array and fetch the others at their points' sources.
+# Interpolated along the mesh edges, the point coordinates are the points themselves.
+with_coords = simple.Calculator(Input=wavelet, ResultArrayName="coordinates", Function="coords")
+filt = simple.AdaptiveIntervalVolume(Input=with_coords, ThresholdRange=[100.0, 200.0], Tolerance=1.0)
+filt.Scalars = ["POINTS", "RTData"]
+filt.UpdatePipeline()
+points_seen, off = 0, 0.0
+for r in range(ranks):
+    piece = servermanager.Fetch(filt, r)
+    if piece.GetNumberOfPoints() == 0:
+        continue
+    points_seen += piece.GetNumberOfPoints()
+    coordinates = piece.GetPointData().GetArray("coordinates")
+    xyz = vtk_to_numpy(piece.GetPoints().GetData()).astype(np.float64)
+    off = max(off, np.inf if coordinates is None else float(np.abs(vtk_to_numpy(coordinates) - xyz).max()))
+dc.check(points_seen > 0 and off <= 1e-9 * np.linalg.norm([40.0, 36.0, 30.0]),
+         f"wavelet with coordinates: every rank's points carry the interpolated array (max difference {off:.3g})")
+simple.Delete(filt)
+simple.Delete(with_coords)
 
 # An image smaller than the number of ranks: some ranks have empty pieces.
 tiny, tiny_image = dc.wavelet(simple, [0, 2, 0, 1, 0, 1])

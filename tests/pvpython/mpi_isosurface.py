@@ -21,7 +21,8 @@ surface and checks, independently of the filter:
   BytesSentPerRank, ExchangeSecondsPerRank, PeakMemoryPerRank; ErrorBound the same on every rank;
   changing the tolerance re-extracts without rebuilding the hierarchy;
 - the contoured array (ComputeScalars, on by default) and every other point array of the input are
-  on each rank's points, the latter interpolated as serially.
+  on each rank's points, the latter interpolated as serially; the carrier tetrahedra carry every
+  point array of the input at their points.
 """
 
 import os
@@ -221,7 +222,32 @@ for name, values in (("coordinates", xyz), ("twice", 2.0 * vtk_to_numpy(image.Ge
     a = numpy_to_vtk(np.ascontiguousarray(values), deep=1)
     a.SetName(name)
     with_image.GetPointData().AddArray(a)
-simple.Delete(check_distributed(with_arrays, with_image, "RTData", [157.0], 1.0, "wavelet with arrays"))
+filt = check_distributed(with_arrays, with_image, "RTData", [157.0], 1.0, "wavelet with arrays")
+# The carrier tetrahedra (at lattice points) pass every point array through, whichever rank holds
+# the point: the ranks gather only the contoured array and fetch the others at their points.
+filt.GenerateCarrierTetrahedra = 1
+filt.UpdatePipeline()
+dims = np.array(with_image.GetDimensions())
+origin, spacing = np.array(with_image.GetOrigin()), np.array(with_image.GetSpacing())
+carried, names, off = 0, set(), 0.0
+for r in range(ranks):
+    carrier = servermanager.Fetch(filt, r, None, 1)
+    if carrier.GetNumberOfPoints() == 0:
+        continue
+    carried += carrier.GetNumberOfCells()
+    pd = carrier.GetPointData()
+    names.add(tuple(sorted(pd.GetArrayName(i) for i in range(pd.GetNumberOfArrays()))))
+    ijk = np.rint((vtk_to_numpy(carrier.GetPoints().GetData()) - origin) / spacing).astype(np.int64)
+    at = ijk[:, 0] + dims[0] * (ijk[:, 1] + dims[1] * ijk[:, 2])
+    for name in ("RTData", "coordinates", "twice"):
+        if pd.GetArray(name) is not None:
+            want = vtk_to_numpy(with_image.GetPointData().GetArray(name)).astype(np.float64)[at]
+            got = vtk_to_numpy(pd.GetArray(name)).astype(np.float64)
+            off = max(off, float(np.abs(got - want).max()))
+dc.check(carried > 0 and names == {("RTData", "coordinates", "twice")},
+         f"wavelet with arrays: carriers on the ranks ({carried}) carry every point array ({names})")
+dc.check(off == 0.0, f"wavelet with arrays: the carriers' point arrays are the input's at their points (max difference {off:.3g})")
+simple.Delete(filt)
 simple.Delete(with_arrays)
 
 # An image smaller than the number of ranks: some ranks have empty pieces.

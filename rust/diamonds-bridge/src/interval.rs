@@ -11,8 +11,8 @@ use diamonds::interval;
 use diamonds::isosurface::{Exchange, Partition};
 use diamonds::validate::check_interval_arrays;
 
-use crate::ffi::{IntervalSpec, PieceExchange, ScalarType};
-use crate::piece::{boxes, CxxExchange};
+use crate::ffi::{GridSpec, IntervalSpec, PieceExchange, ScalarType};
+use crate::piece::{boxes, CxxExchange, PointSources};
 use crate::{check_core, guard, Hierarchy, IsoState};
 
 /// Opaque handle on a [`diamonds::interval::IntervalVolume`] for C++, its sources flattened.
@@ -129,6 +129,16 @@ impl IntervalVolume {
 
     pub fn weights(&self) -> &[f64] {
         &self.volume.weights
+    }
+
+    /// Where a piece's point data comes from: its points' sources.
+    pub fn piece_sources(
+        &self,
+        whole: &GridSpec,
+        owned: &[i64],
+    ) -> Result<Box<PointSources>, String> {
+        let sources = self.volume.sources.as_flattened().iter();
+        crate::piece::point_sources(whole, owned, sources.map(|&i| i as u64))
     }
 
     pub fn tets(&self) -> &[u32] {

@@ -363,6 +363,20 @@ mod ffi {
         /// For each whole-grid point index of `ids`, its index (x fastest) among the points of the
         /// piece of extent `owned`, or -1 when that piece does not hold it.
         fn piece_local_ids(whole: &GridSpec, owned: &[i64], ids: &[u64]) -> Result<Vec<i64>>;
+
+        /// The input points a piece's output takes its point data from, as a table: its own points
+        /// first, then those other pieces hold (to fetch), each once; a row per point id asked
+        /// about (`Surface::piece_sources`, `IntervalVolume::piece_sources`). A rank that puts the
+        /// whole image together for the computation gathers only the processed array, not the
+        /// others.
+        type PointSources;
+        /// The table's own points: their indices (x fastest) among the points of the piece,
+        /// ascending.
+        fn local(self: &PointSources) -> &[u64];
+        /// The table's other points: their whole-grid indices, ascending.
+        fn remote(self: &PointSources) -> &[u64];
+        /// For each point id asked about, its row in the table (`local`'s, then `remote`'s).
+        fn rows(self: &PointSources) -> &[u32];
         /// Builds the part of the hierarchy of the piece at `rank` of `pieces` from its own samples
         /// (`local`, its extent, x fastest) and `fetched`, the answers to its `piece_requests`
         /// in that order (same type).
@@ -576,6 +590,15 @@ mod ffi {
         /// For a piece's part (`isosurface_piece`): each point's id in the whole surface, the same
         /// on every rank; empty for a whole surface.
         fn global_point_ids(self: &Surface) -> &[u64];
+        /// For a piece's part (`isosurface_piece`), the piece of extent `owned` of the `whole`
+        /// grid: where its point data comes from (`PointSources`), the rows of its points'
+        /// `sources` (two per point) first, then those of the carrier tetrahedra's points (when
+        /// not taken yet, in `point_ids` order).
+        fn piece_sources(
+            self: &Surface,
+            whole: &GridSpec,
+            owned: &[i64],
+        ) -> Result<Box<PointSources>>;
         /// Moves the tetrahedra carrying the surface out (their `errors`: the isosurface error of
         /// each tetrahedron's diamond, world units); an error unless `carrier_tetrahedra` was
         /// asked for, or when already taken.
@@ -626,6 +649,14 @@ mod ffi {
         /// For a piece's share (`interval_piece`): each point's id in the whole volume, the same
         /// on every rank; empty for a whole volume.
         fn global_point_ids(self: &IntervalVolume) -> &[u64];
+        /// For a piece's share (`interval_piece`), the piece of extent `owned` of the `whole`
+        /// grid: where its point data comes from (`PointSources`), the rows of its points'
+        /// `sources` (two per point).
+        fn piece_sources(
+            self: &IntervalVolume,
+            whole: &GridSpec,
+            owned: &[i64],
+        ) -> Result<Box<PointSources>>;
         /// Four point indices per tetrahedron, positively oriented (VTK_TETRA order).
         fn tets(self: &IntervalVolume) -> &[u32];
         /// Bisection depth of the adaptive-mesh leaf each tetrahedron was cut from.
@@ -983,7 +1014,7 @@ pub use material::{
 pub mod view;
 pub use piece::{
     build_piece_hierarchy, piece_box_local_ids, piece_check_cover, piece_local_ids,
-    piece_point_owners, piece_requests, PieceHierarchy, PieceRefinement,
+    piece_point_owners, piece_requests, PieceHierarchy, PieceRefinement, PointSources,
 };
 pub use view::{new_path_order, new_view_mesh, PathOrder, ViewMesh};
 
@@ -1600,6 +1631,26 @@ impl Surface {
         guard("reading the isosurface", || {
             Ok(self.surface.warnings.clone())
         })
+    }
+
+    /// Where a piece's point data comes from: the surface's sources, then the carrier's points.
+    pub fn piece_sources(
+        &self,
+        whole: &GridSpec,
+        owned: &[i64],
+    ) -> Result<Box<PointSources>, String> {
+        let carrier = self.carrier.iter().flat_map(|m| &m.0.point_ids);
+        piece::point_sources(
+            whole,
+            owned,
+            (self
+                .surface
+                .sources
+                .as_flattened()
+                .iter()
+                .map(|&i| i as u64))
+            .chain(carrier.map(|&i| i as u64)),
+        )
     }
 
     /// Moves the carrier tetrahedra out (once).

@@ -273,6 +273,39 @@ pub fn piece_local_ids(whole: &GridSpec, owned: &[i64], ids: &[u64]) -> Result<V
     })
 }
 
+/// Opaque handle on a [`piece::PointSources`] for C++.
+pub struct PointSources(piece::PointSources);
+
+impl PointSources {
+    pub fn local(&self) -> &[u64] {
+        &self.0.local
+    }
+
+    pub fn remote(&self) -> &[u64] {
+        &self.0.remote
+    }
+
+    pub fn rows(&self) -> &[u32] {
+        &self.0.rows
+    }
+}
+
+/// The table of the points `ids` (whole-grid indices) for the piece of extent `owned` of the
+/// `whole` grid ([`piece::PointSources::new`]).
+pub(crate) fn point_sources(
+    whole: &GridSpec,
+    owned: &[i64],
+    ids: impl Iterator<Item = u64>,
+) -> Result<Box<PointSources>, String> {
+    guard("finding where a piece's point data comes from", || {
+        let ids: Vec<u64> = ids.collect();
+        let own = layout(whole, owned)?.owned();
+        piece::PointSources::new(&core_grid(whole), own, &ids)
+            .map(|s| Box::new(PointSources(s)))
+            .map_err(|e| e.to_string())
+    })
+}
+
 /// Builds the part of the hierarchy of the piece at `rank` of `pieces` (every piece's extent)
 /// ([`piece::PieceHierarchy::build`]).
 pub fn build_piece_hierarchy(

@@ -448,6 +448,76 @@ pub fn point_owners(lattice: &Lattice, pieces: &[PointBox], ids: &[u64]) -> Vec<
         .collect()
 }
 
+/// The input points a piece's output takes its point data from — the sources its points
+/// interpolate, the lattice points of its tetrahedra — as a table of tuples to fill: the points of
+/// the piece's own box first, read from its own arrays, then those other pieces hold, fetched from
+/// them. A piece that puts the whole image together for the computation needs, this way, only the
+/// processed array whole, not every other point array.
+#[derive(Debug, Default)]
+pub struct PointSources {
+    /// The table's own points: their indices (x fastest) in the piece's box, ascending.
+    pub local: Vec<u64>,
+    /// The table's other points: their whole-grid indices, ascending.
+    pub remote: Vec<u64>,
+    /// For each whole-grid index given, its row in the table (`local`, then `remote`).
+    pub rows: Vec<u32>,
+}
+
+impl PointSources {
+    /// The table for the whole-grid indices `ids` of points of `grid` (each as often as the
+    /// output uses it), the piece holding the points of `own`.
+    pub fn new(grid: &Grid, own: PointBox, ids: &[u64]) -> Result<Self> {
+        let n = grid.len() as u64;
+        if let Some(bad) = ids.iter().find(|&&i| i >= n) {
+            return Err(Error::Parameter(format!(
+                "point {bad} lies outside the grid of {n} points"
+            )));
+        }
+        let mut points = memory::copied(ids, "the output's source points")?;
+        points.par_sort_unstable();
+        points.dedup();
+        if points.len() > u32::MAX as usize {
+            return Err(Error::Parameter(format!(
+                "{} source points: more than a table of 32-bit rows holds",
+                points.len()
+            )));
+        }
+        let point = |i: u64| IVec3::from_array(grid.ijk(i as usize).map(|c| c as i32));
+        let held = |i: u64| own.contains(point(i));
+        let mut local = memory::with_capacity(points.len(), "the piece's own source points")?;
+        let mut remote = Vec::new();
+        for &i in &points {
+            if held(i) {
+                local.push(own.index(point(i)) as u64);
+            } else {
+                remote.push(i);
+            }
+        }
+        // The row of the k-th point: own points keep their order, the others follow them.
+        let mut row = memory::filled(points.len(), 0u32, "the source points' rows")?;
+        let (mut own_before, mut other_before) = (0u32, local.len() as u32);
+        for (slot, &i) in row.iter_mut().zip(&points) {
+            let counter = if held(i) {
+                &mut own_before
+            } else {
+                &mut other_before
+            };
+            *slot = *counter;
+            *counter += 1;
+        }
+        let mut rows = memory::filled(ids.len(), 0u32, "the output's source rows")?;
+        rows.par_iter_mut().zip(ids).for_each(|(slot, i)| {
+            // Every id is among the points.
+            *slot = row[points.binary_search(i).unwrap_or_default()];
+        });
+        Ok(Self {
+            local,
+            remote,
+            rows,
+        })
+    }
+}
+
 /// The first point (x fastest) of a grid of `dims` points that none of `pieces` holds, if any: a
 /// grid put together from the pieces' points needs them to cover it. Called with the grid of cells
 /// (`dims` − 1) and the pieces' cell boxes (`hi` − 1), it checks the cells.
@@ -1597,6 +1667,59 @@ mod tests {
         assert_eq!(local, expected);
         let nothing = PieceLayout::new(grid, PointBox::EMPTY).unwrap();
         assert!(nothing.local_ids(&ids).iter().all(|&i| i == -1));
+    }
+
+    #[test]
+    fn point_sources_give_each_id_the_row_of_its_point() {
+        let dims = [9, 5, 5];
+        let grid = Grid::new(dims);
+        let held = PointBox {
+            lo: IVec3::new(4, 1, 2),
+            hi: IVec3::new(8, 3, 4),
+        };
+        let layout = PieceLayout::new(grid, held).unwrap();
+        // Points inside and outside the box, repeated and unordered, as edge sources are.
+        let ids: Vec<u64> = [
+            (5, 2, 3),
+            (0, 0, 0),
+            (8, 3, 4),
+            (5, 2, 3),
+            (3, 2, 3),
+            (0, 0, 0),
+        ]
+        .iter()
+        .map(|&(x, y, z)| grid.index(x, y, z) as u64)
+        .collect();
+        let sources = PointSources::new(&grid, held, &ids).unwrap();
+        let own: Vec<u64> = layout
+            .local_ids(&ids)
+            .into_iter()
+            .filter(|&i| i >= 0)
+            .map(|i| i as u64)
+            .collect();
+        let mut unique_own = own.clone();
+        unique_own.sort_unstable();
+        unique_own.dedup();
+        assert_eq!(sources.local, unique_own);
+        assert_eq!(
+            sources.remote,
+            vec![0, grid.index(3, 2, 3) as u64],
+            "the other points once each, ascending"
+        );
+        // The table's row of each id holds that id's point.
+        let table: Vec<u64> = (sources.local.iter().map(|&k| {
+            let [nx, ny] = [5, 3];
+            let k = k as usize;
+            grid.index(4 + k % nx, 1 + k / nx % ny, 2 + k / (nx * ny)) as u64
+        }))
+        .chain(sources.remote.iter().copied())
+        .collect();
+        let looked_up: Vec<u64> = sources.rows.iter().map(|&r| table[r as usize]).collect();
+        assert_eq!(looked_up, ids);
+        // A piece holding nothing fetches every point; an id past the grid is an error.
+        let none = PointSources::new(&grid, PointBox::EMPTY, &ids).unwrap();
+        assert!(none.local.is_empty() && none.remote.len() == 4);
+        assert!(PointSources::new(&grid, held, &[grid.len() as u64]).is_err());
     }
 
     #[test]
