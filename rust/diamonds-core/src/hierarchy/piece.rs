@@ -953,6 +953,8 @@ pub struct CellOwner {
     own: (IVec3, IVec3),
     /// The cell boxes of the non-empty pieces before it.
     earlier: Vec<(IVec3, IVec3)>,
+    /// This piece's place among the pieces.
+    me: usize,
 }
 
 impl CellOwner {
@@ -973,7 +975,13 @@ impl CellOwner {
                 .filter(|b| !b.is_empty())
                 .map(cells4)
                 .collect(),
+            me,
         })
+    }
+
+    /// This piece's place among the pieces (its rank).
+    pub fn me(&self) -> usize {
+        self.me
     }
 
     /// Does this piece own the tetrahedron `t` (lattice coordinates)?

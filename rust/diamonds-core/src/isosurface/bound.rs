@@ -235,7 +235,9 @@ impl<'a> Partition<'a> {
             bytes.extend(code.to_le_bytes());
         }
         let mut others = Vec::new();
-        for piece in self.exchange(ERRORS, bytes)? {
+        let pieces = self.exchange(ERRORS, bytes)?;
+        // This piece's own codes are already there.
+        for (_, piece) in (pieces.iter().enumerate()).filter(|&(k, _)| k != self.owner.me()) {
             if piece.len() % 6 != 0 {
                 return Err(Error::Parameter(
                     "a piece sent a truncated list of errors".into(),
@@ -246,8 +248,7 @@ impl<'a> Partition<'a> {
                 (i, u16::from_le_bytes(c[4..].try_into().expect("2 bytes")))
             }));
         }
-        errors.raise(others);
-        Ok(())
+        errors.raise(others)
     }
 
     /// Every piece's violations of a round (per isovalue), from this piece's `found`.

@@ -21,6 +21,7 @@ use crate::diamond::{arrange, child_layout, child_of, Diamond};
 use crate::hierarchy::record::{decode_error, encode_error};
 use crate::lattice::{Lattice, Placement, Tet};
 use crate::volume::{Sample, Volume};
+use crate::{Error, Result};
 use glam::{DVec3, IVec3};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU16, Ordering};
@@ -66,8 +67,18 @@ impl IsoErrors {
 
     /// Takes other pieces' [`IsoErrors::reached_codes`]: each diamond's code becomes the largest
     /// (codes of non-negative numbers order as the numbers), so pieces that located the surface
-    /// samples of their own cells together hold the codes of all samples.
-    pub(super) fn raise(&mut self, others: impl IntoIterator<Item = (u32, u16)>) {
+    /// samples of their own cells together hold the codes of all samples. An error, with nothing
+    /// taken, when a diamond lies outside this grid (the pieces' grids differ).
+    pub(super) fn raise(&mut self, others: Vec<(u32, u16)>) -> Result<()> {
+        if let Some(&(i, _)) = others
+            .iter()
+            .find(|&&(i, _)| i as usize >= self.codes.len())
+        {
+            return Err(Error::Parameter(format!(
+                "a piece sent the error of diamond {i}, outside this grid of {} points",
+                self.codes.len()
+            )));
+        }
         for (i, code) in others {
             let slot = &self.codes[i as usize];
             let old = slot.load(Ordering::Relaxed);
@@ -76,6 +87,7 @@ impl IsoErrors {
             }
             slot.store(old.max(code), Ordering::Relaxed);
         }
+        Ok(())
     }
 
     /// Bytes held: a code per point and the reached diamonds.
@@ -454,6 +466,30 @@ pub(super) fn child_coordinates(t: &Tet, l: [f64; 4]) -> (bool, [f64; 4]) {
 mod tests {
     use super::*;
     use crate::diamond::bisect;
+
+    #[test]
+    fn other_pieces_codes_raise_and_a_diamond_outside_the_grid_is_refused() {
+        let mut errors = IsoErrors {
+            isovalues: vec![1.0],
+            cutoff: 0.0,
+            codes: (0..8).map(|_| AtomicU16::new(0)).collect(),
+            reached: Vec::new(),
+            surface_samples: 0,
+        };
+        errors.raise(vec![(3, 5), (3, 9), (4, 2), (3, 7)]).unwrap();
+        let codes: Vec<(u32, u16)> = errors.reached_codes().collect();
+        assert_eq!(
+            codes,
+            vec![(3, 9), (4, 2)],
+            "the largest code per diamond, each once"
+        );
+        assert!(errors.raise(vec![(1, 7), (8, 1)]).is_err());
+        assert_eq!(
+            errors.reached_codes().count(),
+            2,
+            "nothing taken from a refused list"
+        );
+    }
 
     #[test]
     fn descent_follows_bisection_and_keeps_the_sample() {
