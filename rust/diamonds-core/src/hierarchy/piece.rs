@@ -1649,15 +1649,19 @@ mod tests {
         assert_eq!(point_owners(&lattice, &boxes[1..], &[0]), vec![1]);
     }
 
-    #[test]
-    fn local_ids_index_the_held_points_only() {
-        let dims = [9, 5, 5];
-        let grid = Grid::new(dims);
+    /// A piece holding a box inside a 9 × 5 × 5 grid: the grid, the box and its layout.
+    fn held_piece() -> (Grid, PointBox, PieceLayout) {
+        let grid = Grid::new([9, 5, 5]);
         let held = PointBox {
             lo: IVec3::new(4, 1, 2),
             hi: IVec3::new(8, 3, 4),
         };
-        let layout = PieceLayout::new(grid, held).unwrap();
+        (grid, held, PieceLayout::new(grid, held).unwrap())
+    }
+
+    #[test]
+    fn local_ids_index_the_held_points_only() {
+        let (grid, _, layout) = held_piece();
         let ids: Vec<u64> = (0..grid.len() as u64 + 2).collect();
         let local = layout.local_ids(&ids);
         // Every held point once, numbered x fastest over the held box; the others (and indices
@@ -1679,13 +1683,7 @@ mod tests {
 
     #[test]
     fn point_sources_give_each_id_the_row_of_its_point() {
-        let dims = [9, 5, 5];
-        let grid = Grid::new(dims);
-        let held = PointBox {
-            lo: IVec3::new(4, 1, 2),
-            hi: IVec3::new(8, 3, 4),
-        };
-        let layout = PieceLayout::new(grid, held).unwrap();
+        let (grid, held, layout) = held_piece();
         // Points inside and outside the box, repeated and unordered, as edge sources are.
         let ids: Vec<u64> = [
             (5, 2, 3),
