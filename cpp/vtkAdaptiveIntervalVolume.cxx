@@ -410,16 +410,9 @@ int vtkAdaptiveIntervalVolume::RequestDistributed(vtkMultiProcessController* con
     return true;
   });
   vtkNew<vtkPointData> table;
-  ok = run("could not fetch point data from other ranks", [&] {
-    std::string error;
-    if (!pieces.SourceTable(ok && sources ? &**sources : nullptr,
-          empty ? nullptr : input->GetPointData(), nullptr, table, error))
-    {
-      vtkErrorMacro(<< Text.Name << " could not fetch point data from other ranks: " << error);
-      return false;
-    }
-    return true;
-  }) && ok;
+  ok = pieces.SourceTable(this, Text.Name, ok && sources ? &**sources : nullptr,
+         empty ? nullptr : input->GetPointData(), nullptr, table) &&
+    ok;
   if (!agree(ok, "fetching point data"))
   {
     return pieces.Failed();

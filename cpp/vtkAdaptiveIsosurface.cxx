@@ -596,18 +596,10 @@ int vtkAdaptiveIsosurface::RequestDistributed(vtkMultiProcessController* control
     return true;
   });
   vtkNew<vtkPointData> table;
-  ok = run("could not fetch point data from other ranks", [&] {
-    std::string error;
-    if (!pieces.SourceTable(ok && sources ? &**sources : nullptr,
-          empty ? nullptr : input->GetPointData(),
-          this->GenerateCarrierTetrahedra ? nullptr : array, table, error))
-    {
-      vtkErrorMacro(<< "Adaptive Isosurface could not fetch point data from other ranks: "
-                    << error);
-      return false;
-    }
-    return true;
-  }) && ok;
+  ok = pieces.SourceTable(this, Text.Name, ok && sources ? &**sources : nullptr,
+         empty ? nullptr : input->GetPointData(),
+         this->GenerateCarrierTetrahedra ? nullptr : array, table) &&
+    ok;
   if (!agree(ok, "fetching point data"))
   {
     return pieces.Failed();

@@ -941,52 +941,57 @@ bool Pieces::Fetch(rust::Slice<const std::uint64_t> ids, const std::vector<vtkDa
 }
 
 //------------------------------------------------------------------------------
-bool Pieces::SourceTable(const bridge::PointSources* sources, vtkPointData* in, vtkDataArray* skip,
-  vtkPointData* table, std::string& error)
+bool Pieces::SourceTable(vtkAlgorithm* filter, const char* name,
+  const bridge::PointSources* sources, vtkPointData* in, vtkDataArray* skip, vtkPointData* table)
 {
-  std::vector<vtkDataArray*> arrays;
-  for (int i = 0; in && i < in->GetNumberOfArrays(); ++i)
-  {
-    vtkDataArray* a = in->GetArray(i);
-    if (a && a != skip &&
-      std::string(a->GetName() ? a->GetName() : "") != vtkDataSetAttributes::GhostArrayName())
+  const char* failure = "could not fetch point data from other ranks";
+  return Run(filter, name, failure, [&] {
+    std::vector<vtkDataArray*> arrays;
+    for (int i = 0; in && i < in->GetNumberOfArrays(); ++i)
     {
-      arrays.push_back(a);
-    }
-  }
-  const rust::Slice<const std::uint64_t> remote =
-    sources ? sources->remote() : rust::Slice<const std::uint64_t>();
-  std::vector<vtkSmartPointer<vtkDataArray>> fetched;
-  if (!this->Fetch(remote, arrays, fetched, error))
-  {
-    return false;
-  }
-  if (!sources)
-  {
-    return true;
-  }
-  const rust::Slice<const std::uint64_t> local = sources->local();
-  const vtkIdType own = static_cast<vtkIdType>(local.size());
-  const vtkIdType other = static_cast<vtkIdType>(remote.size());
-  auto held = vtkSmartPointer<vtkIdList>::New();
-  held->SetNumberOfIds(own);
-  std::copy(local.begin(), local.end(), held->GetPointer(0));
-  for (std::size_t m = 0; m < arrays.size(); ++m)
-  {
-    vtkSmartPointer<vtkDataArray> rows = SameKind(arrays[m], own + other);
-    rows->InsertTuples(IdList(0, own), held, arrays[m]);
-    rows->InsertTuples(IdList(own, other), IdList(0, other), fetched[m]);
-    fetched[m] = nullptr;
-    const int at = table->AddArray(rows);
-    for (int role = 0; role < vtkDataSetAttributes::NUM_ATTRIBUTES; ++role)
-    {
-      if (in->GetAttribute(role) == arrays[m])
+      vtkDataArray* a = in->GetArray(i);
+      if (a && a != skip &&
+        std::string(a->GetName() ? a->GetName() : "") != vtkDataSetAttributes::GhostArrayName())
       {
-        table->SetActiveAttribute(at, role);
+        arrays.push_back(a);
       }
     }
-  }
-  return true;
+    const rust::Slice<const std::uint64_t> remote =
+      sources ? sources->remote() : rust::Slice<const std::uint64_t>();
+    std::vector<vtkSmartPointer<vtkDataArray>> fetched;
+    std::string error;
+    if (!this->Fetch(remote, arrays, fetched, error))
+    {
+      vtkErrorWithObjectMacro(filter, << name << " " << failure << ": " << error);
+      return false;
+    }
+    if (!sources)
+    {
+      return true;
+    }
+    const rust::Slice<const std::uint64_t> local = sources->local();
+    const vtkIdType own = static_cast<vtkIdType>(local.size());
+    const vtkIdType other = static_cast<vtkIdType>(remote.size());
+    auto held = vtkSmartPointer<vtkIdList>::New();
+    held->SetNumberOfIds(own);
+    std::copy(local.begin(), local.end(), held->GetPointer(0));
+    for (std::size_t m = 0; m < arrays.size(); ++m)
+    {
+      vtkSmartPointer<vtkDataArray> rows = SameKind(arrays[m], own + other);
+      rows->InsertTuples(IdList(0, own), held, arrays[m]);
+      rows->InsertTuples(IdList(own, other), IdList(0, other), fetched[m]);
+      fetched[m] = nullptr;
+      const int at = table->AddArray(rows);
+      for (int role = 0; role < vtkDataSetAttributes::NUM_ATTRIBUTES; ++role)
+      {
+        if (in->GetAttribute(role) == arrays[m])
+        {
+          table->SetActiveAttribute(at, role);
+        }
+      }
+    }
+    return true;
+  });
 }
 
 //------------------------------------------------------------------------------

@@ -246,9 +246,10 @@ public:
   // fetches nothing but takes part): into `table`, every point array of `in` (this rank's piece;
   // null when empty) but `skip` (none when null) and the ghost array, with the same attribute roles,
   // a tuple per row of the table — this rank's points, then those fetched from the ranks holding
-  // them. Returns false with `error` set when a point is held by no rank. Throws OutOfMemory.
-  bool SourceTable(const bridge::PointSources* sources, vtkPointData* in, vtkDataArray* skip,
-    vtkPointData* table, std::string& error);
+  // them. False when it failed on this rank (a point held by no rank, out of memory), reported on
+  // `filter`, named `name`, as Run reports; the caller agrees on it.
+  bool SourceTable(vtkAlgorithm* filter, const char* name, const bridge::PointSources* sources,
+    vtkPointData* in, vtkDataArray* skip, vtkPointData* table);
   // Collective: the same for the boxes of points of `requests` (bridge::piece_requests: a few
   // boxes asked of each rank holding points this one needs, none of this rank), a few integers
   // per box crossing instead of a point index per tuple. `fetched` receives the tuples of the boxes,

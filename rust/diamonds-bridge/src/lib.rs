@@ -1639,18 +1639,14 @@ impl Surface {
         whole: &GridSpec,
         owned: &[i64],
     ) -> Result<Box<PointSources>, String> {
+        let sources = self
+            .surface
+            .sources
+            .as_flattened()
+            .iter()
+            .map(|&i| i as u64);
         let carrier = self.carrier.iter().flat_map(|m| &m.0.point_ids);
-        piece::point_sources(
-            whole,
-            owned,
-            (self
-                .surface
-                .sources
-                .as_flattened()
-                .iter()
-                .map(|&i| i as u64))
-            .chain(carrier.map(|&i| i as u64)),
-        )
+        piece::point_sources(whole, owned, sources.chain(carrier.map(|&i| i as u64)))
     }
 
     /// Moves the carrier tetrahedra out (once).
