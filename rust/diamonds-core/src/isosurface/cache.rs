@@ -4,6 +4,7 @@
 
 use super::bricks::Bricks;
 use super::error::IsoErrors;
+use super::paged::PagedCodes;
 use super::{tet_gradient, Extraction};
 use crate::diamond::Diamond;
 use crate::hierarchy::record::{decode_error, encode_down};
@@ -11,7 +12,7 @@ use crate::lattice::{Lattice, Placement};
 use crate::volume::{Grid, Sample, Volume};
 use crate::Result;
 use glam::IVec3;
-use std::sync::atomic::{AtomicU16, Ordering};
+use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex};
 
 /// What isosurface queries keep: the sample range of 8³ bricks, which bounds the range of any box,
@@ -22,9 +23,10 @@ pub(super) struct IsoCache {
     grid: Grid,
     pub(super) bricks: Bricks,
     /// By central vertex: the smallest gradient magnitude of the diamond's tetrahedra, rounded down
-    /// (bfloat16; [`UNKNOWN`] until a query needs it). Shared with the [`Self::negated`] cache:
-    /// negating the samples keeps every gradient's magnitude.
-    gradients: Arc<[AtomicU16]>,
+    /// (bfloat16; [`UNKNOWN`] until a query needs it; stored where queries asked,
+    /// [`PagedCodes`]). Shared with the [`Self::negated`] cache: negating the samples keeps every
+    /// gradient's magnitude.
+    gradients: Arc<PagedCodes>,
     errors: Mutex<Option<Arc<IsoErrors>>>,
 }
 
@@ -43,9 +45,7 @@ impl IsoCache {
         Self {
             grid: volume.grid,
             bricks: Bricks::new(volume),
-            gradients: (0..volume.grid.len())
-                .map(|_| AtomicU16::new(UNKNOWN))
-                .collect(),
+            gradients: Arc::new(PagedCodes::new(volume.grid.dims, UNKNOWN)),
             errors: Mutex::new(None),
         }
     }
@@ -64,9 +64,7 @@ impl IsoCache {
     /// Bytes held: the bricks, the gradients and the kept errors.
     pub(super) fn bytes(&self) -> usize {
         let errors = self.errors.lock().unwrap_or_else(|e| e.into_inner());
-        self.bricks.bytes()
-            + std::mem::size_of_val(&*self.gradients)
-            + errors.as_ref().map_or(0, |e| e.bytes())
+        self.bricks.bytes() + self.gradients.bytes() + errors.as_ref().map_or(0, |e| e.bytes())
     }
 
     /// Was it made for samples on `grid`?
@@ -79,11 +77,11 @@ impl<T: Sample> Extraction<'_, '_, T> {
     /// The smallest gradient magnitude (world units) of the inside tetrahedra of `d` (central vertex
     /// in the domain), rounded down, from the cache or computed now.
     pub(super) fn smallest_gradient(&self, d: Diamond) -> f64 {
-        let slot = &self.cache.gradients[self.lattice().index(d.center)];
-        let mut code = slot.load(Ordering::Relaxed);
+        let gradients = &self.cache.gradients;
+        let mut code = gradients.load(d.center);
         if code == UNKNOWN {
             code = encode_down(smallest_gradient(self.lattice(), self.volume, d));
-            slot.store(code, Ordering::Relaxed);
+            gradients.slot(d.center).store(code, Ordering::Relaxed);
         }
         decode_error(code)
     }
@@ -97,25 +95,18 @@ impl<T: Sample> Extraction<'_, '_, T> {
         if let Some(e) = kept.as_ref().filter(|e| e.serve(isovalues, tolerance)) {
             return Ok(e.clone());
         }
-        // Reuse the old tables unless a caller still holds them.
-        let recycled = kept.take().and_then(|e| Arc::try_unwrap(e).ok());
+        // The old errors go before the new ones are measured.
+        *kept = None;
         // Pieces sharing the work measure at the samples of the cells they own, then take the
         // others' codes ([`super::Partition::share_errors`]).
         let owner = self.partition.map(|p| &p.owner);
-        let mut errors = IsoErrors::new(
-            self.lattice(),
-            volume,
-            isovalues,
-            tolerance,
-            |v| {
-                let mut cells = cache.bricks.cells_crossed(volume, v);
-                if let Some(owner) = owner {
-                    cells.retain(|&c| owner.owns_cell(volume.grid.ijk(c as usize)));
-                }
-                cells
-            },
-            recycled,
-        );
+        let mut errors = IsoErrors::new(self.lattice(), volume, isovalues, tolerance, |v| {
+            let mut cells = cache.bricks.cells_crossed(volume, v);
+            if let Some(owner) = owner {
+                cells.retain(|&c| owner.owns_cell(volume.grid.ijk(c as usize)));
+            }
+            cells
+        });
         if let Some(partition) = self.partition {
             partition.share_errors(&mut errors)?;
         }

@@ -16,15 +16,16 @@
 //! it does not hold).
 
 use super::blocks::{bits, set_bit};
+use super::paged::PagedCodes;
 use super::{value, Extraction};
 use crate::diamond::{arrange, child_layout, child_of, Diamond};
 use crate::hierarchy::record::{decode_error, encode_error};
 use crate::lattice::{Lattice, Placement, Tet};
-use crate::volume::{Sample, Volume};
+use crate::volume::{Grid, Sample, Volume};
 use crate::{Error, Result};
 use glam::{DVec3, IVec3};
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicU16, Ordering};
+use std::sync::atomic::Ordering;
 
 /// Per-diamond approximation error at the surface samples of a set of isovalues.
 pub(super) struct IsoErrors {
@@ -32,10 +33,13 @@ pub(super) struct IsoErrors {
     /// Tetrahedra no larger than this (world units) end the descent: diamonds below them are not
     /// measured (their isosurface error is bounded by their size instead).
     cutoff: f64,
+    /// The grid of the samples.
+    grid: Grid,
     /// By central vertex: 0 if no surface sample reached the diamond, else the bfloat16 code of `ae`
     /// (at least [`VISITED`]; bit 15 clear), or, once computed, of the isosurface error (bit 15 set;
-    /// codes of non-negative numbers never use it).
-    codes: Vec<AtomicU16>,
+    /// codes of non-negative numbers never use it); stored where surface samples reached
+    /// ([`PagedCodes`]).
+    codes: PagedCodes,
     /// The central vertices (indices) of the diamonds some surface sample reached, each once.
     reached: Vec<u32>,
     /// Surface samples located (for reports and tests).
@@ -62,7 +66,7 @@ impl IsoErrors {
     /// The reached diamonds (central vertex index) with their codes of `ae`, before
     /// [`IsoErrors::finalize`].
     pub(super) fn reached_codes(&self) -> impl Iterator<Item = (u32, u16)> + '_ {
-        (self.reached.iter()).map(|&i| (i, self.codes[i as usize].load(Ordering::Relaxed)))
+        (self.reached.iter()).map(|&i| (i, self.codes.load(self.point(i))))
     }
 
     /// Takes other pieces' [`IsoErrors::reached_codes`]: each diamond's code becomes the largest
@@ -70,17 +74,14 @@ impl IsoErrors {
     /// samples of their own cells together hold the codes of all samples. An error, with nothing
     /// taken, when a diamond lies outside this grid (the pieces' grids differ).
     pub(super) fn raise(&mut self, others: Vec<(u32, u16)>) -> Result<()> {
-        if let Some(&(i, _)) = others
-            .iter()
-            .find(|&&(i, _)| i as usize >= self.codes.len())
-        {
+        if let Some(&(i, _)) = others.iter().find(|&&(i, _)| i as usize >= self.grid.len()) {
             return Err(Error::Parameter(format!(
                 "a piece sent the error of diamond {i}, outside this grid of {} points",
-                self.codes.len()
+                self.grid.len()
             )));
         }
         for (i, code) in others {
-            let slot = &self.codes[i as usize];
+            let slot = self.codes.slot(self.point(i));
             let old = slot.load(Ordering::Relaxed);
             if old == 0 {
                 self.reached.push(i);
@@ -90,40 +91,31 @@ impl IsoErrors {
         Ok(())
     }
 
-    /// Bytes held: a code per point and the reached diamonds.
+    /// Bytes held: the codes and the reached diamonds.
     pub(super) fn bytes(&self) -> usize {
-        self.codes.capacity() * std::mem::size_of::<AtomicU16>()
-            + self.reached.capacity() * std::mem::size_of::<u32>()
+        self.codes.bytes() + self.reached.capacity() * std::mem::size_of::<u32>()
+    }
+
+    /// The grid point of index `i` (a central vertex in the domain: the lattice index of a domain
+    /// point is its grid index).
+    fn point(&self, i: u32) -> IVec3 {
+        IVec3::from(self.grid.ijk(i as usize).map(|c| c as i32))
     }
 }
 
 impl IsoErrors {
     /// Locates every surface sample of `isovalues` in the hierarchy, down to the tetrahedra no larger
     /// than `cutoff` (world units); `cells_crossed` lists, per isovalue, the lower corners of the grid
-    /// cells it crosses. The tables of `recycled` (errors of the same grid no longer used) are
-    /// cleared and reused.
+    /// cells it crosses.
     pub(super) fn new<T: Sample>(
         lattice: &Lattice,
         volume: &Volume<'_, T>,
         isovalues: &[f64],
         cutoff: f64,
         cells_crossed: impl Fn(f64) -> Vec<u32> + Sync,
-        recycled: Option<IsoErrors>,
     ) -> Self {
         let grid = &volume.grid;
-        let codes = match recycled {
-            Some(old) if old.codes.len() == grid.len() => {
-                // Only the diamonds reached have a code or a bit.
-                for &i in &old.reached {
-                    old.codes[i as usize].store(0, Ordering::Relaxed);
-                }
-                old.codes
-            }
-            _ => (0..grid.len())
-                .into_par_iter()
-                .map(|_| AtomicU16::new(0))
-                .collect(),
-        };
+        let codes = PagedCodes::new(grid.dims, 0);
         let roots = RootTets::new(lattice);
         let mut surface_samples = 0;
         let mut reached = Vec::new();
@@ -174,6 +166,7 @@ impl IsoErrors {
         Self {
             isovalues: isovalues.to_vec(),
             cutoff,
+            grid: *grid,
             codes,
             reached,
             surface_samples,
@@ -191,7 +184,7 @@ impl IsoErrors {
     /// `min(ae / ‖∇T‖, size(T))` over its inside tetrahedra (Gregorski §6.2, Eq. 5), 0 when no surface
     /// sample lies in it.
     pub(super) fn error<T: Sample>(&self, x: &Extraction<'_, '_, T>, d: Diamond) -> f64 {
-        let code = self.codes[x.lattice().index(d.center)].load(Ordering::Relaxed);
+        let code = self.codes.load(d.center);
         match code {
             // Not reached: no surface sample in it, or below the cutoff (bounded by the size).
             0 => {
@@ -215,12 +208,10 @@ impl IsoErrors {
             .par_iter()
             .with_min_len(1 << 10)
             .for_each(|&i| {
-                let i = i as usize;
-                let slot = &self.codes[i];
+                let c = self.point(i);
+                let slot = self.codes.slot(c);
                 let code = slot.load(Ordering::Relaxed);
                 if code & FINAL == 0 {
-                    // The lattice index of a domain point is its grid index.
-                    let c = IVec3::from(x.volume.grid.ijk(i).map(|c| c as i32));
                     let e = isosurface_error(x, Diamond::new(c), decode_error(code));
                     slot.store(encode_error(e) | FINAL, Ordering::Relaxed);
                 }
@@ -230,7 +221,7 @@ impl IsoErrors {
     /// The error refinement compares with a tolerance at least the cutoff: [`IsoErrors::error`] where a
     /// surface sample reached the diamond, else 0 (its error is at most the cutoff).
     pub(super) fn refinement_error<T: Sample>(&self, x: &Extraction<'_, '_, T>, d: Diamond) -> f64 {
-        match self.codes[x.lattice().index(d.center)].load(Ordering::Relaxed) {
+        match self.codes.load(d.center) {
             0 => 0.0,
             _ => self.error(x, d),
         }
@@ -347,7 +338,7 @@ struct Walk<'a, 'v, T> {
     volume: &'a Volume<'v, T>,
     /// Squared [`IsoErrors::cutoff`].
     cutoff2: f64,
-    codes: &'a [AtomicU16],
+    codes: &'a PagedCodes,
 }
 
 /// Below this many samples a subtree is walked on the current thread.
@@ -417,12 +408,11 @@ impl<T: Sample> Walk<'_, '_, T> {
             }
         }
         if f.is_some() {
-            let i = self.lattice.index(m);
             let code = encode_error(e).max(VISITED);
-            if code > self.codes[i].load(Ordering::Relaxed)
-                && self.codes[i].fetch_max(code, Ordering::Relaxed) == 0
+            if code > self.codes.load(m)
+                && self.codes.slot(m).fetch_max(code, Ordering::Relaxed) == 0
             {
-                reached.push(i as u32);
+                reached.push(self.lattice.index(m) as u32);
             }
         }
         if last {
@@ -472,7 +462,8 @@ mod tests {
         let mut errors = IsoErrors {
             isovalues: vec![1.0],
             cutoff: 0.0,
-            codes: (0..8).map(|_| AtomicU16::new(0)).collect(),
+            grid: Grid::new([2, 2, 2]),
+            codes: PagedCodes::new([2, 2, 2], 0),
             reached: Vec::new(),
             surface_samples: 0,
         };

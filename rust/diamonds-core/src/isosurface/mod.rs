@@ -59,6 +59,7 @@ mod criterion;
 mod error;
 mod fine;
 mod marching;
+mod paged;
 mod state;
 #[cfg(test)]
 pub(crate) mod threads;
