@@ -41,7 +41,8 @@
 //! - [`state`]: [`IsoState`], what a caller keeps between queries — the current mesh (reused, or
 //!   refined "from the current mesh", §6.1) and the [`IsoCache`];
 //! - [`cache`]: the [`IsoCache`] — brick ranges, gradient magnitudes (the `‖∇T‖` of §6.2) and the
-//!   errors of the last isovalues;
+//!   errors of the last isovalues, their codes by central vertex stored near the surface only
+//!   ([`paged`]);
 //! - [`bricks`]: sample ranges of 8³ bricks, which bound any box's range and list the crossed cells;
 //! - [`criterion`]: the diamond error refinement compares with the tolerance (§6.1 culling, §6.2);
 //! - [`error`]: `ae` measured per query at the surface samples, which descend the hierarchy together;
