@@ -10,8 +10,9 @@
 //! split into classes by the largest power of two `2^s` dividing all three coordinates (the trailing
 //! zeros of `x | y | z`), and class `s` is stored on the sublattice of stride `2^s` in 16³ bricks of
 //! that sublattice: a class's shell is about one of its bricks thick, and the bricks written are
-//! about those the surface crosses, over all classes 8/7 of the finest's. Reading a brick never
-//! written gives the empty code without allocating it.
+//! about those the surface crosses, over all classes 4/3 of the finest's (a class's bricks are 2×
+//! wider than the one's before). Reading a brick never written gives the empty code without
+//! allocating it.
 
 use glam::{IVec3, UVec3};
 use std::sync::atomic::{AtomicU16, AtomicUsize, Ordering};
@@ -21,8 +22,8 @@ use std::sync::OnceLock;
 const SHIFT: u32 = 4;
 const MASK: u32 = (1 << SHIFT) - 1;
 const BRICK: usize = 1 << (3 * SHIFT);
-/// Classes `0..=TOP`; the last holds every point whose coordinates `2^TOP` divides (lattices have
-/// fewer than 2^12 points along an axis, so it holds few).
+/// Classes `0..=TOP`; the last holds every point whose coordinates `2^TOP` divides (few: one in
+/// 2^33).
 const TOP: u32 = 11;
 
 /// The bricks of one class: how many along x and y, and where its first is in the table.
@@ -79,6 +80,7 @@ impl PagedCodes {
             (o.x + (o.y << SHIFT) + (o.z << (2 * SHIFT))) as usize,
         )
     }
+
     /// The code of grid point `p`.
     #[inline]
     pub(super) fn load(&self, p: IVec3) -> u16 {
