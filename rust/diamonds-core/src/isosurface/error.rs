@@ -21,7 +21,7 @@ use super::{value, Extraction};
 use crate::diamond::{arrange, child_layout, child_of, Diamond};
 use crate::hierarchy::record::{decode_error, encode_error};
 use crate::lattice::{Lattice, Placement, Tet};
-use crate::volume::{Grid, Sample, Volume};
+use crate::volume::{Sample, Volume};
 use crate::{Error, Result};
 use glam::{DVec3, IVec3};
 use rayon::prelude::*;
@@ -33,8 +33,8 @@ pub(super) struct IsoErrors {
     /// Tetrahedra no larger than this (world units) end the descent: diamonds below them are not
     /// measured (their isosurface error is bounded by their size instead).
     cutoff: f64,
-    /// The grid of the samples.
-    grid: Grid,
+    /// The hierarchy's lattice (its domain the grid of the samples).
+    lattice: Lattice,
     /// By central vertex: 0 if no surface sample reached the diamond, else the bfloat16 code of `ae`
     /// (at least [`VISITED`]; bit 15 clear), or, once computed, of the isosurface error (bit 15 set;
     /// codes of non-negative numbers never use it); stored where surface samples reached
@@ -66,7 +66,7 @@ impl IsoErrors {
     /// The reached diamonds (central vertex index) with their codes of `ae`, before
     /// [`IsoErrors::finalize`].
     pub(super) fn reached_codes(&self) -> impl Iterator<Item = (u32, u16)> + '_ {
-        (self.reached.iter()).map(|&i| (i, self.codes.load(self.point(i))))
+        (self.reached.iter()).map(|&i| (i, self.codes.load(self.lattice.point(i as usize))))
     }
 
     /// Takes other pieces' [`IsoErrors::reached_codes`]: each diamond's code becomes the largest
@@ -74,14 +74,18 @@ impl IsoErrors {
     /// samples of their own cells together hold the codes of all samples. An error, with nothing
     /// taken, when a diamond lies outside this grid (the pieces' grids differ).
     pub(super) fn raise(&mut self, others: Vec<(u32, u16)>) -> Result<()> {
-        if let Some(&(i, _)) = others.iter().find(|&&(i, _)| i as usize >= self.grid.len()) {
+        let lattice = self.lattice;
+        if let Some(&(i, _)) = others
+            .iter()
+            .find(|&&(i, _)| !lattice.in_domain(lattice.point(i as usize)))
+        {
             return Err(Error::Parameter(format!(
                 "a piece sent the error of diamond {i}, outside this grid of {} points",
-                self.grid.len()
+                (lattice.hi + IVec3::ONE).as_uvec3().element_product()
             )));
         }
         for (i, code) in others {
-            let slot = self.codes.slot(self.point(i));
+            let slot = self.codes.slot(lattice.point(i as usize));
             let old = slot.load(Ordering::Relaxed);
             if old == 0 {
                 self.reached.push(i);
@@ -94,12 +98,6 @@ impl IsoErrors {
     /// Bytes held: the codes and the reached diamonds.
     pub(super) fn bytes(&self) -> usize {
         self.codes.bytes() + self.reached.capacity() * std::mem::size_of::<u32>()
-    }
-
-    /// The grid point of index `i` (a central vertex in the domain: the lattice index of a domain
-    /// point is its grid index).
-    fn point(&self, i: u32) -> IVec3 {
-        IVec3::from(self.grid.ijk(i as usize).map(|c| c as i32))
     }
 }
 
@@ -166,7 +164,7 @@ impl IsoErrors {
         Self {
             isovalues: isovalues.to_vec(),
             cutoff,
-            grid: *grid,
+            lattice: *lattice,
             codes,
             reached,
             surface_samples,
@@ -208,7 +206,7 @@ impl IsoErrors {
             .par_iter()
             .with_min_len(1 << 10)
             .for_each(|&i| {
-                let c = self.point(i);
+                let c = self.lattice.point(i as usize);
                 let slot = self.codes.slot(c);
                 let code = slot.load(Ordering::Relaxed);
                 if code & FINAL == 0 {
@@ -462,7 +460,7 @@ mod tests {
         let mut errors = IsoErrors {
             isovalues: vec![1.0],
             cutoff: 0.0,
-            grid: Grid::new([2, 2, 2]),
+            lattice: Lattice::new([2, 2, 2]).unwrap(),
             codes: PagedCodes::new([2, 2, 2], 0),
             reached: Vec::new(),
             surface_samples: 0,
