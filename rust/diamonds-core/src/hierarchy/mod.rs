@@ -33,6 +33,16 @@ pub fn bytes_needed(points: usize) -> u64 {
     points as u64 * (std::mem::size_of::<Record>() as u64) + points as u64 / 8 * 2
 }
 
+/// Bytes an isosurface-only hierarchy ([`Hierarchy::build_for_isosurfaces`]) needs for a grid of
+/// `points` points before any surface is measured: no records, a bit per point for each of the
+/// whole-grid split sets alive at once (the hierarchy's root set, a query's, the copy that grows
+/// in parallel, the last mesh's kept for the next isovalue change). What a surface adds (error
+/// codes and gradients by bricks written, the check's blocks, triangles) grows with the surface
+/// or is capped, not the grid, and is allocated fallibly.
+pub fn isosurface_bytes_needed(points: usize) -> u64 {
+    points as u64 / 8 * 4
+}
+
 /// Bytes of memory the system can still give (`MemAvailable`), when known.
 pub fn available_memory() -> Option<u64> {
     let mut sys = sysinfo::System::new();
@@ -66,7 +76,7 @@ impl Hierarchy {
         available: Option<u64>,
         progress: Progress<'_>,
     ) -> Result<Self> {
-        Self::check_size(&grid, available)?;
+        Self::check_size(&grid, bytes_needed(grid.len()), available)?;
         with_volume!(grid, scalars, |v| Self::build_volume(&v, progress))
     }
 
@@ -85,12 +95,13 @@ impl Hierarchy {
         scalars: ScalarSlice<'_>,
         available: Option<u64>,
     ) -> Result<Self> {
-        Self::check_size(&grid, available)?;
+        Self::check_size(&grid, isosurface_bytes_needed(grid.len()), available)?;
         with_volume!(grid, scalars, |v| Self::skeleton(&v))
     }
 
-    /// Refuses grids too large for 32-bit point ids or for the available memory.
-    fn check_size(grid: &Grid, available: Option<u64>) -> Result<()> {
+    /// Refuses grids too large for 32-bit point ids or for the available memory, of which the
+    /// hierarchy needs `needed` bytes.
+    fn check_size(grid: &Grid, needed: u64, available: Option<u64>) -> Result<()> {
         grid.validate()?;
         if grid.len() > u32::MAX as usize {
             return Err(Error::Parameter(format!(
@@ -98,7 +109,6 @@ impl Hierarchy {
                 grid.dims
             )));
         }
-        let needed = bytes_needed(grid.len());
         if let Some(available) = available.filter(|&a| needed > a) {
             return Err(Error::TooLarge {
                 dims: grid.dims,
@@ -411,6 +421,44 @@ mod tests {
         .unwrap_err();
         assert!(matches!(err, Error::TooLarge { needed, available: 10, .. } if needed > 10));
         assert!(err.to_string().contains("needs"));
+    }
+
+    /// An isosurface-only hierarchy holds no records: it is refused only when its bitsets do not
+    /// fit, not by the 2 bytes per point of the records it never builds.
+    #[test]
+    fn an_isosurface_hierarchy_is_refused_by_its_own_needs() {
+        let dims = [64, 64, 64];
+        let samples = vec![0u8; 64 * 64 * 64];
+        let grid = Grid {
+            dims,
+            origin: [0.0; 3],
+            spacing: [1.0; 3],
+        };
+        let points = grid.len();
+        let (iso, full) = (isosurface_bytes_needed(points), bytes_needed(points));
+        assert!(iso > 0 && 4 * iso < full, "{iso} against {full}");
+        let between = Some(2 * iso);
+        Hierarchy::build_for_isosurfaces_with_memory_limit(
+            grid,
+            ScalarSlice::U8(&samples),
+            between,
+        )
+        .expect("an isosurface hierarchy within its needs");
+        let err = Hierarchy::build_with_memory_limit(
+            grid,
+            ScalarSlice::U8(&samples),
+            between,
+            &mut |_| true,
+        )
+        .unwrap_err();
+        assert!(matches!(err, Error::TooLarge { needed, .. } if needed == full));
+        let err = Hierarchy::build_for_isosurfaces_with_memory_limit(
+            grid,
+            ScalarSlice::U8(&samples),
+            Some(iso - 1),
+        )
+        .unwrap_err();
+        assert!(matches!(err, Error::TooLarge { needed, .. } if needed == iso));
     }
 
     /// A budget below the base mesh is reported, with the base mesh's size and why; one that the
