@@ -264,6 +264,71 @@ fn isovalues_equal_to_samples_keep_a_consistent_orientation() {
     }
 }
 
+/// At the data's largest value the surface is the boundary of the plateaus at that value; a speck
+/// at it (one sample) draws nothing, and leaves no point behind either: every point of the output
+/// is a corner of a triangle.
+#[test]
+fn specks_at_the_largest_value_leave_no_points() {
+    let g = unit_grid([17, 15, 13]);
+    let specks_at = |specks: &[[usize; 3]], plateau: bool| -> Vec<u8> {
+        (0..g.len())
+            .map(|i| {
+                let [x, y, z] = g.ijk(i);
+                let on_plateau = plateau && x < 4 && y < 5 && z < 6;
+                u8::from(on_plateau || specks.contains(&[x, y, z])) * 255
+            })
+            .collect()
+    };
+    // A plateau at 255 in one corner, single samples at 255 elsewhere (one in the far corner), 0
+    // around them.
+    let v = specks_at(&[[8, 7, 6], [12, 3, 9], [16, 14, 12]], true);
+    let h = Hierarchy::build_for_isosurfaces(g, ScalarSlice::U8(&v)).unwrap();
+    let only_specks = specks_at(&[[8, 7, 6], [16, 14, 12]], false);
+    let specks = Hierarchy::build_for_isosurfaces(g, ScalarSlice::U8(&only_specks)).unwrap();
+    for tol in [0.0, 0.05, 0.2] {
+        let s = extract(
+            &specks,
+            ScalarSlice::U8(&only_specks),
+            &IsoQuery::new(255.0, tol),
+        )
+        .unwrap();
+        assert_eq!(
+            (s.triangles.len(), s.points.len()),
+            (0, 0),
+            "a speck alone, tol {tol}"
+        );
+        let s = extract(&h, ScalarSlice::U8(&v), &IsoQuery::new(255.0, tol)).unwrap();
+        let what = format!("plateau and specks at the largest value, tol {tol}");
+        assert!(
+            !s.triangles.is_empty(),
+            "{what}: the plateau's boundary is drawn"
+        );
+        let mut used = vec![false; s.points.len()];
+        for &p in s.triangles.iter().flatten() {
+            used[p as usize] = true;
+        }
+        assert!(used.iter().all(|&u| u), "{what}: a point in no triangle");
+        check_surface(&s.points, &s.triangles, Some(g.bounds()))
+            .and_then(|report| report.passed())
+            .unwrap_or_else(|e| panic!("{what}: {e}"));
+        assert_eq!(
+            (
+                s.sources.len(),
+                s.weights.len(),
+                s.values.len(),
+                s.normals.len()
+            ),
+            (
+                s.points.len(),
+                s.points.len(),
+                s.points.len(),
+                s.points.len()
+            ),
+            "{what}: one of each per point"
+        );
+    }
+}
+
 #[test]
 fn both_hierarchies_give_the_same_surfaces() {
     // The full hierarchy (records, base mesh) and the isosurface-only one (errors measured per query,

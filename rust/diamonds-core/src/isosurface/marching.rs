@@ -198,7 +198,7 @@ pub(crate) fn marching_with_sources(
             .then(|| field.index(tets[poly.tet as usize][poly.at_sample[i] as usize]) as usize)
     };
     let mut separate = FxHashSet::default();
-    let (points, (triangles, made_by)) = loop {
+    let (points, triangles) = loop {
         let points = join_at_samples(&polygons, &slot_ids, keys.len(), &sample_of, &separate)?;
         let triangles = fans(&polygons, &slot_ids, &points.id, slots)?;
         let pinched = pinched_samples(&triangles.0, &points.sample);
@@ -207,9 +207,11 @@ pub(crate) fn marching_with_sources(
         }
         separate.extend(pinched);
     };
+    let (mut triangles, made_by) = triangles;
+    let first_edge = referenced(points.first_edge, &mut triangles)?;
     let mut interpolated: Vec<(EdgeKey, EdgePoint, [f32; 3])> =
-        memory::with_capacity(points.first_edge.len(), "the isosurface points")?;
-    interpolated.par_extend(points.first_edge.par_iter().map(|&e| {
+        memory::with_capacity(first_edge.len(), "the isosurface points")?;
+    interpolated.par_extend(first_edge.par_iter().map(|&e| {
         let (key, p) = keys[e as usize];
         let point = field.point(key, compute_normals);
         // Where the gradients vanish: the gradient of the tetrahedron, toward increasing values.
@@ -255,6 +257,31 @@ pub(crate) fn marching_with_sources(
             .par_extend(interpolated.par_iter().map(|p| p.2));
     }
     Ok((surface, made_by))
+}
+
+/// The points (each by its first edge) that `triangles` use, in order, with `triangles`
+/// renumbered to them: a polygon whose corners all merged at one sample (at an isovalue equal to
+/// the data's largest value, a speck at it) makes no triangle, and its point is on no surface.
+fn referenced(first_edge: Vec<u32>, triangles: &mut [[u32; 3]]) -> Result<Vec<u32>> {
+    const UNUSED: u32 = u32::MAX;
+    let mut id = memory::filled(first_edge.len(), UNUSED, "the isosurface points")?;
+    for &p in triangles.iter().flatten() {
+        id[p as usize] = 0;
+    }
+    if !id.contains(&UNUSED) {
+        return Ok(first_edge);
+    }
+    let mut kept = memory::with_capacity(first_edge.len(), "the isosurface points")?;
+    for (i, e) in first_edge.into_iter().enumerate() {
+        if id[i] != UNUSED {
+            id[i] = kept.len() as u32;
+            kept.push(e);
+        }
+    }
+    for t in triangles.iter_mut() {
+        *t = t.map(|p| id[p as usize]);
+    }
+    Ok(kept)
 }
 
 /// The points of marching tetrahedra: the point id of each distinct edge, and per point its first

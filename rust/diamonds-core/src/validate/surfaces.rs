@@ -30,8 +30,8 @@ impl SurfaceReport {
     }
 }
 
-/// Checks the surface made of `triangles` (corners indexing `points`): every corner inside `points`
-/// and three distinct corners per triangle (else `Err`), then whether every edge is in exactly two
+/// Checks the surface made of `triangles` (corners indexing `points`): every corner inside `points`,
+/// every point a corner of some triangle and three distinct corners per triangle (else `Err`), then whether every edge is in exactly two
 /// triangles traversed in opposite directions (watertight and consistently oriented, in the report).
 /// With `open_on` (`[xmin, xmax, ymin, ymax, zmin, zmax]`, e.g. the image's bounds), an edge whose two
 /// ends lie on one face of that box (within a millionth of its diagonal) may be in one triangle: the
@@ -42,6 +42,19 @@ pub fn check_surface(
     open_on: Option<[f64; 6]>,
 ) -> Result<SurfaceReport, String> {
     check_corners(triangles, points.len(), "triangle")?;
+    let mut used = vec![false; points.len()];
+    for t in triangles {
+        for &p in t {
+            used[p as usize] = true;
+        }
+    }
+    if let Some(p) = used.iter().position(|&u| !u) {
+        return Err(format!(
+            "point {p} {:?} is in no triangle ({} such points)",
+            points[p],
+            used.iter().filter(|&&u| !u).count()
+        ));
+    }
     if let Some((c, t)) = triangles
         .iter()
         .enumerate()
@@ -223,6 +236,12 @@ mod tests {
         assert!(check_surface(&points, &out, None)
             .unwrap_err()
             .contains("refers past the 4 points"));
+        let mut unused = points.clone();
+        unused.push([2.0, 2.0, 2.0]);
+        assert_eq!(
+            check_surface(&unused, &triangles, None).unwrap_err(),
+            "point 4 [2.0, 2.0, 2.0] is in no triangle (1 such points)"
+        );
         let mut degenerate = triangles;
         degenerate[1][2] = 0;
         assert!(check_surface(&points, &degenerate, None)
@@ -233,20 +252,19 @@ mod tests {
     #[test]
     fn surfaces_may_be_open_on_the_faces_of_a_box() {
         let (points, triangles) = tetrahedron();
-        // The face z = 0 alone: its three edges lie on the face z = 0 of the box.
-        let base = &triangles[..1];
+        // The face z = 0 alone (on the first three points): its three edges lie on the face z = 0
+        // of the box.
+        let (points, base) = (&points[..3], &triangles[..1]);
         let floor = [-1.0, 1.0, -1.0, 1.0, 0.0, 1.0];
-        let report = check_surface(&points, base, Some(floor)).unwrap();
+        let report = check_surface(points, base, Some(floor)).unwrap();
         assert_eq!(report.passed(), Ok(()));
         assert_eq!((report.interior_edges, report.boundary_edges), (0, 3));
-        assert!(check_surface(&points, base, None)
-            .unwrap()
-            .passed()
-            .is_err());
+        assert!(check_surface(points, base, None).unwrap().passed().is_err());
         let below = [-1.0, 1.0, -1.0, 1.0, -1.0, 1.0];
-        let report = check_surface(&points, base, Some(below)).unwrap();
+        let report = check_surface(points, base, Some(below)).unwrap();
         assert!(report.watertight.is_err());
         // Without the face x = 0: two of its edges lie on no face of the box, a hole.
+        let (points, triangles) = tetrahedron();
         let open = check_surface(&points, &triangles[..3], Some(floor)).unwrap();
         assert!(open.watertight.unwrap_err().starts_with("2 edges"));
     }
