@@ -295,7 +295,7 @@ fn specks_at_the_largest_value_leave_no_points() {
         assert_eq!(
             (s.triangles.len(), s.points.len()),
             (0, 0),
-            "a speck alone, tol {tol}"
+            "specks alone, tol {tol}"
         );
         let s = extract(&h, ScalarSlice::U8(&v), &IsoQuery::new(255.0, tol)).unwrap();
         let what = format!("plateau and specks at the largest value, tol {tol}");
@@ -303,11 +303,7 @@ fn specks_at_the_largest_value_leave_no_points() {
             !s.triangles.is_empty(),
             "{what}: the plateau's boundary is drawn"
         );
-        let mut used = vec![false; s.points.len()];
-        for &p in s.triangles.iter().flatten() {
-            used[p as usize] = true;
-        }
-        assert!(used.iter().all(|&u| u), "{what}: a point in no triangle");
+        // Watertight where not on the image's bounds, every point in a triangle.
         check_surface(&s.points, &s.triangles, Some(g.bounds()))
             .and_then(|report| report.passed())
             .unwrap_or_else(|e| panic!("{what}: {e}"));

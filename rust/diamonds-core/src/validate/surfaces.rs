@@ -31,8 +31,9 @@ impl SurfaceReport {
 }
 
 /// Checks the surface made of `triangles` (corners indexing `points`): every corner inside `points`,
-/// every point a corner of some triangle and three distinct corners per triangle (else `Err`), then whether every edge is in exactly two
-/// triangles traversed in opposite directions (watertight and consistently oriented, in the report).
+/// every point a corner of some triangle and three distinct corners per triangle (else `Err`),
+/// then whether every edge is in exactly two triangles traversed in opposite directions
+/// (watertight and consistently oriented, in the report).
 /// With `open_on` (`[xmin, xmax, ymin, ymax, zmin, zmax]`, e.g. the image's bounds), an edge whose two
 /// ends lie on one face of that box (within a millionth of its diagonal) may be in one triangle: the
 /// surface may be cut open by the box. Without, the surface must be closed.
