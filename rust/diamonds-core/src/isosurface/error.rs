@@ -75,13 +75,11 @@ impl IsoErrors {
     /// taken, when a diamond lies outside this grid (the pieces' grids differ).
     pub(super) fn raise(&mut self, others: Vec<(u32, u16)>) -> Result<()> {
         let lattice = self.lattice;
-        if let Some(&(i, _)) = others
-            .iter()
-            .find(|&&(i, _)| !lattice.in_domain(lattice.point(i as usize)))
-        {
+        // The domain's points are the grid's, indexed alike.
+        let points = lattice.index(lattice.hi) + 1;
+        if let Some(&(i, _)) = others.iter().find(|&&(i, _)| i as usize >= points) {
             return Err(Error::Parameter(format!(
-                "a piece sent the error of diamond {i}, outside this grid of {} points",
-                (lattice.hi + IVec3::ONE).as_uvec3().element_product()
+                "a piece sent the error of diamond {i}, outside this grid of {points} points"
             )));
         }
         for (i, code) in others {
