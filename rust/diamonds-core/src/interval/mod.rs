@@ -17,7 +17,9 @@
 //! patches of face-adjacent leaves conform; the adaptive mesh itself conforms (no hanging faces), so
 //! the interval volume is crack-free at every resolution. New points lie on mesh edges and are shared
 //! by every patch through that edge (named by the edge and the level, placed by interpolation from
-//! the edge's lower-index end as marching tetrahedra places them); the other points are input
+//! the edge's lower-index end as marching tetrahedra places them, but kept a 2⁻³¹ of the edge from
+//! its ends and from each other, so that a sample a few rounding errors from a level leaves no
+//! tetrahedron too flat for a positive volume: [`clip::edge_parameter`]); the other points are input
 //! samples. Tolerance 0 refines every diamond that may hold `α` or `β` to the finest tetrahedra, so
 //! the volume is exactly that of `{α ≤ f ≤ β}` for the piecewise-linear field on the finest
 //! tetrahedra.
@@ -37,6 +39,7 @@ mod tests;
 pub use clip::{PointKey, ALPHA, BETA, SAMPLE};
 
 use crate::diamond::Diamond;
+use crate::geometry::orient3d;
 use crate::hierarchy::piece::{pick, used_points, PositionOwner};
 use crate::hierarchy::Hierarchy;
 use crate::isosurface::{IsoState, Partition};
@@ -44,7 +47,7 @@ use crate::lattice::{Lattice, Tet};
 use crate::memory;
 use crate::volume::{Sample, ScalarSlice, Volume};
 use crate::{with_volume, Error, IsoQuery, Result};
-pub(crate) use clip::clip;
+pub(crate) use clip::{clip, edge_parameter};
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -332,16 +335,16 @@ fn extract_volume<T: Sample>(
     }
     let world = |i: u32| DVec3::from(volume.grid.point(volume.grid.ijk(i as usize)));
     // Position, weight of the second source, value; from the lower-index end, as marching
-    // tetrahedra places its points, so that bounding surfaces match Adaptive Isosurface's bit for bit.
+    // tetrahedra places its points, so that bounding surfaces match Adaptive Isosurface's bit for bit
+    // (but for points kept off a sample a few rounding errors from a level: [`edge_parameter`]).
     let place = |(i, j, level): PointKey| {
         if level == SAMPLE {
             return (world(i), 0.0, volume.at_index(i as usize));
         }
-        let v = range[(level - ALPHA) as usize];
         let (fa, fb) = (volume.at_index(i as usize), volume.at_index(j as usize));
         let (pa, pb) = (world(i), world(j));
-        let w = (v - fa) / (fb - fa);
-        (pa + (v - fa) / (fb - fa) * (pb - pa), w, v)
+        let w = edge_parameter(fa, fb, range, level);
+        (pa + w * (pb - pa), w, range[(level - ALPHA) as usize])
     };
     let mut result = assemble(&patches, place)?;
     result.tolerance = tolerance;
@@ -356,7 +359,8 @@ pub(crate) fn depth(lattice: &Lattice, t: &Tet) -> u8 {
 }
 
 /// The mesh of the patches: distinct point names become the points (in name order), placed by
-/// `place` (position, weight of the second source, value), tetrahedra positively oriented.
+/// `place` (position, weight of the second source, value), tetrahedra positively oriented (exactly:
+/// a thin one's volume from the usual formula may have the wrong sign).
 pub(crate) fn assemble(
     patches: &[Patch],
     place: impl Fn(PointKey) -> (DVec3, f64, f64) + Sync,
@@ -398,7 +402,7 @@ pub(crate) fn assemble_numbered(
     let placed: Vec<(DVec3, f64, f64)> = keys.par_iter().map(|&k| place(k)).collect();
     tets.par_iter_mut().for_each(|t| {
         let x = t.map(|i| placed[i as usize].0);
-        if (x[1] - x[0]).dot((x[2] - x[0]).cross(x[3] - x[0])) < 0.0 {
+        if orient3d(x[1], x[2], x[3], x[0]) < 0.0 {
             t.swap(2, 3);
         }
     });

@@ -613,3 +613,74 @@ fn shared_pieces_extract_the_serial_volume() {
     }
     assert!(exchanged > 0);
 }
+
+#[test]
+fn samples_a_rounding_error_from_a_level_leave_no_slivers() {
+    // A point where an edge crosses a level within a few rounding errors of one end made
+    // tetrahedra too flat for a positive volume in floating point: f64 sums of tenths a few ulp off
+    // 0.3 and 0.7, bytes one ulp below the level, f32 differences a few ulp of a tenth off 0; then
+    // random f64 samples moved within 3 ulp of the levels, at ranges as narrow as one ulp. At
+    // several tolerances: conforming with positive volumes (exactly, `check_interval_volume`),
+    // and for the first three the bounding surfaces within the tolerance. (On the random ones the
+    // full-resolution surface has needles a 2⁻³¹ of a voxel wide, and the point–triangle distance
+    // of [`crate::geometry`] loses about 10⁻⁸ on them.)
+    let grid = unit_grid([4, 4, 4]);
+    let tenths: Vec<f64> = (0..64)
+        .map(|n| 0.1 * (n % 4) as f64 + 0.1 * (n / 4 % 4) as f64 + 0.1 * (n / 16) as f64)
+        .collect();
+    let bytes: Vec<u8> = (0..64)
+        .map(|n| (n % 4 + n / 4 % 4 + n / 16) as u8 * 2)
+        .collect();
+    let floats: Vec<f32> = tenths.iter().map(|&v| (v - 0.3) as f32).collect();
+    let mut cases: Vec<(Grid, ScalarSlice<'_>, [f64; 2])> = vec![
+        (grid, ScalarSlice::F64(&tenths), [0.3, 0.7]),
+        (grid, ScalarSlice::U8(&bytes), [4.0f64.next_up(), 9.0]),
+        (grid, ScalarSlice::F32(&floats), [0.0, 0.2]),
+    ];
+    let mut rng = fastrand::Rng::with_seed(0x5eed);
+    let near = |rng: &mut fastrand::Rng, v: f64| {
+        f64::from_bits((v.to_bits() as i64 + rng.i64(-3..=3)) as u64)
+    };
+    let random_grid = Grid::new([9, 7, 8]);
+    let randoms: Vec<(Vec<f64>, [f64; 2])> =
+        [[0.25, 0.5], [0.3, 0.3f64.next_up()], [0.1, 0.1 + 1e-15]]
+            .into_iter()
+            .flat_map(|range| {
+                [0; 4].map(|_| {
+                    let values = (0..random_grid.len())
+                        .map(|_| match rng.u8(0..4) {
+                            0 => near(&mut rng, range[0]),
+                            1 => near(&mut rng, range[1]),
+                            _ => rng.f64() * 2.0 - 0.5,
+                        })
+                        .collect();
+                    (values, range)
+                })
+            })
+            .collect();
+    for (values, range) in &randoms {
+        cases.push((random_grid, ScalarSlice::F64(values), *range));
+    }
+    for (case, (grid, scalars, range)) in cases.into_iter().enumerate() {
+        let h = Hierarchy::build_for_isosurfaces(grid, scalars).unwrap();
+        for tolerance in [0.0, 0.5, 2.0] {
+            let v = extract(&h, scalars, &IntervalQuery::new(range, tolerance)).unwrap();
+            assert!(!v.tets.is_empty(), "case {case} at {tolerance}");
+            check_interval_volume(&v.points, &v.values, &v.tets, grid.bounds(), range)
+                .unwrap_or_else(|e| panic!("case {case} {range:?} at {tolerance}: {e}"));
+            if case < 3 {
+                let d = (|| {
+                    Ok::<_, Error>(crate::with_volume!(grid, scalars, |volume| {
+                        interval_distances(&volume, range, &v.points, &v.values, &v.tets, None)
+                    }))
+                })()
+                .unwrap();
+                assert_eq!(
+                    d.check(tolerance),
+                    Ok(()),
+                    "case {case} at {tolerance}: {d:?}"
+                );
+            }
+        }
+    }
+}

@@ -3,6 +3,7 @@
 //! of a [`TetMesh`] ([`check_mesh_arrays`]) and a [`MaterialMesh`] ([`check_material_mesh_arrays`]).
 
 use super::check_corners;
+use crate::geometry::orient3d;
 use crate::interval::IntervalVolume;
 use crate::material::MaterialMesh;
 use crate::volume::{Grid, Sample, Volume};
@@ -253,7 +254,9 @@ fn tet_winding(x: &[DVec3; 4], p: DVec3) -> f64 {
 }
 
 /// Checks that every tetrahedron has a volume above `relative` times the cube of its longest edge
-/// (so inverted and flat ones are named).
+/// (so inverted and flat ones are named); at `relative` 0, that its corners are positively oriented,
+/// exactly ([`orient3d`]: a thin tetrahedron's volume from the usual formula can be off by
+/// more than itself).
 fn check_positive(points: &[[f64; 3]], tets: &[[u32; 4]], relative: f64) -> Result<(), String> {
     match tets.par_iter().enumerate().find_map_first(|(c, t)| {
         let x = t.map(|v| DVec3::from_array(points[v as usize]));
@@ -262,7 +265,12 @@ fn check_positive(points: &[[f64; 3]], tets: &[[u32; 4]], relative: f64) -> Resu
             .flat_map(|a| (a + 1..4).map(move |b| (a, b)))
             .map(|(a, b)| x[a].distance(x[b]))
             .fold(0.0, f64::max);
-        (v.is_nan() || v <= relative * longest.powi(3)).then_some((c, x, v))
+        let positive = if relative > 0.0 {
+            v > relative * longest.powi(3)
+        } else {
+            x.iter().all(|p| p.is_finite()) && orient3d(x[1], x[2], x[3], x[0]) > 0.0
+        };
+        (!positive).then_some((c, x, v))
     }) {
         Some((c, x, v)) => Err(format!(
             "tetrahedron {c} {:?} is inverted or degenerate (volume {v})",
