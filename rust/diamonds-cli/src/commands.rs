@@ -5,7 +5,7 @@ use crate::read::{read_image, read_polydata, read_unstructured, tetrahedra};
 use crate::write::{
     checked_extension, write_image, write_tets, write_triangles, TetGrid, Triangles,
 };
-use crate::{bail, interpolated, Array, AsScalarSlice, Result};
+use crate::{bail, interpolated, Array, AsScalarSlice, Number, Result};
 use diamonds::refine::check_region;
 use diamonds::validate::{
     check_mesh, check_surface, check_tolerance, check_unit_normals, surface_distances,
@@ -40,6 +40,10 @@ pub struct TetraSummary {
     pub tets: usize,
     pub max_error: f64,
     pub tolerance: f64,
+    /// The `--max-tets` budget (0 = none).
+    pub max_tets: usize,
+    /// Whether the tolerance applied inside a region of interest only.
+    pub roi: bool,
     pub read_seconds: f64,
     pub build_seconds: f64,
     pub query_seconds: f64,
@@ -53,12 +57,21 @@ impl fmt::Display for TetraSummary {
         let [nx, ny, nz] = self.dims;
         write!(
             f,
-            "'{}' {nx}x{ny}x{nz}: {} points, {} tetrahedra, max error {} (tolerance {}), read {:.3} s, build {:.3} s, query {:.3} s, write {:.3} s, {} base tetrahedra, {:.2} bytes/voxel of metadata",
+            "'{}' {nx}x{ny}x{nz}: {} points, {} tetrahedra, max error {} (tolerance {}{}), read {:.3} s, build {:.3} s, query {:.3} s, write {:.3} s, {} base tetrahedra, {:.2} bytes/voxel of metadata",
             self.array,
             self.points,
             self.tets,
-            self.max_error,
-            self.tolerance,
+            Number(self.max_error),
+            Number(self.tolerance),
+            match (self.max_error > self.tolerance, self.max_tets, self.roi) {
+                (false, ..) => String::new(),
+                (true, 0, false) => "; above it".into(),
+                (true, 0, true) => "; inside the region of interest".into(),
+                (true, n, false) => format!("; raised by the budget of {n} tetrahedra"),
+                (true, n, true) => format!(
+                    "; inside the region of interest, or raised by the budget of {n} tetrahedra"
+                ),
+            },
             self.read_seconds,
             self.build_seconds,
             self.query_seconds,
@@ -169,6 +182,8 @@ pub fn tetra(opts: &TetraOptions) -> Result<TetraSummary> {
         tets: mesh.tets.len(),
         max_error: mesh.max_error,
         tolerance: opts.tolerance,
+        max_tets: opts.max_tets,
+        roi: opts.roi.is_some(),
         read_seconds,
         build_seconds,
         query_seconds,
@@ -706,7 +721,16 @@ pub fn verify(
             "tolerance",
             measured
                 .clone()
-                .map(|worst| format!("all {samples} samples within {worst} <= {tolerance}")),
+                .map(|worst| {
+                    let (worst, within) = (Number(worst), worst <= tolerance);
+                    let tolerance = Number(tolerance);
+                    match within {
+                        true => format!("all {samples} samples within {worst} <= {tolerance}"),
+                        false => format!(
+                            "all {samples} samples within {worst}: the tolerance {tolerance} and the interpolation's rounding"
+                        ),
+                    }
+                }),
         );
         if ok && cell_values("ApproximationError").is_some() {
             let worst = measured.unwrap_or(0.0);

@@ -28,8 +28,24 @@ pub mod view;
 pub mod write;
 
 use diamonds::ScalarSlice;
+use std::fmt;
 /// The CLI's data arrays are those of [`vtkxml`].
 pub use vtkxml::{Array, Values};
+
+/// A number for a report: as Rust writes it (shortest exact form) between 10⁻⁴ and 10¹², with an
+/// exponent outside (`5.551115123125783e-17`, not 16 zeros first; `{}` never uses one).
+pub struct Number(pub f64);
+
+impl fmt::Display for Number {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let x = self.0.abs();
+        if x == 0.0 || !x.is_finite() || (1e-4..1e12).contains(&x) {
+            write!(f, "{}", self.0)
+        } else {
+            write!(f, "{:e}", self.0)
+        }
+    }
+}
 
 /// `a` at points between its samples (`sources` and `weights` of a core result: an isosurface, an
 /// interval volume): `(1 − w) a[i] + w a[j]` per component (exactly `a[i]` at a sample), of `a`'s
@@ -116,5 +132,25 @@ impl AsScalarSlice for Array {
                 self.type_name()
             ),
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Number;
+
+    #[test]
+    fn numbers_take_an_exponent_only_when_tiny_or_huge() {
+        for (x, written) in [
+            (0.0, "0"),
+            (0.0967, "0.0967"),
+            (-2.5, "-2.5"),
+            (123456789.0, "123456789"),
+            (5.551115123125783e-17, "5.551115123125783e-17"),
+            (2.99e-302, "2.99e-302"),
+            (-1e300, "-1e300"),
+        ] {
+            assert_eq!(Number(x).to_string(), written);
+        }
     }
 }

@@ -327,7 +327,12 @@ fn budget_region_of_interest_and_threads() {
     let budget = dir.join("budget.vtu");
     let run = diamonds(["tetra", s(&input), s(&budget), "--max-tets", "5000"]);
     assert!(!run.stderr.contains("warning"), "{run:#?}");
-    run.ok();
+    // The summary says why its error is above the (default, 0) tolerance.
+    let summary = run.ok();
+    assert!(
+        summary.contains("(tolerance 0; raised by the budget of 5000 tetrahedra)"),
+        "{summary}"
+    );
     let mesh = read_unstructured(&budget).unwrap();
     assert!(mesh.types.len() <= 5000, "{} > 5000", mesh.types.len());
     // A budget below the coarsest mesh (the root cube's six tetrahedra here; on a 32³ image the

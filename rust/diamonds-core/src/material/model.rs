@@ -996,8 +996,8 @@ impl MaterialMesh {
             .then(|| {
                 format!(
                     "the finest tetrahedra cannot meet the tolerances everywhere: interface error {} \
-                     (tolerance {}), field error {} (tolerance {}). Every sample is a mesh vertex and \
-                     the mesh refines on lattices finer than the data where interfaces need it, but \
+                     (tolerance {}), field error {} (tolerance {}). Every sample is a vertex of the \
+                     finest tetrahedra and the mesh refines on lattices finer than the data where interfaces need it, but \
                      the next finer lattice would exceed {MAX_LATTICE_POINTS} points; a larger \
                      interface tolerance can be met",
                     self.max_interface_error,
