@@ -154,6 +154,20 @@ fn verify_interval_measures_the_bounding_surfaces_against_the_full_resolution_on
         assert!(report.ends_with("verify-interval: PASSED\n"), "{report}");
         coarse = Some(out);
     }
+    // Ends one ulp inside the samples' values: edges from samples at 100 and 160 cross them within
+    // 10⁻¹⁶ of the sample, and tetrahedra there had zero or negative volume. Now positive, and the
+    // bound holds.
+    let off = [100f64.next_up(), 160f64.next_down()];
+    let written = off.map(|v| v.to_string());
+    for tolerance in ["0", "0.08"] {
+        let out = dir.join(&format!("ml-ulp-{tolerance}.vtu"));
+        interval(&input, &out, off, &["--tolerance", tolerance]);
+        let report = verify(&out, [&written[0], &written[1]], tolerance).ok();
+        assert!(
+            report.ends_with("verify-interval: PASSED\n"),
+            "{tolerance}: {report}"
+        );
+    }
     // The coarse volume misses a smaller tolerance, and another range's checks.
     let coarse = coarse.unwrap();
     let run = verify(&coarse, ["100", "160"], "0.001");
