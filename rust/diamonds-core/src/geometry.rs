@@ -521,10 +521,11 @@ mod tests {
     #[test]
     fn distances_to_needles_are_exact() {
         // Needles (0, 0, 0), (1, 0, 0), (1/2, w, 0), turned and moved at random: a point above the
-        // needle (0.1 < x < 0.9, w/100 < y < w/10) is |z| from it, on the face; one beside its long
-        // base side (−w/10 < y < −w/100) is √(y² + z²) from it, on that side. Ericson's region tests alone were
-        // off by up to about 10⁻¹⁶ / w. (Whether the closest point is on the face or on a side is
-        // decided within about `ε |z| / w` of the needle's sides: checked where that is below w/100.)
+        // needle (0.1 < x < 0.9, w/100 < y < w/10) is |z| from it, on the face; one beside its
+        // long base side (−w/10 < y < −w/100) is √(y² + z²) from it, on that side. Ericson's
+        // region tests alone were off by up to about 10⁻¹⁶ / w. (Whether the closest point is on
+        // the face or on a side is decided within about `ε |z| / w` of the needle's sides: checked
+        // where that is below w/100.)
         let mut rng = fastrand::Rng::with_seed(31);
         for w in [1e-3, 1e-6, 2f64.powi(-31), 1e-12, 1e-15] {
             for _ in 0..2000 {
