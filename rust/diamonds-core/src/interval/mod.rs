@@ -405,6 +405,22 @@ pub(crate) fn assemble_numbered(
         if orient3d(x[1], x[2], x[3], x[0]) < 0.0 {
             t.swap(2, 3);
         }
+        // First an end of the shortest edge, by an even permutation (orientation kept): VTK's
+        // volume of a tetrahedron (`vtkTetra::ComputeVolume`, verdict's) takes the edges from the
+        // first corner, and from a far corner to three points `GAP` of an edge apart the edges are
+        // nearly parallel and their determinant loses the volume (769 of 337,041 tetrahedra of
+        // neghip at [40 + 1 ulp, 100 − 1 ulp] came out ≤ 0); from one of the three it holds.
+        let x = t.map(|i| placed[i as usize].0);
+        let shortest = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)]
+            .into_iter()
+            .min_by(|a, b| {
+                x[a.0]
+                    .distance_squared(x[a.1])
+                    .total_cmp(&x[b.0].distance_squared(x[b.1]))
+            })
+            .expect("six edges");
+        let k = shortest.0;
+        *t = [t[k], t[k ^ 1], t[k ^ 2], t[k ^ 3]];
     });
     let mut result = IntervalVolume {
         tets,

@@ -620,7 +620,8 @@ fn samples_a_rounding_error_from_a_level_leave_no_slivers() {
     // tetrahedra too flat for a positive volume in floating point: f64 sums of tenths a few ulp off
     // 0.3 and 0.7, bytes one ulp below the level, f32 differences a few ulp of a tenth off 0; then
     // random f64 samples moved within 3 ulp of the levels, at ranges as narrow as one ulp. At
-    // several tolerances: conforming with positive volumes (exactly, `check_interval_volume`),
+    // several tolerances: conforming with positive volumes (exactly, `check_interval_volume`, and
+    // by the usual determinant from the first corner but at the narrow ranges),
     // the bounding surfaces within the tolerance (on needles a 2⁻³¹ of a voxel wide: the
     // point–triangle distances hold on them, `geometry::closest_point_on_needle`).
     let grid = unit_grid([4, 4, 4]);
@@ -667,6 +668,12 @@ fn samples_a_rounding_error_from_a_level_leave_no_slivers() {
             assert!(!v.tets.is_empty(), "case {case} at {tolerance}");
             check_interval_volume(&v.points, &v.values, &v.tets, grid.bounds(), range)
                 .unwrap_or_else(|e| panic!("case {case} {range:?} at {tolerance}: {e}"));
+            // Positive by the usual determinant from the first corner too, as VTK measures it (but
+            // for ranges a few ulp wide, whose slab tetrahedra are needles too thin for it).
+            for t in v.tets.iter().filter(|_| range[1] - range[0] > 1e-9) {
+                let x = t.map(|i| DVec3::from(v.points[i as usize]));
+                assert!(volume6(x) > 0.0, "case {case} at {tolerance}: {x:?}");
+            }
             let d = (|| {
                 Ok::<_, Error>(crate::with_volume!(grid, scalars, |volume| {
                     interval_distances(&volume, range, &v.points, &v.values, &v.tets, None)
