@@ -76,7 +76,7 @@ const AT_ALPHA: Facets = 1 << 4;
 const AT_BETA: Facets = 1 << 5;
 
 /// The six edges of a tetrahedron.
-const EDGES: [(usize, usize); 6] = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)];
+pub(crate) const EDGES: [(usize, usize); 6] = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)];
 
 /// The tetrahedra of `T ∩ {α ≤ f ≤ β}` for the tetrahedron with input samples `ids` and values `f`,
 /// `range = [α, β]` (`α < β`), appended to `out` as point names (orientation not fixed). A

@@ -47,6 +47,7 @@ use crate::lattice::{Lattice, Tet};
 use crate::memory;
 use crate::volume::{Sample, ScalarSlice, Volume};
 use crate::{with_volume, Error, IsoQuery, Result};
+use clip::EDGES;
 pub(crate) use clip::{clip, edge_parameter};
 use glam::DVec3;
 use rayon::prelude::*;
@@ -411,7 +412,7 @@ pub(crate) fn assemble_numbered(
         // nearly parallel and their determinant loses the volume (769 of 337,041 tetrahedra of
         // neghip at [40 + 1 ulp, 100 − 1 ulp] came out ≤ 0); from one of the three it holds.
         let x = t.map(|i| placed[i as usize].0);
-        let shortest = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)]
+        let shortest = EDGES
             .into_iter()
             .min_by(|a, b| {
                 x[a.0]
