@@ -576,13 +576,13 @@ impl VerifyReport {
         tolerance: Option<f64>,
     ) {
         let measured = format!(
-            "{fine} ({} triangles): from its {} vertices and samples to {surface} {}, from {surface}'s {} vertices and samples to it {} (every point of either within {:.4} more)",
+            "{fine} ({} triangles): from its {} vertices and samples to {surface} {}, from the {} vertices and samples of {surface} to it {} (every point of either within {} more)",
             d.fine_triangles,
             d.fine_vertices,
             d.fine_to_surface.distance,
             d.surface_samples,
             d.surface_to_fine.distance,
-            d.slack
+            Number(d.slack)
         );
         match tolerance {
             Some(t) => {
@@ -943,7 +943,8 @@ pub fn verify_surface(
             &b.isovalues,
             &surface.points,
             &triangles,
-            b.region
+            b.region,
+            b.tolerance
         ));
         let at: Vec<String> = b.isovalues.iter().map(f64::to_string).collect();
         let fine = format!(

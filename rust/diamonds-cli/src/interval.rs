@@ -235,7 +235,8 @@ pub fn verify_interval(opts: &VerifyIntervalOptions) -> Result<VerifyReport> {
         &mesh.points,
         &values,
         &tets,
-        opts.region
+        opts.region,
+        opts.tolerance
     ));
     let fine = format!(
         "full-resolution boundary at {alpha} and {beta}, off the bounds{}",

@@ -583,6 +583,54 @@ fn verify_surface_measures_both_distances_to_the_full_resolution_surface() {
 }
 
 #[test]
+fn surfaces_on_thin_slices_are_sampled_as_their_tolerance_needs() {
+    // Spacings 1, 1 and 0.02: the verifier samples triangles half the tolerance apart (held
+    // between the smallest and the largest spacing), not 0.02 apart whatever the tolerance, which
+    // made 10³ times as many samples per triangle here and took minutes and gigabytes on larger
+    // images. Its slack (how far a point may lie from a sample) says so.
+    let dir = TempDir::new("iso");
+    let input = dir.join("slices.vti");
+    let grid = diamonds::Grid {
+        dims: [25, 25, 41],
+        origin: [0.0, 0.0, 0.0],
+        spacing: [1.0, 1.0, 0.02],
+    };
+    let ellipsoid: Vec<f32> = (0..grid.len())
+        .map(|i| {
+            let [x, y, z] = grid.point(grid.ijk(i));
+            let q = ((x - 12.0) / 8.0).powi(2) + ((y - 11.0) / 7.0).powi(2);
+            (q + ((z - 0.4) / 0.3).powi(2)).sqrt() as f32
+        })
+        .collect();
+    diamonds_cli::write::write_image(&input, &grid, &[Array::scalars("e", ellipsoid)]).unwrap();
+    for (tolerance, step) in [(0.0, 0.02), (0.6, 0.3), (5.0, 1.0)] {
+        let out = dir.join(&format!("slices-{tolerance}.vtp"));
+        let t = tolerance.to_string();
+        iso(&input, &out, &["--isovalue", "1", "--tolerance", &t]);
+        let report = diamonds([
+            "verify-surface",
+            s(&out),
+            "--image",
+            s(&input),
+            "--isovalue",
+            "1",
+            "--tolerance",
+            &t,
+        ])
+        .ok();
+        assert!(report.contains("verify-surface: PASSED"), "{report}");
+        let slack: f64 = report
+            .split("(every point of either within ")
+            .nth(1)
+            .and_then(|r| r.split(" more)").next())
+            .and_then(|x| x.parse().ok())
+            .unwrap_or_else(|| panic!("no slack in {report}"));
+        let expected = step / 3f64.sqrt();
+        assert!((slack - expected).abs() < 1e-12, "{tolerance}: {slack}");
+    }
+}
+
+#[test]
 fn isovalues_equal_to_samples_keep_a_consistent_orientation() {
     let dir = TempDir::new("iso");
     let input = generate(&dir, "sphere", "u8", [33, 33, 33]);

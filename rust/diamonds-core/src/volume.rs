@@ -109,6 +109,16 @@ impl Grid {
     pub fn diagonal(&self) -> f64 {
         bounds_diagonal(&self.bounds())
     }
+
+    /// How far apart to sample surfaces that are checked against `distance` (a tolerance):
+    /// half of it, but no finer than the smallest spacing and no coarser than the largest (on a
+    /// grid of equal spacings, that spacing whatever the distance). Every point of a triangle
+    /// sampled so ([`crate::geometry::triangle_samples`]) lies within `step / √3` of a sample.
+    pub fn sampling_step(&self, distance: f64) -> f64 {
+        let smallest = self.spacing.into_iter().fold(f64::INFINITY, f64::min);
+        let largest = self.spacing.into_iter().fold(0.0, f64::max);
+        (0.5 * distance).clamp(smallest, largest)
+    }
 }
 
 /// Length of the diagonal of `bounds` (`[xmin, xmax, ymin, ymax, zmin, zmax]`).

@@ -352,7 +352,7 @@ fn both_hierarchies_give_the_same_surfaces() {
 /// `isovalues` within `tol` (the two-sided bound, `diamonds::validate::hausdorff`).
 fn assert_bound(g: Grid, v: &[f32], isovalues: &[f64], tol: f64, s: &IsoSurface, what: &str) {
     let volume = Volume::new(g, v).unwrap();
-    let d = surface_distances(&volume, isovalues, &s.points, &s.triangles, None);
+    let d = surface_distances(&volume, isovalues, &s.points, &s.triangles, None, None);
     assert_eq!(d.check(tol), Ok(()), "{what}: {d:?}");
 }
 
@@ -493,24 +493,7 @@ fn every_point_of_both_surfaces_is_within_tolerances_below_a_voxel_on_anisotropi
         origin: [-5.0, 3.0, 100.0],
         spacing: [0.7, 1.3, 2.1],
     };
-    let mut rnd = noise(5);
-    let v: Vec<f32> = (0..g.len())
-        .map(|i| {
-            let [x, y, z] = g.ijk(i);
-            let u = |k: usize, n: usize| 2.0 * k as f64 / (n - 1) as f64 - 1.0;
-            let (x, y, z) = (u(x, 37), u(y, 53), u(z, 29));
-            let blobs = 40.0
-                + 150.0
-                    * (-6.0 * ((x - 0.2).powi(2) + (y + 0.1).powi(2) + (0.8 * z).powi(2))).exp()
-                + 60.0 * (-20.0 * ((x + 0.5).powi(2) + (y - 0.4).powi(2) + z * z)).exp();
-            let f = if x * x + y * y > 0.9 {
-                0.0
-            } else {
-                blobs + 40.0 * (rnd() - 0.5)
-            };
-            f.clamp(0.0, 255.0).round() as f32
-        })
-        .collect();
+    let v = ct_like(&g, 5);
     let h = build(g, &v);
     for (isovalue, tol) in [
         (30.5, 0.2),
@@ -542,13 +525,80 @@ fn every_point_of_both_surfaces_is_within_tolerances_below_a_voxel_on_anisotropi
     }
 }
 
+#[test]
+fn the_bound_holds_on_grids_of_very_unequal_spacings() {
+    // Spacings 1, 1.6 and 0.04 (a stack of thin slices): the check samples the surface's
+    // triangles half a tolerance apart (0.25 to 1.5 here), not at the smallest spacing (10² to
+    // 10³ times as many samples per triangle). Verified from both surfaces' vertices and from
+    // samples of their triangles four times as dense as the check's.
+    let g = Grid {
+        dims: [33, 29, 41],
+        origin: [2.0, -1.0, 0.5],
+        spacing: [1.0, 1.6, 0.04],
+    };
+    let v = ct_like(&g, 11);
+    let h = build(g, &v);
+    let volume = Volume::new(g, &v[..]).unwrap();
+    for (isovalue, tol) in [(60.5, 0.5), (60.5, 1.5), (150.5, 3.0)] {
+        let s = extract(&h, ScalarSlice::F32(&v), &IsoQuery::new(isovalue, tol)).unwrap();
+        let what = format!("isovalue {isovalue}, tolerance {tol}");
+        assert!(!s.triangles.is_empty(), "{what}");
+        assert!(s.error_bound <= tol, "{what}");
+        let d = surface_distances(
+            &volume,
+            &[isovalue],
+            &s.points,
+            &s.triangles,
+            None,
+            Some(tol),
+        );
+        assert_eq!(d.check(tol), Ok(()), "{what}: {d:?}");
+        let fine: Vec<[DVec3; 3]> = full_resolution_triangles(&volume, &[isovalue])
+            .into_iter()
+            .map(|t| t.map(DVec3::from))
+            .collect();
+        let ours: Vec<[DVec3; 3]> = (s.triangles.iter())
+            .map(|t| t.map(|i| DVec3::from(s.points[i as usize])))
+            .collect();
+        let rounding = 1e-6 * g.diagonal();
+        for (from, to, side) in [(&ours, &fine, "ours to F"), (&fine, &ours, "F to ours")] {
+            let d = farthest_sample(from, to, g.sampling_step(tol) / 4.0);
+            assert!(d <= tol + rounding, "{what}, {side}: {d}");
+        }
+    }
+}
+
+/// CT-like samples on `g`: two blobs, noise of ±20 (from `seed`), a cut-off disc of air; whole
+/// numbers in 0..=255.
+fn ct_like(g: &Grid, seed: u64) -> Vec<f32> {
+    let mut rnd = noise(seed);
+    let [nx, ny, nz] = g.dims;
+    (0..g.len())
+        .map(|i| {
+            let [x, y, z] = g.ijk(i);
+            let u = |k: usize, n: usize| 2.0 * k as f64 / (n - 1) as f64 - 1.0;
+            let (x, y, z) = (u(x, nx), u(y, ny), u(z, nz));
+            let blobs = 40.0
+                + 150.0
+                    * (-6.0 * ((x - 0.2).powi(2) + (y + 0.1).powi(2) + (0.8 * z).powi(2))).exp()
+                + 60.0 * (-20.0 * ((x + 0.5).powi(2) + (y - 0.4).powi(2) + z * z)).exp();
+            let f = if x * x + y * y > 0.9 {
+                0.0
+            } else {
+                blobs + 40.0 * (rnd() - 0.5)
+            };
+            f.clamp(0.0, 255.0).round() as f32
+        })
+        .collect()
+}
+
 /// The largest distance from samples of the triangles `from` spaced at most `spacing` to the
 /// triangles `to`.
 fn farthest_sample(from: &[[DVec3; 3]], to: &[[DVec3; 3]], spacing: f64) -> f64 {
-    let samples: Vec<DVec3> = (from.par_iter())
-        .flat_map_iter(|&t| triangle_samples(t, spacing))
-        .collect();
-    farthest(&samples, &triangle_tree(to.iter().copied())).distance
+    let samples = (from.par_iter()).flat_map_iter(|&t| triangle_samples(t, spacing));
+    farthest(samples, &triangle_tree(to.iter().copied()))
+        .0
+        .distance
 }
 
 #[test]

@@ -101,7 +101,7 @@ fn bounded(
     let query = IntervalQuery::new(range, tolerance);
     let v = extract(h, ScalarSlice::F32(volume.samples), &query).unwrap();
     check(&v, &volume.grid, range);
-    let d = interval_distances(volume, range, &v.points, &v.values, &v.tets, None);
+    let d = interval_distances(volume, range, &v.points, &v.values, &v.tets, None, None);
     assert_eq!(
         d.check(tolerance),
         Ok(()),
@@ -394,7 +394,7 @@ fn bounding_surfaces_are_within_the_tolerance_of_the_full_resolution_boundary() 
             let tolerance = fraction * grid.diagonal();
             let query = IntervalQuery::new(range, tolerance);
             let v = extract(&h, ScalarSlice::F32(values), &query).unwrap();
-            let d = interval_distances(&volume, range, &v.points, &v.values, &v.tets, None);
+            let d = interval_distances(&volume, range, &v.points, &v.values, &v.tets, None, None);
             assert_eq!(d.check(tolerance), Ok(()), "{name} at {fraction}: {d:?}");
         }
     }
@@ -407,7 +407,7 @@ fn bounding_surfaces_are_within_the_tolerance_of_the_full_resolution_boundary() 
     )
     .unwrap();
     let faces = validate::bounding_faces(&v.tets, &v.values, &range);
-    let d = surface_distances(&volume, &range, &v.points, &faces, None);
+    let d = surface_distances(&volume, &range, &v.points, &faces, None, None);
     assert!(d.fine_to_surface.distance > 1.0, "{d:?}");
 }
 
@@ -676,7 +676,7 @@ fn samples_a_rounding_error_from_a_level_leave_no_slivers() {
             }
             let d = (|| {
                 Ok::<_, Error>(crate::with_volume!(grid, scalars, |volume| {
-                    interval_distances(&volume, range, &v.points, &v.values, &v.tets, None)
+                    interval_distances(&volume, range, &v.points, &v.values, &v.tets, None, None)
                 }))
             })()
             .unwrap();

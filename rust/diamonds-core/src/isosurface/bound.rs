@@ -11,7 +11,8 @@
 //!   within the tolerance of `F`.
 //!
 //! A triangle of `S` is covered by the parts of its subdivision at [`triangle_samples`] spaced at
-//! most `h` (the smallest grid spacing), a triangle of `F` (inside one grid cell) as it is; the
+//! most half the tolerance, held between the smallest and the largest grid spacing
+//! ([`Grid::sampling_step`]), a triangle of `F` (inside one grid cell) as it is; the
 //! parts near the tolerance are cut further. Distances are certified cheaply where possible
 //! ([`super::blocks`]): a sample of `S` within a block of a vertex of `F` is within the blocks'
 //! reach of `F`, and a grid cell whose centre is within a block of a sample of `S` holds no point
@@ -78,8 +79,12 @@ struct Fine {
 struct Reach {
     /// The tolerance less the rounding allowance.
     full: f64,
+    /// How far apart the samples of `S`'s triangles are ([`Grid::sampling_step`] of `full`).
+    /// Sampled at the smallest spacing whatever the tolerance, a grid of spacings 1, 1 and 0.01
+    /// made every triangle 10⁴ times as many samples as at spacing 1, for the same surface.
+    step: f64,
     /// The reach of the blocks of F's vertices, which certify the samples of `S`, leaving room for
-    /// the parts between samples (at most `h` long, so within `h / √3` of a sample); none when
+    /// the parts between samples (at most `step` long, so within `step / √3` of a sample); none when
     /// there is no such room or the blocks would be finer than a dense bitset allows
     /// ([`Blocks::dense_reach`]; tolerances below about a voxel: every sample is measured).
     samples: Option<f64>,
@@ -93,14 +98,15 @@ struct Reach {
 impl Reach {
     fn new(grid: &Grid, tolerance: f64) -> Self {
         let full = tolerance - (1e-6 * grid.diagonal()).min(0.5 * tolerance);
-        let h = grid.spacing.into_iter().fold(f64::INFINITY, f64::min);
+        let step = grid.sampling_step(full);
         let diagonal = DVec3::from(grid.spacing).length();
         let (lo, hi) = bounding_box(grid);
         let dense = Blocks::dense_reach(lo, hi);
         let room = |margin: f64| Some(full - margin).filter(|&r| r > 0.0 && r >= dense);
         Self {
             full,
-            samples: room(h / 3f64.sqrt()),
+            step,
+            samples: room(step / 3f64.sqrt()),
             cells: room(diagonal / 2.0),
         }
     }
@@ -1022,11 +1028,14 @@ impl<T: Sample> Extraction<'_, '_, T> {
         let owner = self.partition.map(|p| &p.owner);
         let volume = self.volume;
         let grid = &volume.grid;
-        let h = grid.spacing.into_iter().fold(f64::INFINITY, f64::min);
+        let (h, step) = (
+            grid.spacing.into_iter().fold(f64::INFINITY, f64::min),
+            reach.step,
+        );
         let checked = checked_carriers(carriers, pending);
         let checked_triangles: Vec<([DVec3; 3], u32)> =
             drawn_triangles(volume, v, checked, sheets).collect();
-        // S → F: each triangle's samples spaced at most `h` (the cheap certificate from the blocks
+        // S → F: each triangle's samples spaced at most `step` (the cheap certificate from the blocks
         // of F's vertices), then the parts of the triangles between them covered.
         let fine_surface = || FineSurface {
             volume,
@@ -1051,11 +1060,11 @@ impl<T: Sample> Extraction<'_, '_, T> {
                     // Most triangles lie well within the reach: their samples near the blocks settle
                     // every part.
                     if fine.blocks.is_some()
-                        && triangle_samples(t, h).all(|p| near_fine(p).d < f64::INFINITY)
+                        && triangle_samples(t, step).all(|p| near_fine(p).d < f64::INFINITY)
                     {
                         return Vec::new();
                     }
-                    let samples: Vec<DVec3> = triangle_samples(t, h).collect();
+                    let samples: Vec<DVec3> = triangle_samples(t, step).collect();
                     let mut known: Vec<_> = samples.iter().map(|&p| near_fine(p)).collect();
                     let to_fine = Cover {
                         surface: &*surface,
@@ -1088,8 +1097,8 @@ impl<T: Sample> Extraction<'_, '_, T> {
         let with_samples = (reach.cells)
             .map(|r| {
                 let (lo, hi) = bounding_box(grid);
-                let samples =
-                    (checked_triangles.par_iter()).flat_map_iter(|&(t, _)| triangle_samples(t, h));
+                let samples = (checked_triangles.par_iter())
+                    .flat_map_iter(|&(t, _)| triangle_samples(t, step));
                 Blocks::around(lo, hi, r, samples)
             })
             .transpose()?;

@@ -4,7 +4,9 @@
 //! ([`crate::geometry::closest_point_on_triangle`]) found through [`rstar`] R-trees of the triangles.
 //!
 //! - `F → S`: the largest distance to `S` from the vertices of `F` and from samples of its triangles
-//!   spaced at most one voxel (`h`, the smallest grid spacing, [`crate::geometry::triangle_samples`]);
+//!   spaced at most `h` ([`crate::geometry::triangle_samples`]): half the tolerance checked
+//!   against, held between the smallest and the largest grid spacing
+//!   ([`crate::Grid::sampling_step`]; the smallest spacing when no tolerance is given);
 //! - `S → F`: the largest distance to `F` from the corners of the triangles of `S` and from samples
 //!   of them spaced at most `h`. Here `F` includes the parts of the level set that marching
 //!   tetrahedra draws with zero area ([`crate::isosurface::LevelSets::degenerate`]):
@@ -78,23 +80,29 @@ impl SurfaceDistances {
 }
 
 /// The largest distance from `points` to the triangles of `tree` (infinite if it is empty while
-/// `points` is not).
-pub fn farthest(points: &[DVec3], tree: &TriangleTree) -> Farthest {
+/// `points` is not), and how many points there were. The points are measured as they come, never
+/// held together: a surface sampled finely has hundreds of millions.
+pub fn farthest(
+    points: impl ParallelIterator<Item = DVec3>,
+    tree: &TriangleTree,
+) -> (Farthest, usize) {
     points
-        .par_iter()
         .map(|p| {
             let p = p.to_array();
             let distance = tree
                 .nearest_neighbor(&p)
                 .map_or(f64::INFINITY, |t| t.distance_2(&p).sqrt());
-            Farthest { distance, point: p }
+            (Farthest { distance, point: p }, 1)
         })
         .reduce(
-            || Farthest {
-                distance: 0.0,
-                point: [0.0; 3],
+            || {
+                let none = Farthest {
+                    distance: 0.0,
+                    point: [0.0; 3],
+                };
+                (none, 0)
             },
-            |a, b| if b.distance > a.distance { b } else { a },
+            |(a, m), (b, n)| (if b.distance > a.distance { b } else { a }, m + n),
         )
 }
 
@@ -108,6 +116,7 @@ pub fn surface_distances<T: Sample>(
     points: &[[f64; 3]],
     triangles: &[[u32; 3]],
     region: Option<[f64; 6]>,
+    tolerance: Option<f64>,
 ) -> SurfaceDistances {
     let LevelSets {
         triangles: fine,
@@ -122,7 +131,7 @@ pub fn surface_distances<T: Sample>(
             vertices,
             to: &level_set,
         },
-        &volume.grid,
+        (&volume.grid, tolerance),
         (points, region),
         (triangles, triangles),
     )
@@ -154,6 +163,7 @@ pub fn interval_distances<T: Sample>(
     values: &[f64],
     tets: &[[u32; 4]],
     region: Option<[f64; 6]>,
+    tolerance: Option<f64>,
 ) -> SurfaceDistances {
     let LevelSets {
         triangles: mut fine,
@@ -195,7 +205,7 @@ pub fn interval_distances<T: Sample>(
             vertices,
             to: &level_sets,
         },
-        &volume.grid,
+        (&volume.grid, tolerance),
         (points, region),
         (&off_the_box, &faces),
     )
@@ -219,10 +229,11 @@ struct FineSides<'a> {
 
 /// Both one-sided distances on `grid`: from `fine.from` and `fine.vertices` to the triangles
 /// `surface.1` (corners indexing `points`), and from the triangles `surface.0` to `fine.to`; from
-/// points inside `region` only, when there is one.
+/// points inside `region` only, when there is one. Triangles are sampled at the grid's
+/// [`crate::Grid::sampling_step`] of `tolerance` (at the smallest spacing without one).
 fn distances(
     fine: FineSides<'_>,
-    grid: &crate::Grid,
+    (grid, tolerance): (&crate::Grid, Option<f64>),
     (points, region): (&[[f64; 3]], Option<[f64; 6]>),
     surface: (&[[u32; 3]], &[[u32; 3]]),
 ) -> SurfaceDistances {
@@ -232,39 +243,30 @@ fn distances(
         to: fine_to,
     } = fine;
     let (from, to) = surface;
-    let h = grid.spacing.into_iter().fold(f64::INFINITY, f64::min);
+    let h = grid.sampling_step(tolerance.unwrap_or(0.0));
     let corners = |t: &[u32; 3]| t.map(|i| DVec3::from(points[i as usize]));
     // The vertices and the samples of the triangles other than their corners.
-    let fine: Vec<DVec3> = fine_vertices
-        .into_iter()
-        .map(DVec3::from)
-        .chain(
-            fine_from
-                .par_iter()
-                .flat_map_iter(|t| {
-                    let t = t.map(DVec3::from);
-                    triangle_samples(t, h).filter(move |p| !t.contains(p))
-                })
-                .collect::<Vec<_>>(),
-        )
-        .filter(|&p| in_region(region, p))
-        .collect();
+    let fine = (fine_vertices.into_par_iter().map(DVec3::from))
+        .chain(fine_from.par_iter().flat_map_iter(|t| {
+            let t = t.map(DVec3::from);
+            triangle_samples(t, h).filter(move |p| !t.contains(p))
+        }))
+        .filter(|&p| in_region(region, p));
     let surface = triangle_tree(to.iter().map(corners));
-    let fine_to_surface = farthest(&fine, &surface);
+    let (fine_to_surface, fine_vertices) = farthest(fine, &surface);
     drop(surface);
     let fine_tree = triangle_tree(fine_to.iter().map(|t| t.map(DVec3::from)));
     // The corners of the triangles among them (a point no triangle uses is no part of the surface).
-    let samples: Vec<DVec3> = from
-        .par_iter()
+    let samples = (from.par_iter())
         .flat_map_iter(|t| triangle_samples(corners(t), h))
-        .filter(|&p| in_region(region, p))
-        .collect();
+        .filter(|&p| in_region(region, p));
+    let (surface_to_fine, surface_samples) = farthest(samples, &fine_tree);
     SurfaceDistances {
         fine_to_surface,
-        surface_to_fine: farthest(&samples, &fine_tree),
-        fine_vertices: fine.len(),
+        surface_to_fine,
+        fine_vertices,
         fine_triangles: fine_from.len(),
-        surface_samples: samples.len(),
+        surface_samples,
         slack: h / 3f64.sqrt(),
         rounding: 1e-9 * grid.diagonal(),
     }
@@ -286,7 +288,7 @@ mod tests {
         let triangles: Vec<[u32; 3]> = (0..soup.len() as u32)
             .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
             .collect();
-        let d = surface_distances(&volume, &[0.0], &points, &triangles, None);
+        let d = surface_distances(&volume, &[0.0], &points, &triangles, None, None);
         assert!(d.fine_to_surface.distance < 1e-12, "{d:?}");
         assert!(d.surface_to_fine.distance < 1e-12, "{d:?}");
         assert_eq!(d.check(0.0), Ok(()));
@@ -295,7 +297,7 @@ mod tests {
         // it (the sphere's poles along x move straight away).
         let shift = 0.3;
         let moved: Vec<[f64; 3]> = points.iter().map(|p| [p[0] + shift, p[1], p[2]]).collect();
-        let d = surface_distances(&volume, &[0.0], &moved, &triangles, None);
+        let d = surface_distances(&volume, &[0.0], &moved, &triangles, None, None);
         for f in [d.fine_to_surface, d.surface_to_fine] {
             assert!(
                 f.distance <= shift + 1e-12 && f.distance > 0.8 * shift,
@@ -308,16 +310,16 @@ mod tests {
         let partly: Vec<[f64; 3]> = (points.iter())
             .map(|p| [p[0] + if p[0] > 0.3 { shift } else { 0.0 }, p[1], p[2]])
             .collect();
-        let whole = surface_distances(&volume, &[0.0], &partly, &triangles, None);
+        let whole = surface_distances(&volume, &[0.0], &partly, &triangles, None, None);
         assert!(whole.fine_to_surface.distance > 0.1, "{whole:?}");
         let region = Some([-2.0, 0.0, -2.0, 2.0, -2.0, 2.0]);
-        let d = surface_distances(&volume, &[0.0], &partly, &triangles, region);
+        let d = surface_distances(&volume, &[0.0], &partly, &triangles, region, None);
         assert!(d.fine_to_surface.distance < 1e-12, "{d:?}");
         assert!(d.surface_to_fine.distance < 1e-12, "{d:?}");
         assert!(d.fine_vertices < whole.fine_vertices && d.surface_samples < whole.surface_samples);
         assert!(d.fine_vertices > 0 && d.surface_samples > 0, "{d:?}");
         // An empty surface is infinitely far from a non-empty F.
-        let d = surface_distances(&volume, &[0.0], &[], &[], None);
+        let d = surface_distances(&volume, &[0.0], &[], &[], None, None);
         assert_eq!(d.fine_to_surface.distance, f64::INFINITY);
         assert_eq!(d.surface_to_fine.distance, 0.0);
     }
@@ -386,7 +388,7 @@ mod tests {
             s.triangles.iter().any(|t| !has_area(&corners(t))),
             "the case: triangles of zero area"
         );
-        let d = surface_distances(&volume, &[90.0], &s.points, &s.triangles, None);
+        let d = surface_distances(&volume, &[90.0], &s.points, &s.triangles, None, None);
         assert_eq!(d.check(0.0), Ok(()), "{d:?}");
     }
 }
