@@ -4,7 +4,7 @@
 use crate::commands::{finish_as, inside, read_input, IsoTolerance, VerifyReport};
 use crate::read::{read_unstructured, tetrahedra};
 use crate::write::{checked_extension, write_tets, TetGrid};
-use crate::{bail, interpolated, Array, AsScalarSlice, Result};
+use crate::{bail, interpolated, Array, AsScalarSlice, Number, Result};
 use diamonds::interval::{self, IntervalQuery};
 use diamonds::refine::check_region;
 use diamonds::validate::{check_interval_volume, interval_distances};
@@ -52,15 +52,15 @@ impl fmt::Display for IntervalSummary {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "'{}': {} tetrahedra, {} points ({} leaves), volume {:.6e}, tolerance {:.4} (reached {:.4}), error bound {:.4}, build {:.3} s, extraction {:.3} s",
+            "'{}': {} tetrahedra, {} points ({} leaves), volume {:.6e}, tolerance {} (reached {}), error bound {}, build {:.3} s, extraction {:.3} s",
             self.array,
             self.tets,
             self.points,
             self.leaves,
             self.volume,
-            self.tolerance,
-            self.reached_tolerance,
-            self.error_bound,
+            Number(self.tolerance),
+            Number(self.reached_tolerance),
+            Number(self.error_bound),
             self.build_seconds,
             self.extract_seconds
         )
