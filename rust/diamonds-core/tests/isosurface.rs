@@ -509,18 +509,7 @@ fn every_point_of_both_surfaces_is_within_tolerances_below_a_voxel_on_anisotropi
         if [(60.5, 0.5), (150.5, 0.3)].contains(&(isovalue, tol)) {
             // Between the verifier's samples too: both surfaces sampled four times as densely.
             let volume = Volume::new(g, &v[..]).unwrap();
-            let fine: Vec<[DVec3; 3]> = full_resolution_triangles(&volume, &[isovalue])
-                .into_iter()
-                .map(|t| t.map(DVec3::from))
-                .collect();
-            let ours: Vec<[DVec3; 3]> = (s.triangles.iter())
-                .map(|t| t.map(|i| DVec3::from(s.points[i as usize])))
-                .collect();
-            let rounding = 1e-6 * g.diagonal();
-            for (from, to, side) in [(&ours, &fine, "ours to F"), (&fine, &ours, "F to ours")] {
-                let d = farthest_sample(from, to, 0.7 / 4.0);
-                assert!(d <= tol + rounding, "{what}, {side}: {d}");
-            }
+            assert_sampled_bound(&volume, isovalue, &s, (tol, 0.7 / 4.0), &what);
         }
     }
 }
@@ -553,18 +542,8 @@ fn the_bound_holds_on_grids_of_very_unequal_spacings() {
             Some(tol),
         );
         assert_eq!(d.check(tol), Ok(()), "{what}: {d:?}");
-        let fine: Vec<[DVec3; 3]> = full_resolution_triangles(&volume, &[isovalue])
-            .into_iter()
-            .map(|t| t.map(DVec3::from))
-            .collect();
-        let ours: Vec<[DVec3; 3]> = (s.triangles.iter())
-            .map(|t| t.map(|i| DVec3::from(s.points[i as usize])))
-            .collect();
-        let rounding = 1e-6 * g.diagonal();
-        for (from, to, side) in [(&ours, &fine, "ours to F"), (&fine, &ours, "F to ours")] {
-            let d = farthest_sample(from, to, g.sampling_step(tol) / 4.0);
-            assert!(d <= tol + rounding, "{what}, {side}: {d}");
-        }
+        let spacing = g.sampling_step(tol) / 4.0;
+        assert_sampled_bound(&volume, isovalue, &s, (tol, spacing), &what);
     }
 }
 
@@ -592,13 +571,30 @@ fn ct_like(g: &Grid, seed: u64) -> Vec<f32> {
         .collect()
 }
 
-/// The largest distance from samples of the triangles `from` spaced at most `spacing` to the
-/// triangles `to`.
-fn farthest_sample(from: &[[DVec3; 3]], to: &[[DVec3; 3]], spacing: f64) -> f64 {
-    let samples = (from.par_iter()).flat_map_iter(|&t| triangle_samples(t, spacing));
-    farthest(samples, &triangle_tree(to.iter().copied()))
-        .0
-        .distance
+/// Every sample of either surface, `s` or the full-resolution one of `isovalue`, their triangles
+/// sampled `spacing` apart, within `tol` (and a millionth of the diagonal) of the other.
+fn assert_sampled_bound(
+    volume: &Volume<'_, f32>,
+    isovalue: f64,
+    s: &IsoSurface,
+    (tol, spacing): (f64, f64),
+    what: &str,
+) {
+    let fine: Vec<[DVec3; 3]> = full_resolution_triangles(volume, &[isovalue])
+        .into_iter()
+        .map(|t| t.map(DVec3::from))
+        .collect();
+    let ours: Vec<[DVec3; 3]> = (s.triangles.iter())
+        .map(|t| t.map(|i| DVec3::from(s.points[i as usize])))
+        .collect();
+    let rounding = 1e-6 * volume.grid.diagonal();
+    for (from, to, side) in [(&ours, &fine, "ours to F"), (&fine, &ours, "F to ours")] {
+        let samples = (from.par_iter()).flat_map_iter(|&t| triangle_samples(t, spacing));
+        let d = farthest(samples, &triangle_tree(to.iter().copied()))
+            .0
+            .distance;
+        assert!(d <= tol + rounding, "{what}, {side}: {d}");
+    }
 }
 
 #[test]
