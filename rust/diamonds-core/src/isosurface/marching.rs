@@ -3,6 +3,7 @@
 //! surface has no cracks). Each polygon names its points by (mesh edge, isovalue), so every
 //! triangle through an edge shares its point; normals are the data's gradient at the point.
 
+use super::fine::edge_point;
 use super::{tet_gradient, world, IsoSurface};
 use crate::lattice::Tet;
 use crate::memory;
@@ -578,12 +579,7 @@ fn interpolate<T: Sample>(
     let (fa, fb) = (volume.at_index(ia as usize), volume.at_index(ib as usize));
     let (pa, pb) = (world(volume, a), world(volume, b));
     // An end that holds the isovalue is the point, exactly: the same for all its edges.
-    let (position, weight) = if fb == value {
-        (pb, 1.0)
-    } else {
-        let w = (value - fa) / (fb - fa);
-        (pa + w * (pb - pa), w)
-    };
+    let (position, weight) = edge_point(pa, pb, fa, fb, value);
     let normal = if compute_normals {
         gradient_at(volume, position).try_normalize()
     } else {

@@ -69,9 +69,7 @@ pub use bound::{Exchange, Partition};
 pub(crate) use cover::in_region;
 #[cfg(test)]
 pub(crate) use fine::cell_tets;
-pub use fine::{
-    full_resolution_level_sets, full_resolution_triangles, full_resolution_vertices, LevelSets,
-};
+pub use fine::{full_resolution_level_sets, full_resolution_triangles, LevelSets};
 pub use marching::marching_tetrahedra;
 pub use state::{IsoStart, IsoState, IsoStats};
 
