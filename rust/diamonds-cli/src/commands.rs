@@ -647,6 +647,7 @@ pub fn verify(
     mesh_path: &std::path::Path,
     array: Option<&str>,
     tolerance: f64,
+    region: Option<[f64; 6]>,
 ) -> Result<VerifyReport> {
     check_tolerance_value(tolerance)?;
     let mut image = read_image(input)?;
@@ -656,11 +657,15 @@ pub fn verify(
     let slice = scalars.scalar_slice()?;
     let grid = image.grid;
     grid.validate()?;
+    if let Some(r) = region {
+        check_region(&grid, r)?;
+    }
     let ugrid = read_unstructured(mesh_path)?;
     let [nx, ny, nz] = grid.dims;
+    let inside = region.map_or(String::new(), |r| format!(" inside {r:?}"));
     let mut report = VerifyReport {
         lines: vec![format!(
-            "verify '{}' against '{}' (array '{}', {nx}x{ny}x{nz} points, tolerance {tolerance})",
+            "verify '{}' against '{}' (array '{}', {nx}x{ny}x{nz} points, tolerance {tolerance}{inside})",
             mesh_path.display(),
             input.display(),
             scalars.name
@@ -715,8 +720,13 @@ pub fn verify(
         }),
     );
     if conforming {
-        let measured = with_volume!(grid, slice, |v| check_tolerance(&mesh, &v, tolerance));
-        let samples = grid.len();
+        let measured = with_volume!(grid, slice, |v| check_tolerance(
+            &mesh, &v, tolerance, region
+        ));
+        let samples = match region {
+            None => format!("all {} samples", grid.len()),
+            Some(_) => format!("the samples{inside}"),
+        };
         let ok = report.check(
             "tolerance",
             measured
@@ -725,9 +735,9 @@ pub fn verify(
                     let (worst, within) = (Number(worst), worst <= tolerance);
                     let tolerance = Number(tolerance);
                     match within {
-                        true => format!("all {samples} samples within {worst} <= {tolerance}"),
+                        true => format!("{samples} within {worst} <= {tolerance}"),
                         false => format!(
-                            "all {samples} samples within {worst}: the tolerance {tolerance} and the interpolation's rounding"
+                            "{samples} within {worst}: the tolerance {tolerance} and the interpolation's rounding"
                         ),
                     }
                 }),

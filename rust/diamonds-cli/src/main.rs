@@ -304,6 +304,8 @@ enum Command {
         /// Tolerance to check, in data units.
         #[arg(long, value_name = "T", allow_hyphen_values = true)]
         tolerance: f64,
+        #[command(flatten)]
+        region: MeasuredRegion,
     },
     /// Check a surface (.vtp) written by `iso`: watertight, consistently oriented, unit normals and,
     /// with --isovalue, its distance to the full-resolution surface.
@@ -451,11 +453,13 @@ impl RegionOfInterest {
     }
 }
 
-/// The region of interest of `verify-surface` and `verify-interval`.
+/// The region of interest of `verify`, `verify-surface` and `verify-interval`.
 #[derive(clap::Args, Debug)]
 struct MeasuredRegion {
-    /// Measure the distances from points inside this box only (world coordinates): give the
-    /// region of interest the surface was extracted with, inside which its tolerance holds.
+    /// Check the tolerance inside this box only (world coordinates): give the region of interest
+    /// the result was made with, inside which its tolerance holds. `verify` checks the samples
+    /// inside it, `verify-surface` and `verify-interval` measure the distances from the points
+    /// inside it.
     #[arg(
         long,
         num_args = 6,
@@ -769,8 +773,10 @@ fn run(cli: Cli) -> diamonds_cli::Result<ExitCode> {
             mesh,
             array,
             tolerance,
+            region,
         } => {
-            let report = commands::verify(&input, &mesh, array.as_deref(), tolerance)?;
+            let report =
+                commands::verify(&input, &mesh, array.as_deref(), tolerance, region.get())?;
             return Ok(printed(&report));
         }
         Command::VerifySurface {

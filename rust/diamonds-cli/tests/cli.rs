@@ -373,8 +373,23 @@ fn budget_region_of_interest_and_threads() {
     .ok();
     let in_roi = count(&roi);
     assert!(in_roi < lossless, "{in_roi} !< {lossless}");
-    let report = diamonds(["verify", s(&input), s(&roi), "--tolerance", "255"]).ok();
-    assert!(report.contains("conformity: OK"), "{report}");
+    // Lossless inside the region (the default tolerance 0), coarse outside it.
+    let box_ = ["--roi", "-1", "0", "-1", "0", "-1", "-0.5"];
+    let verify = |extra: &[&str]| {
+        let mut args = vec!["verify", s(&input), s(&roi), "--tolerance", "0"];
+        args.extend_from_slice(extra);
+        diamonds(args)
+    };
+    let report = verify(&box_).ok();
+    assert!(
+        report.contains("conformity: OK")
+            && report.contains("tolerance: OK (the samples inside [-1.0, 0.0, -1.0, 0.0, -1.0, -0.5] within 0 <= 0)"),
+        "{report}"
+    );
+    let outside = verify(&[]);
+    assert!(outside.stdout.contains("tolerance: FAILED"), "{outside:#?}");
+    let e = verify(&["--roi", "5", "6", "5", "6", "5", "6"]).user_error();
+    assert!(e.contains("lies outside the data bounds"), "{e}");
 
     let one = dir.join("one_thread.vtu");
     diamonds(["--threads", "1", "tetra", s(&input), s(&one)]).ok();

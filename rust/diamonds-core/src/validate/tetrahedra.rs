@@ -5,6 +5,7 @@
 use super::check_corners;
 use crate::geometry::orient3d;
 use crate::interval::IntervalVolume;
+use crate::isosurface::in_region;
 use crate::material::MaterialMesh;
 use crate::volume::{Grid, Sample, Volume};
 use crate::TetMesh;
@@ -550,12 +551,15 @@ pub fn check_material_mesh_arrays(
 }
 
 /// Checks that every input sample lies in some tetrahedron of `mesh` and that the linear interpolation
-/// of every tetrahedron containing it is within `tolerance` of it. Returns the largest error found.
+/// of every tetrahedron containing it is within `tolerance` of it — of the samples inside `region`
+/// (a world-space box, x, y and z ranges) when there is one: a query with a region of interest
+/// meets its tolerance there. Returns the largest error found (inside `region`).
 /// Brute force over each tetrahedron's bounding box with `f64` barycentric coordinates, in parallel.
 pub fn check_tolerance<T: Sample>(
     mesh: &TetMesh,
     volume: &Volume<'_, T>,
     tolerance: f64,
+    region: Option<[f64; 6]>,
 ) -> Result<f64, String> {
     let grid = volume.grid;
     let covered: Vec<AtomicBool> = (0..grid.len()).map(|_| AtomicBool::new(false)).collect();
@@ -587,6 +591,9 @@ pub fn check_tolerance<T: Sample>(
                             }
                             let i = grid.index(x, y, z);
                             covered[i].store(true, Ordering::Relaxed);
+                            if !in_region(region, DVec3::from(grid.point([x, y, z]))) {
+                                continue;
+                            }
                             let interp = f[0] * l0 + f[1] * l.x + f[2] * l.y + f[3] * l.z;
                             let e = (interp - volume.samples[i].to_f64()).abs();
                             if e > allowed {
@@ -622,7 +629,7 @@ mod tests {
         let h = Hierarchy::build(grid, ScalarSlice::U8(&samples), &mut |_| true).unwrap();
         let mesh = h.query(&Query::tolerance(20.0)).unwrap();
         check_mesh(&mesh, &grid).unwrap();
-        check_tolerance(&mesh, &volume, 20.0).unwrap();
+        check_tolerance(&mesh, &volume, 20.0, None).unwrap();
         // A missing tetrahedron: a hole.
         let mut holed = mesh.clone();
         holed.tets.pop();
@@ -642,7 +649,7 @@ mod tests {
             .unwrap();
         changed[i] = changed[i].wrapping_add(128);
         let other = Volume::new(grid, &changed[..]).unwrap();
-        assert!(check_tolerance(&mesh, &other, 20.0)
+        assert!(check_tolerance(&mesh, &other, 20.0, None)
             .unwrap_err()
             .contains("tolerance"));
     }
