@@ -576,8 +576,9 @@ impl VerifyReport {
         tolerance: Option<f64>,
     ) {
         let measured = format!(
-            "{fine} ({} triangles): from its {} vertices and samples to {surface} {}, from the {} vertices and samples of {surface} to it {} (every point of either within {} more)",
+            "{fine} ({} triangles, {} of them in {surface} too, at distance 0): from its {} vertices and samples to {surface} {}, from the {} vertices and samples of {surface} to it {} (every point of either within {} more)",
             d.fine_triangles,
+            d.shared_triangles,
             d.fine_vertices,
             d.fine_to_surface.distance,
             d.surface_samples,

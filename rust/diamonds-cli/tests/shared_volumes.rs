@@ -45,7 +45,9 @@ fn check_volume(path: &Path, tolerances: &[f64]) -> String {
             .unwrap_or_else(|e| panic!("{name} tol {tol}: {e}"));
         check_mesh(&m, &grid).unwrap_or_else(|e| panic!("{name} tol {tol}: {e}"));
         let measured = || -> diamonds::Result<Result<f64, String>> {
-            Ok(with_volume!(grid, slice, |v| check_tolerance(&m, &v, tol, None)))
+            Ok(with_volume!(grid, slice, |v| check_tolerance(
+                &m, &v, tol, None
+            )))
         };
         let worst = measured()
             .unwrap()

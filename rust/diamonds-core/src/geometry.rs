@@ -203,6 +203,16 @@ pub fn has_area(t: &[DVec3; 3]) -> bool {
     (t[1] - t[0]).cross(t[2] - t[0]) != DVec3::ZERO
 }
 
+/// A triangle as its corners' bits, sorted ([`triangle_key`]).
+pub(crate) type TriangleKey = [[u64; 3]; 3];
+
+/// The key of a triangle: the same for the same three points in any order, bit for bit.
+pub(crate) fn triangle_key(t: &[[f64; 3]; 3]) -> TriangleKey {
+    let mut k = t.map(|p| p.map(f64::to_bits));
+    k.sort_unstable();
+    k
+}
+
 /// A triangle in an [`rstar::RTree`]: an id (its index in its mesh) and its corners; the tree's
 /// distance is the exact point–triangle distance.
 #[derive(Clone, Debug)]
