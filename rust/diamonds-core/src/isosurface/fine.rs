@@ -85,11 +85,10 @@ const FORWARD: [IVec3; 13] = [
 /// interpolated from `a`, which must be the end with the lower point id ([`precedes`]).
 ///
 /// Every surface of marching tetrahedra computes its points here, this way round: the output
-/// ([`super::marching`]), `F` and the bound's check, so that they agree to the last bit. Computed
-/// from the other end, a point within rounding of an end differs from it in the last bits or not:
-/// at an isovalue one ulp below an isolated maximum, the output drew a speck 10⁻¹³ wide with
-/// positive area where `F`'s triangles, from the maximum's end, had none, and the check let a
-/// coarse surface leave out what `F`'s vertices still held.
+/// ([`super::marching`]), `F`, its vertices and the bound's check, so that they agree to the last
+/// bit. Computed from either end, a point within rounding of an end may or may not differ from it
+/// in the last bits: one ulp below an isolated maximum, whether the speck around it has any area
+/// depended on which of them computed it.
 #[inline]
 pub(crate) fn edge_point(a: DVec3, b: DVec3, fa: f64, fb: f64, v: f64) -> (DVec3, f64) {
     if fb == v {
