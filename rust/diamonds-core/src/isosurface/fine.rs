@@ -105,12 +105,12 @@ fn precedes(a: IVec3, b: IVec3) -> bool {
     (a.z, a.y, a.x) < (b.z, b.y, b.x)
 }
 
-/// [`edge_point`] on the edge between corners `a` and `b` of the tetrahedron `t` (world corners
-/// `p`, values `f`), whichever of them has the lower point id.
+/// [`edge_point`] on the edge between the lattice points `a` and `b` (each with its world position
+/// and value), from whichever of them has the lower point id.
 #[inline]
-fn tet_edge_point(t: &Tet, p: &[DVec3; 4], f: &[f64; 4], (a, b): (usize, usize), v: f64) -> DVec3 {
-    let (a, b) = if precedes(t[a], t[b]) { (a, b) } else { (b, a) };
-    edge_point(p[a], p[b], f[a], f[b], v).0
+fn lattice_edge_point(a: (IVec3, DVec3, f64), b: (IVec3, DVec3, f64), v: f64) -> DVec3 {
+    let ((_, pa, fa), (_, pb, fb)) = if precedes(a.0, b.0) { (a, b) } else { (b, a) };
+    edge_point(pa, pb, fa, fb, v).0
 }
 
 /// The points of marching tetrahedra for isovalue `v` on the edges from the lattice points `points`
@@ -139,13 +139,8 @@ pub(crate) fn vertices_from<T: Sample>(
                     }
                     let (fq, wq) = (super::value(volume, q), super::world(volume, q));
                     // A point at a sample is added below, once.
-                    ((fp >= v) != (fq >= v) && fp != v && fq != v).then(|| {
-                        if precedes(p, q) {
-                            edge_point(wp, wq, fp, fq, v).0
-                        } else {
-                            edge_point(wq, wp, fq, fp, v).0
-                        }
-                    })
+                    ((fp >= v) != (fq >= v) && fp != v && fq != v)
+                        .then(|| lattice_edge_point((p, wp, fp), (q, wq, fq), v))
                 })
                 .chain((fp == v && at_sample_in_f(volume, p, v)).then_some(wp))
         })
@@ -178,7 +173,8 @@ pub(crate) fn output_triangles(
     let mut out = ArrayVec::new();
     if crosses(&f, v) {
         let (edges, n) = polygon_edges(t, &f, v);
-        let x = |edge| tet_edge_point(t, &p, &f, edge, v);
+        let x =
+            |(a, b): (usize, usize)| lattice_edge_point((t[a], p[a], f[a]), (t[b], p[b], f[b]), v);
         for k in 1..n - 1 {
             out.push([x(edges[0]), x(edges[k]), x(edges[k + 1])]);
         }

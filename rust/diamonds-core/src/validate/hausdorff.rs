@@ -255,18 +255,16 @@ fn distances(
     let at = |t: &[u32; 3]| t.map(|i| points[i as usize]);
     let corners = |t: &[u32; 3]| at(t).map(DVec3::from);
     let drawn: FxHashSet<TriangleKey> = to.par_iter().map(|t| triangle_key(&at(t))).collect();
-    let shared = |t: &[[f64; 3]; 3]| drawn.contains(&triangle_key(t));
-    let shared_triangles = fine_from.par_iter().filter(|t| shared(t)).count();
+    let unshared: Vec<&[[f64; 3]; 3]> = (fine_from.par_iter())
+        .filter(|t| !drawn.contains(&triangle_key(t)))
+        .collect();
+    let shared_triangles = fine_from.len() - unshared.len();
     // The vertices and the samples of the triangles other than their corners.
     let fine = (fine_vertices.into_par_iter().map(DVec3::from))
-        .chain(
-            (fine_from.par_iter())
-                .filter(|t| !shared(t))
-                .flat_map_iter(|t| {
-                    let t = t.map(DVec3::from);
-                    triangle_samples(t, h).filter(move |p| !t.contains(p))
-                }),
-        )
+        .chain(unshared.into_par_iter().flat_map_iter(|t| {
+            let t = t.map(DVec3::from);
+            triangle_samples(t, h).filter(move |p| !t.contains(p))
+        }))
         .filter(|&p| in_region(region, p));
     let surface = triangle_tree(to.iter().map(corners));
     let (fine_to_surface, fine_vertices) = farthest(fine, &surface);
